@@ -1,0 +1,37 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// texsynth_native: thin pybind11 layer over texsynth_core. One bind_<module>.cpp per core module.
+// std::invalid_argument -> ValueError (pybind11 default); CacheError and Cancelled get their own types.
+#include <pybind11/pybind11.h>
+
+#include "texsynth/common/errors.hpp"
+
+namespace py = pybind11;
+
+void bind_image(py::module_& m);
+void bind_preprocess(py::module_& m);
+void bind_mesh(py::module_& m);
+void bind_field(py::module_& m);
+void bind_synth(py::module_& m);
+
+PYBIND11_MODULE(texsynth_native, m) {
+  m.doc() = "TexSynth native core: sample preprocessing and texture synthesis on meshes.";
+  m.attr("__version__") = "0.1.0";
+
+  static py::exception<texsynth::CacheError> cache_error(m, "CacheError", PyExc_ValueError);
+  static py::exception<texsynth::Cancelled> cancelled(m, "Cancelled", PyExc_RuntimeError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const texsynth::CacheError& e) {
+      cache_error(e.what());
+    } catch (const texsynth::Cancelled& e) {
+      cancelled(e.what());
+    }
+  });
+
+  bind_image(m);
+  bind_preprocess(m);
+  bind_mesh(m);
+  bind_field(m);
+  bind_synth(m);
+}

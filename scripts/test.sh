@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Everything CI runs: installs Debian packages, builds, runs the C++ tests (ctest), then the
+# Python and Blender tests (pytest under Blender's interpreter, /usr/bin/python3.11).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+cd "$root"
+bash scripts/install_deps.sh
+bash scripts/build.sh
+echo "== C++ tests (ctest)"
+ctest --test-dir build --output-on-failure -j"$(nproc)"
+echo "== Python and Blender tests (pytest)"
+PYTHONPATH="$root/addon" /usr/bin/python3.11 -m pytest -q python_tests
