@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "texsynth/preprocess/preprocess.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <stdexcept>
@@ -46,14 +47,24 @@ void validate_preprocess(const PreprocessParams& params, int width, int height) 
     bad("kmeans_max_iterations must be between 1 and 10000");
 }
 
-Preprocessed preprocess(const Image& image, const PreprocessParams& params, const std::atomic<bool>* cancel) {
+Preprocessed preprocess(const Image& image, const PreprocessParams& params, const std::atomic<bool>* cancel,
+                        PreprocessStats* stats) {
   validate_image(image);
   validate_preprocess(params, image.width, image.height);
   const int k = resolved_num_textons(params, image.pixel_count());
+  PreprocessStats local_stats;
+  if (!stats) stats = &local_stats;
+  auto clock = std::chrono::steady_clock::now();
+  auto lap = [&clock](double& into) {
+    const auto now = std::chrono::steady_clock::now();
+    into = std::chrono::duration<double>(now - clock).count();
+    clock = now;
+  };
 
   const Features features =
       compute_features(image, params.neighbourhood, params.feature_dims, params.tileable, params.seed);
   if (cancel && cancel->load()) throw Cancelled();
+  lap(stats->features_seconds);
 
   KMeansParams km;
   km.num_clusters = k;
@@ -61,6 +72,9 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
   km.change_fraction = params.kmeans_change_fraction;
   km.max_iterations = params.kmeans_max_iterations;
   KMeansResult clusters = kmeans(features, km, cancel);
+  stats->kmeans_full_iterations = clusters.iterations;
+  stats->kmeans_last_change = clusters.last_change_fraction;
+  lap(stats->kmeans_seconds);
 
   Preprocessed out;
   out.width = image.width;
@@ -80,8 +94,10 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
   jp.tileable = params.tileable;
   jp.seed = params.seed;
   const CentreIndex index = build_centre_index(out.texton_distances, k, std::min(k, 64));
+  lap(stats->tables_seconds);
   out.jump_map = build_jump_map(features, out.width, out.height, out.texton_map, out.bucket_start, out.bucket_pixels,
                                 index, jp, cancel);
+  lap(stats->jump_map_seconds);
   return out;
 }
 

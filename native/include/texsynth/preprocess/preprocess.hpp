@@ -21,9 +21,16 @@ int resolved_num_textons(const PreprocessParams& params, int64_t pixel_count);
 // Throws std::invalid_argument naming the problem (even/small n, image smaller than n, K > pixels, ...).
 void validate_preprocess(const PreprocessParams& params, int width, int height);
 
+// Where the time went (seconds), for benchmarks.
+struct PreprocessStats {
+  double features_seconds = 0, kmeans_seconds = 0, tables_seconds = 0, jump_map_seconds = 0;
+  int kmeans_full_iterations = 0;
+  double kmeans_last_change = 0;
+};
+
 // Computes everything; throws std::invalid_argument for bad input, Cancelled when *cancel is raised.
 Preprocessed preprocess(const Image& image, const PreprocessParams& params,
-                        const std::atomic<bool>* cancel = nullptr);
+                        const std::atomic<bool>* cancel = nullptr, PreprocessStats* stats = nullptr);
 
 // Like preprocess(), but loads a valid cache from cache_dir or computes and writes one.
 // Sets cache_hit and cache_status ("hit", "miss", "recomputed-corrupt").
