@@ -5,6 +5,7 @@
 // extrapolated). Run: build/cpp_tests/bench/bench_preprocess [--benchmark_filter=...]
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -77,6 +78,97 @@ void BM_NaiveBaseline(benchmark::State& state) {
   state.counters["total_s_extrap"] = extrapolated;
 }
 BENCHMARK(BM_NaiveBaseline)->Arg(256)->Arg(512)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+
+// The texton-bucket jump search against exact brute force at 512²: time, recall and distance ratio
+// for different candidate budgets (the default is JumpSearchParams::max_candidates).
+struct JumpSetup {
+  int size = 512;
+  texsynth::Features features;
+  texsynth::KMeansResult clusters;
+  std::vector<int32_t> start, members;
+  texsynth::CentreIndex index;
+};
+const JumpSetup& jump_setup() {
+  static const JumpSetup setup = [] {
+    JumpSetup s;
+    const texsynth::Image image = texsynth_test::brick_texture(s.size, s.size);
+    s.features = texsynth::compute_features(image, 11, 16, false, 0);
+    texsynth::KMeansParams km;
+    km.num_clusters = s.size;
+    s.clusters = texsynth::kmeans(s.features, km);
+    texsynth::build_buckets(s.clusters.labels, km.num_clusters, s.start, s.members);
+    s.index = texsynth::build_centre_index(
+        texsynth::centre_distance_table(s.clusters.centres, km.num_clusters, s.features.dims), km.num_clusters, 64);
+    return s;
+  }();
+  return setup;
+}
+
+void BM_JumpSearch(benchmark::State& state) {
+  const JumpSetup& s = jump_setup();
+  texsynth::JumpSearchParams jp;
+  jp.max_candidates = int(state.range(0));
+  texsynth::JumpMap map;
+  for (auto _ : state)
+    map = texsynth::build_jump_map(s.features, s.size, s.size, s.clusters.labels, s.start, s.members, s.index, jp);
+  double found = 0, exact = 0;
+  int hits = 0, total = 0;
+  for (int64_t p = 7; p < int64_t(s.size) * s.size; p += 877) {
+    std::vector<int32_t> targets;
+    std::vector<float> distances;
+    texsynth::brute_force_jumps(s.features, s.size, s.size, p, jp, targets, distances);
+    for (int i = 0; i < jp.k; ++i) {
+      const int32_t t = map.targets[size_t(p) * jp.k + i];
+      if (t >= 0) found += texsynth::squared_distance(s.features.row(p), s.features.row(t), s.features.dims);
+      hits += std::count(targets.begin(), targets.end(), t) > 0;
+      ++total;
+    }
+    for (float d : distances) exact += d;
+  }
+  state.counters["recall"] = double(hits) / total;
+  state.counters["dist_vs_exact"] = found / exact;
+}
+BENCHMARK(BM_JumpSearch)->Arg(128)->Arg(256)->Arg(512)->Arg(768)->Arg(1536)->Unit(benchmark::kMillisecond)
+    ->Iterations(1)->UseRealTime();
+
+// Exact brute-force kNN at 512² for a subsample of queries, extrapolated: the baseline the jump search replaces.
+void BM_JumpSearchBruteForce(benchmark::State& state) {
+  const JumpSetup& s = jump_setup();
+  texsynth::JumpSearchParams jp;
+  std::vector<int32_t> targets;
+  std::vector<float> distances;
+  const int queries = 64;
+  for (auto _ : state) {
+    const auto start = std::chrono::steady_clock::now();
+    for (int q = 0; q < queries; ++q)
+      texsynth::brute_force_jumps(s.features, s.size, s.size, int64_t(q) * 4099 % (int64_t(s.size) * s.size), jp,
+                                  targets, distances);
+    state.counters["all_pixels_s_extrap"] = seconds_since(start) * double(s.size) * s.size / queries;
+  }
+}
+BENCHMARK(BM_JumpSearchBruteForce)->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime();
+
+// Clustering faithfulness of PCA: k-means on full-D vs reduced features, both judged by the
+// within-cluster SSE in the full feature space (lower is better), at 128² (K = 128).
+void BM_PcaFaithfulness(benchmark::State& state) {
+  const int dims = int(state.range(0));
+  const texsynth::Image image = texsynth_test::brick_texture(128, 128, 3);
+  static const texsynth::Features full = texsynth::compute_features(image, 11, 0, false, 0);
+  texsynth::KMeansParams km;
+  km.num_clusters = 128;
+  double sse = 0;
+  for (auto _ : state) {
+    const texsynth::Features reduced = dims > 0 ? texsynth::compute_features(image, 11, dims, false, 0) : full;
+    const texsynth::KMeansResult r = texsynth::kmeans(reduced, km);
+    sse = texsynth::within_cluster_sse(full, r.labels, km.num_clusters);
+  }
+  static double full_sse = 0;
+  if (dims == 0) full_sse = sse;
+  state.counters["full_space_sse"] = sse;
+  if (full_sse > 0) state.counters["sse_vs_fullD"] = sse / full_sse;
+}
+BENCHMARK(BM_PcaFaithfulness)->Arg(0)->Arg(8)->Arg(16)->Arg(32)->Unit(benchmark::kMillisecond)->Iterations(1)
+    ->UseRealTime();
 
 }  // namespace
 

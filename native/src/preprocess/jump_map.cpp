@@ -59,7 +59,16 @@ inline float bounded_distance(const float* a, const float* b, int dims, float li
   return sum;
 }
 
-int axis_distance(int a, int b, int size, bool periodic) {
+inline float squared_distance_16(const float* a, const float* b) {
+  float partial[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  for (int i = 0; i < 8; ++i) {
+    const float d0 = a[i] - b[i], d1 = a[i + 8] - b[i + 8];
+    partial[i] = d0 * d0 + d1 * d1;
+  }
+  return ((partial[0] + partial[1]) + (partial[2] + partial[3])) + ((partial[4] + partial[5]) + (partial[6] + partial[7]));
+}
+
+inline int axis_distance(int a, int b, int size, bool periodic) {
   int d = std::abs(a - b);
   return periodic ? std::min(d, size - d) : d;
 }
@@ -85,6 +94,34 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
   map.targets.assign(size_t(n) * k, -1);
   std::vector<float> distances(size_t(n) * k, 0.0f);
 
+  // Candidates are read bucket by bucket: copy features and coordinates into bucket order so each
+  // scan streams through memory instead of jumping across the whole sample.
+  std::vector<float> bucket_features(size_t(n) * dims);
+  std::vector<uint16_t> bucket_x(static_cast<size_t>(n)), bucket_y(static_cast<size_t>(n));
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, n, 4096), [&](const tbb::blocked_range<int64_t>& r) {
+    for (int64_t i = r.begin(); i < r.end(); ++i) {
+      const int32_t q = bucket_pixels[size_t(i)];
+      std::copy(features.row(q), features.row(q) + dims, bucket_features.data() + size_t(i) * dims);
+      bucket_x[size_t(i)] = uint16_t(q % width);
+      bucket_y[size_t(i)] = uint16_t(q / width);
+    }
+  });
+  const int radius = params.neighbourhood / 2;
+  // Distance first (cheap, branch-free), exclusion only for candidates that would enter the top k.
+  auto scan = [&](const float* query, size_t from, size_t count, int px, int py, TopK& best) {
+    const float* candidate = bucket_features.data() + from * dims;
+    for (size_t i = 0; i < count; ++i, candidate += dims) {
+      const float limit = best.worst();
+      const float d = dims == 16 ? squared_distance_16(query, candidate) : bounded_distance(query, candidate, dims, limit);
+      if (!(d <= limit)) continue;
+      const size_t at = from + i;
+      if (std::max(axis_distance(px, bucket_x[at], width, params.tileable),
+                   axis_distance(py, bucket_y[at], height, params.tileable)) <= radius)
+        continue;
+      best.offer(bucket_pixels[at], d);
+    }
+  };
+
   tbb::parallel_for(tbb::blocked_range<int64_t>(0, n, 1024), [&](const tbb::blocked_range<int64_t>& r) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return;
     for (int64_t p = r.begin(); p < r.end(); ++p) {
@@ -103,18 +140,10 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
         // Enter big buckets at a per-pixel offset so the examined part is not always the same rows.
         const int32_t offset =
             budget < count ? int32_t(Rng(params.seed ^ uint64_t(p), uint64_t(t)).below(uint32_t(count))) : 0;
-        for (int32_t i = 0; i < budget; ++i) {
-          int32_t slot = offset + i;
-          if (slot >= count) slot -= count;
-          const int32_t q = bucket_pixels[size_t(begin + slot)];
-          const int qx = q % width, qy = q / width;
-          if (std::max(axis_distance(px, qx, width, params.tileable), axis_distance(py, qy, height, params.tileable)) <=
-              params.neighbourhood / 2)
-            continue;
-          const float limit = best.worst();
-          const float d = bounded_distance(query, features.row(q), dims, limit);
-          if (d <= limit) best.offer(q, d);
-        }
+        // The bucket slice [offset, offset + budget) wraps around: at most two contiguous runs.
+        const int32_t first_run = std::min<int32_t>(budget, count - offset);
+        scan(query, size_t(begin + offset), size_t(first_run), px, py, best);
+        scan(query, size_t(begin), size_t(budget - first_run), px, py, best);
         examined += budget;
       }
       for (int i = 0; i < best.size; ++i) {
