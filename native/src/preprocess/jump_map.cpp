@@ -4,6 +4,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -40,34 +41,6 @@ struct TopK {
   }
 };
 
-// Squared distance that gives up (returns >= limit) once the partial sum exceeds limit.
-// PCA orders dimensions by variance, so most rejections happen after the first block.
-inline float bounded_distance(const float* a, const float* b, int dims, float limit) {
-  float sum = 0.0f;
-  int d = 0;
-  for (; d + 8 <= dims; d += 8) {
-    for (int i = 0; i < 8; ++i) {
-      const float diff = a[d + i] - b[d + i];
-      sum += diff * diff;
-    }
-    if (sum >= limit) return sum;
-  }
-  for (; d < dims; ++d) {
-    const float diff = a[d] - b[d];
-    sum += diff * diff;
-  }
-  return sum;
-}
-
-inline float squared_distance_16(const float* a, const float* b) {
-  float partial[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-  for (int i = 0; i < 8; ++i) {
-    const float d0 = a[i] - b[i], d1 = a[i + 8] - b[i + 8];
-    partial[i] = d0 * d0 + d1 * d1;
-  }
-  return ((partial[0] + partial[1]) + (partial[2] + partial[3])) + ((partial[4] + partial[5]) + (partial[6] + partial[7]));
-}
-
 inline int axis_distance(int a, int b, int size, bool periodic) {
   int d = std::abs(a - b);
   return periodic ? std::min(d, size - d) : d;
@@ -86,6 +59,10 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
                        const std::vector<int32_t>& bucket_start, const std::vector<int32_t>& bucket_pixels,
                        const CentreIndex& textons, const JumpSearchParams& params, const std::atomic<bool>* cancel) {
   if (params.k < 1 || params.k > kMaxTopK) throw std::invalid_argument("jump candidates out of range");
+  if (int64_t(labels.size()) != int64_t(width) * height || bucket_pixels.size() != labels.size() ||
+      features.count != int64_t(labels.size()) || bucket_start.size() < 2 ||
+      int(bucket_start.size()) - 1 != textons.num_centres || bucket_start.back() != int32_t(labels.size()))
+    throw std::invalid_argument("build_jump_map: inconsistent texton data");
   const int64_t n = int64_t(width) * height;
   const int k = params.k;
   const int dims = features.dims;
@@ -107,48 +84,67 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
     }
   });
   const int radius = params.neighbourhood / 2;
-  // Distance first (cheap, branch-free), exclusion only for candidates that would enter the top k.
-  auto scan = [&](const float* query, size_t from, size_t count, int px, int py, TopK& best) {
-    const float* candidate = bucket_features.data() + from * dims;
-    for (size_t i = 0; i < count; ++i, candidate += dims) {
-      const float limit = best.worst();
-      const float d = dims == 16 ? squared_distance_16(query, candidate) : bounded_distance(query, candidate, dims, limit);
-      if (!(d <= limit)) continue;
-      const size_t at = from + i;
-      if (std::max(axis_distance(px, bucket_x[at], width, params.tileable),
-                   axis_distance(py, bucket_y[at], height, params.tileable)) <= radius)
-        continue;
-      best.offer(bucket_pixels[at], d);
-    }
-  };
+  const int num_textons = int(bucket_start.size()) - 1;
+  constexpr int kQueryBlock = 64;
 
-  tbb::parallel_for(tbb::blocked_range<int64_t>(0, n, 1024), [&](const tbb::blocked_range<int64_t>& r) {
-    if (cancel && cancel->load(std::memory_order_relaxed)) return;
-    for (int64_t p = r.begin(); p < r.end(); ++p) {
-      TopK best(k);
-      const float* query = features.row(p);
-      const int px = int(p % width), py = int(p / width);
-      const int own = labels[size_t(p)];
-      const int32_t* order = textons.nearest(own);
-      int examined = 0;
-      for (int j = 0; j < textons.list_length && examined < params.max_candidates; ++j) {
-        const int t = order[j];
-        const int32_t begin = bucket_start[size_t(t)], end = bucket_start[size_t(t) + 1];
-        const int32_t count = end - begin;
-        if (count == 0) continue;
-        const int32_t budget = std::min<int32_t>(count, params.max_candidates - examined);
-        // Enter big buckets at a per-pixel offset so the examined part is not always the same rows.
-        const int32_t offset =
-            budget < count ? int32_t(Rng(params.seed ^ uint64_t(p), uint64_t(t)).below(uint32_t(count))) : 0;
-        // The bucket slice [offset, offset + budget) wraps around: at most two contiguous runs.
-        const int32_t first_run = std::min<int32_t>(budget, count - offset);
-        scan(query, size_t(begin + offset), size_t(first_run), px, py, best);
-        scan(query, size_t(begin), size_t(budget - first_run), px, py, best);
-        examined += budget;
-      }
-      for (int i = 0; i < best.size; ++i) {
-        map.targets[size_t(p) * k + i] = best.target[i];
-        distances[size_t(p) * k + i] = best.distance[i];
+  // Queries are grouped by texton: a block of up to 64 pixels of texton t shares one candidate set
+  // (t's bucket, then the buckets of t's nearest textons, up to max_candidates; buckets too big for the
+  // remaining budget are sampled with a stride so candidates spread over the whole sample). Distances
+  // of a block to its candidates are one small GEMM: |c|² + |q|² − 2 c·q.
+  tbb::parallel_for(tbb::blocked_range<int>(0, num_textons, 1), [&](const tbb::blocked_range<int>& range) {
+    std::vector<int32_t> candidates;  // positions in bucket order
+    Eigen::MatrixXf candidate_matrix, products;
+    Eigen::VectorXf candidate_norms;
+    for (int t = range.begin(); t < range.end(); ++t) {
+      if (cancel && cancel->load(std::memory_order_relaxed)) return;
+      const int32_t own_begin = bucket_start[size_t(t)], own_end = bucket_start[size_t(t) + 1];
+      for (int32_t block = own_begin; block < own_end; block += kQueryBlock) {
+        const int block_size = std::min<int32_t>(kQueryBlock, own_end - block);
+        candidates.clear();
+        Rng rng(params.seed ^ splitmix64(uint64_t(t)), uint64_t(block));
+        const int32_t* order = textons.nearest(t);
+        for (int j = 0; j < textons.list_length && int(candidates.size()) < params.max_candidates; ++j) {
+          const int32_t begin = bucket_start[size_t(order[j])], count = bucket_start[size_t(order[j]) + 1] - begin;
+          const int32_t budget = std::min<int32_t>(count, params.max_candidates - int32_t(candidates.size()));
+          const double stride = double(count) / double(std::max(budget, 1));
+          const double phase = budget < count ? rng.uniform() : 0.0;
+          for (int32_t i = 0; i < budget; ++i) candidates.push_back(begin + int32_t((i + phase) * stride));
+        }
+        const int c_n = int(candidates.size());
+        if (c_n == 0) continue;
+        candidate_matrix.resize(dims, c_n);
+        for (int c = 0; c < c_n; ++c)
+          std::copy_n(bucket_features.data() + size_t(candidates[size_t(c)]) * dims, dims, candidate_matrix.col(c).data());
+        candidate_norms = candidate_matrix.colwise().squaredNorm().transpose();
+        const Eigen::Map<const Eigen::MatrixXf> queries(bucket_features.data() + size_t(block) * dims, dims, block_size);
+        products.noalias() = candidate_matrix.transpose() * queries;  // c_n × block_size
+        for (int qi = 0; qi < block_size; ++qi) {
+          const size_t query_at = size_t(block + qi);
+          const int px = bucket_x[query_at], py = bucket_y[query_at];
+          const float query_norm = queries.col(qi).squaredNorm();
+          const float* dots = products.col(qi).data();
+          TopK best(k);
+          for (int c = 0; c < c_n; ++c) {
+            const float d = candidate_norms[c] + query_norm - 2.0f * dots[c];
+            if (!(d < best.worst())) continue;
+            const size_t at = size_t(candidates[size_t(c)]);
+            if (std::max(axis_distance(px, bucket_x[at], width, params.tileable),
+                         axis_distance(py, bucket_y[at], height, params.tileable)) <= radius)
+              continue;
+            best.offer(int32_t(at), d);
+          }
+          // Exact distances for the winners (the GEMM form loses precision to cancellation).
+          TopK exact(k);
+          const float* query = bucket_features.data() + query_at * dims;
+          for (int i = 0; i < best.size; ++i)
+            exact.offer(bucket_pixels[size_t(best.target[i])],
+                        squared_distance(query, bucket_features.data() + size_t(best.target[i]) * dims, dims));
+          const int64_t p = bucket_pixels[query_at];
+          for (int i = 0; i < exact.size; ++i) {
+            map.targets[size_t(p) * k + i] = exact.target[i];
+            distances[size_t(p) * k + i] = exact.distance[i];
+          }
+        }
       }
     }
   });

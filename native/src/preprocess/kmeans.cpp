@@ -192,7 +192,8 @@ CentreIndex build_centre_index(const std::vector<float>& squared_distance_table,
         if (a == c || b == c) return a == c && b != c;  // the centre itself first
         return row[a] < row[b] || (row[a] == row[b] && a < b);
       };
-      std::partial_sort(all.begin(), all.begin() + len, all.end(), closer);
+      if (len < k) std::nth_element(all.begin(), all.begin() + len, all.end(), closer);
+      std::sort(all.begin(), all.begin() + len, closer);
       for (int j = 0; j < len; ++j) {
         index.order[size_t(c) * len + j] = all[size_t(j)];
         index.distance[size_t(c) * len + j] = std::sqrt(row[all[size_t(j)]]);
