@@ -37,6 +37,10 @@ void BM_Preprocess(benchmark::State& state) {
   state.counters["kmeans_s"] = stats.kmeans_seconds;
   state.counters["tables_s"] = stats.tables_seconds;
   state.counters["jumps_s"] = stats.jump_map_seconds;
+  state.counters["features_cpu"] = stats.features_cpu;
+  state.counters["kmeans_cpu"] = stats.kmeans_cpu;
+  state.counters["jumps_cpu"] = stats.jump_map_cpu;
+  state.counters["total_cpu"] = stats.features_cpu + stats.kmeans_cpu + stats.tables_cpu + stats.jump_map_cpu;
   state.counters["km_iters"] = stats.kmeans_full_iterations;
   state.counters["cache_B_per_px"] = double(std::filesystem::file_size(path)) / double(size * size);
   std::filesystem::remove(path);

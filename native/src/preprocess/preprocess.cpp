@@ -2,6 +2,7 @@
 #include "texsynth/preprocess/preprocess.hpp"
 
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <filesystem>
 #include <stdexcept>
@@ -55,16 +56,20 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
   PreprocessStats local_stats;
   if (!stats) stats = &local_stats;
   auto clock = std::chrono::steady_clock::now();
-  auto lap = [&clock](double& into) {
+  std::clock_t cpu_clock = std::clock();
+  auto lap = [&](double& wall, double& cpu) {
     const auto now = std::chrono::steady_clock::now();
-    into = std::chrono::duration<double>(now - clock).count();
+    const std::clock_t cpu_now = std::clock();
+    wall = std::chrono::duration<double>(now - clock).count();
+    cpu = double(cpu_now - cpu_clock) / CLOCKS_PER_SEC;
     clock = now;
+    cpu_clock = cpu_now;
   };
 
   const Features features =
       compute_features(image, params.neighbourhood, params.feature_dims, params.tileable, params.seed);
   if (cancel && cancel->load()) throw Cancelled();
-  lap(stats->features_seconds);
+  lap(stats->features_seconds, stats->features_cpu);
 
   KMeansParams km;
   km.num_clusters = k;
@@ -74,7 +79,7 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
   KMeansResult clusters = kmeans(features, km, cancel);
   stats->kmeans_full_iterations = clusters.iterations;
   stats->kmeans_last_change = clusters.last_change_fraction;
-  lap(stats->kmeans_seconds);
+  lap(stats->kmeans_seconds, stats->kmeans_cpu);
 
   Preprocessed out;
   out.width = image.width;
@@ -94,10 +99,10 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
   jp.tileable = params.tileable;
   jp.seed = params.seed;
   const CentreIndex index = build_centre_index(out.texton_distances, k, std::min(k, 64));
-  lap(stats->tables_seconds);
+  lap(stats->tables_seconds, stats->tables_cpu);
   out.jump_map = build_jump_map(features, out.width, out.height, out.texton_map, out.bucket_start, out.bucket_pixels,
                                 index, jp, cancel);
-  lap(stats->jump_map_seconds);
+  lap(stats->jump_map_seconds, stats->jump_map_cpu);
   return out;
 }
 

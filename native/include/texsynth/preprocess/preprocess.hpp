@@ -21,9 +21,11 @@ int resolved_num_textons(const PreprocessParams& params, int64_t pixel_count);
 // Throws std::invalid_argument naming the problem (even/small n, image smaller than n, K > pixels, ...).
 void validate_preprocess(const PreprocessParams& params, int width, int height);
 
-// Where the time went (seconds), for benchmarks.
+// Where the time went, for benchmarks: wall-clock seconds, and process CPU seconds (all threads; less
+// sensitive to other processes competing for the cores).
 struct PreprocessStats {
   double features_seconds = 0, kmeans_seconds = 0, tables_seconds = 0, jump_map_seconds = 0;
+  double features_cpu = 0, kmeans_cpu = 0, tables_cpu = 0, jump_map_cpu = 0;
   int kmeans_full_iterations = 0;
   double kmeans_last_change = 0;
 };
