@@ -117,21 +117,25 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
           std::copy_n(bucket_features.data() + size_t(candidates[size_t(c)]) * dims, dims, candidate_matrix.col(c).data());
         candidate_norms = candidate_matrix.colwise().squaredNorm().transpose();
         const Eigen::Map<const Eigen::MatrixXf> queries(bucket_features.data() + size_t(block) * dims, dims, block_size);
+        // partial(c, q) = |c|² − 2 c·q; adding |q|² gives the squared distance (constant per query).
         products.noalias() = candidate_matrix.transpose() * queries;  // c_n × block_size
+        products = (products * -2.0f).colwise() + candidate_norms;
         for (int qi = 0; qi < block_size; ++qi) {
           const size_t query_at = size_t(block + qi);
           const int px = bucket_x[query_at], py = bucket_y[query_at];
           const float query_norm = queries.col(qi).squaredNorm();
-          const float* dots = products.col(qi).data();
+          const float* partial = products.col(qi).data();
           TopK best(k);
+          float threshold = std::numeric_limits<float>::max();
           for (int c = 0; c < c_n; ++c) {
-            const float d = candidate_norms[c] + query_norm - 2.0f * dots[c];
-            if (!(d < best.worst())) continue;
+            if (!(partial[c] < threshold)) continue;
+            const float d = partial[c] + query_norm;
             const size_t at = size_t(candidates[size_t(c)]);
             if (std::max(axis_distance(px, bucket_x[at], width, params.tileable),
                          axis_distance(py, bucket_y[at], height, params.tileable)) <= radius)
               continue;
             best.offer(int32_t(at), d);
+            if (best.size == k) threshold = best.worst() - query_norm;
           }
           // Exact distances for the winners (the GEMM form loses precision to cancellation).
           TopK exact(k);
