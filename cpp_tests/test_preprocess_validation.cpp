@@ -32,6 +32,8 @@ TEST(PreprocessValidation, RejectsEveryBadInputWithAClearMessage) {
     params.neighbourhood = n;
     expect_rejected(good, params, "neighbourhood must be an odd number");
   }
+  params.neighbourhood = 27;
+  expect_rejected(texsynth_test::brick_texture(40, 40), params, "between 3 and 25");
   params = {};
   params.num_textons = 32 * 24 + 1;
   expect_rejected(good, params, "exceeds the sample's pixel count");
@@ -45,6 +47,16 @@ TEST(PreprocessValidation, RejectsEveryBadInputWithAClearMessage) {
   texsynth::Image inf = good;
   inf.pixels[5] = -std::numeric_limits<float>::infinity();
   expect_rejected(inf, params, "infinite");
+}
+
+TEST(PreprocessValidation, RefusesFeatureSetsBeyondTheMemoryLimit) {
+  // 2000x2000 gray with full 121-D features would need ~1.9 GB of features: refused up front.
+  std::vector<uint8_t> gray(2000 * 2000, 128);
+  const auto image = texsynth::image_from_pixels(gray.data(), texsynth::PixelType::kUint8, 2000, 2000, 1);
+  texsynth::PreprocessParams params;
+  params.feature_dims = 0;
+  params.num_textons = 10;
+  expect_rejected(image, params, "memory limit");
 }
 
 TEST(PreprocessValidation, AcceptsTheSmallestValidSample) {

@@ -25,8 +25,9 @@ int resolved_num_textons(const PreprocessParams& params, int64_t pixel_count) {
 void validate_preprocess(const PreprocessParams& params, int width, int height) {
   auto bad = [](const std::string& what) { throw std::invalid_argument(what); };
   const int n = params.neighbourhood;
-  if (n < 3 || n % 2 == 0 || n > 63)
-    bad("neighbourhood must be an odd number between 3 and 63, got " + std::to_string(n));
+  if (n < 3 || n % 2 == 0 || n > kMaxNeighbourhood)
+    bad("neighbourhood must be an odd number between 3 and " + std::to_string(kMaxNeighbourhood) + ", got " +
+        std::to_string(n));
   if (width < n || height < n)
     bad("sample " + std::to_string(width) + "x" + std::to_string(height) + " is smaller than the " +
         std::to_string(n) + "x" + std::to_string(n) + " neighbourhood");
@@ -40,8 +41,9 @@ void validate_preprocess(const PreprocessParams& params, int width, int height) 
   if (params.jump_candidates < 1 || params.jump_candidates > kMaxJumpCandidates)
     bad("jump_candidates must be between 1 and " + std::to_string(kMaxJumpCandidates) + ", got " +
         std::to_string(params.jump_candidates));
-  if (params.feature_dims < 0 || params.feature_dims > 4096)
-    bad("feature_dims must be between 0 (full) and 4096, got " + std::to_string(params.feature_dims));
+  if (params.feature_dims < 0 || params.feature_dims > kMaxFeatureDims)
+    bad("feature_dims must be between 0 (full) and " + std::to_string(kMaxFeatureDims) + ", got " +
+        std::to_string(params.feature_dims));
   if (!(params.kmeans_change_fraction >= 0.0 && params.kmeans_change_fraction <= 1.0))
     bad("kmeans_change_fraction must be within [0, 1]");
   if (params.kmeans_max_iterations < 1 || params.kmeans_max_iterations > 10000)
@@ -53,6 +55,12 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
   validate_image(image);
   validate_preprocess(params, image.width, image.height);
   const int k = resolved_num_textons(params, image.pixel_count());
+  const int full_dims = full_feature_dims(image, params.neighbourhood);
+  const int dims = params.feature_dims > 0 && params.feature_dims < full_dims ? params.feature_dims : full_dims;
+  if (double(image.pixel_count()) * dims > double(kMaxFeatureValues))
+    throw std::invalid_argument("features of " + std::to_string(dims) + " dimensions for " +
+                                std::to_string(image.pixel_count()) +
+                                " pixels exceed the memory limit (1 GB); use fewer feature_dims or a smaller sample");
   PreprocessStats local_stats;
   if (!stats) stats = &local_stats;
   auto clock = std::chrono::steady_clock::now();

@@ -14,6 +14,11 @@ namespace texsynth {
 // Largest K accepted: the K×K distance table must stay small (8192² floats = 256 MB).
 constexpr int kMaxTextons = 8192;
 constexpr int kMaxJumpCandidates = 32;
+// Larger windows make the PCA eigen-solve (dimension n²·channels) impractically slow.
+constexpr int kMaxNeighbourhood = 25;
+constexpr int kMaxFeatureDims = 2500;  // = 25² · 4 channels, the largest full dimension
+// Feature values held in memory at once (floats): 1 GB.
+constexpr int64_t kMaxFeatureValues = int64_t(1) << 28;
 
 // K actually used: params.num_textons, or round(sqrt(pixels)) when 0 (at least 1).
 int resolved_num_textons(const PreprocessParams& params, int64_t pixel_count);
