@@ -63,6 +63,16 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
       features.count != int64_t(labels.size()) || bucket_start.size() < 2 ||
       int(bucket_start.size()) - 1 != textons.num_centres || bucket_start.back() != int32_t(labels.size()))
     throw std::invalid_argument("build_jump_map: inconsistent texton data");
+  for (size_t t = 0; t + 1 < bucket_start.size(); ++t)
+    if (bucket_start[t] < 0 || bucket_start[t] > bucket_start[t + 1])
+      throw std::invalid_argument("build_jump_map: bucket offsets not ascending");
+  if (textons.list_length < 1 || textons.list_length > textons.num_centres ||
+      textons.order.size() != size_t(textons.num_centres) * size_t(textons.list_length))
+    throw std::invalid_argument("build_jump_map: bad texton index");
+  for (int32_t t : textons.order)
+    if (t < 0 || t >= textons.num_centres) throw std::invalid_argument("build_jump_map: bad texton index");
+  for (int32_t q : bucket_pixels)
+    if (q < 0 || int64_t(q) >= int64_t(labels.size())) throw std::invalid_argument("build_jump_map: bad bucket pixel");
   const int64_t n = int64_t(width) * height;
   const int k = params.k;
   const int dims = features.dims;
