@@ -175,13 +175,13 @@ Image image_from_pixels(const void* data, PixelType type, int width, int height,
   switch (type) {
     case PixelType::kUint8: {
       const auto* src = static_cast<const uint8_t*>(data);
-      for (size_t i = 0; i < count; ++i) image.pixels[i] = src[i] * (1.0f / 255.0f);
+      for (size_t i = 0; i < count; ++i) image.pixels[i] = float(src[i]) * (1.0f / 255.0f);  // same rounding as OpenImageIO
       image.encoding = ColorEncoding::kSrgb;
       break;
     }
     case PixelType::kUint16: {
       const auto* src = static_cast<const uint16_t*>(data);
-      for (size_t i = 0; i < count; ++i) image.pixels[i] = src[i] * (1.0f / 65535.0f);
+      for (size_t i = 0; i < count; ++i) image.pixels[i] = float(src[i]) * (1.0f / 65535.0f);
       image.encoding = ColorEncoding::kSrgb;
       break;
     }
