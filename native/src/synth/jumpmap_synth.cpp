@@ -19,6 +19,8 @@
 namespace texsynth {
 namespace {
 
+constexpr double kMaxOffset = 1e9;
+
 struct Box {  // texel-space offsets reachable from a vertex's address through its polygons
   float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
 };
@@ -44,10 +46,10 @@ void validate_preprocessed(const Preprocessed& pre) {
 }
 
 void validate_params(const Mesh& m, const float* orientation, const JumpSynthParams& p) {
-  if (!std::isfinite(p.scale) || p.scale <= 0)
-    throw std::invalid_argument("scale (texels per object unit) must be finite and > 0");
+  if (!std::isfinite(p.scale) || p.scale <= 0 || p.scale > 1e30)
+    throw std::invalid_argument("scale (texels per object unit) must be finite, > 0 and <= 1e30");
   if (!std::isfinite(p.jump_rate) || p.jump_rate <= 0) throw std::invalid_argument("jump_rate must be finite and > 0");
-  if (!std::isfinite(p.border_ramp)) throw std::invalid_argument("border_ramp must be finite");
+  if (!std::isfinite(p.border_ramp)) throw std::invalid_argument("border_ramp must be finite");  // 0 = no ramp
   if (m.num_vertices > 0 && !orientation) throw std::invalid_argument("orientation field is missing");
   for (int64_t i = 0; i < int64_t(m.num_vertices) * 3; ++i)
     if (!std::isfinite(orientation[i]))
@@ -142,9 +144,10 @@ class Synthesizer {
       const int32_t n = m_.poly_sizes[poly];
       double lo_x = 0, hi_x = 0, lo_y = 0, hi_y = 0;
       for (int32_t i = 0; i < n; ++i) {
-        if (!std::isfinite(xy[2 * i]) || !std::isfinite(xy[2 * i + 1]))
-          throw std::invalid_argument("scale " + std::to_string(p_.scale) + " makes texture offsets of face " +
-                                      std::to_string(poly) + " overflow");
+        // Beyond ~1e9 texels float addresses are meaningless; refuse even with allow_oversized.
+        if (!(std::fabs(xy[2 * i]) <= kMaxOffset && std::fabs(xy[2 * i + 1]) <= kMaxOffset))
+          throw std::invalid_argument("scale " + std::to_string(p_.scale) + " makes face " + std::to_string(poly) +
+                                      " span more than 1e9 texels");
         lo_x = std::min(lo_x, xy[2 * i]), hi_x = std::max(hi_x, xy[2 * i]);
         lo_y = std::min(lo_y, xy[2 * i + 1]), hi_y = std::max(hi_y, xy[2 * i + 1]);
       }
@@ -233,7 +236,7 @@ class Synthesizer {
         // Continuation ("do not jump"): weight jump_rate / |offset|, ramped down near the border.
         const float cx = ax + dx, cy = ay + dy;
         const float len = std::max(std::sqrt(dx * dx + dy * dy), 1e-3f);
-        const float ramp = tileable_ ? 1.f : std::min(1.f, border_margin(cx, cy, box) / border_ramp_);
+        const float ramp = tileable_ || border_ramp_ <= 0.f ? 1.f : std::min(1.f, border_margin(cx, cy, box) / border_ramp_);
         add(cx, cy, rate / len * ramp, false);
         if (k == 0) continue;
         // Bilinear floating-point jump look-up at the neighbour's address (§4.2.3).
