@@ -21,6 +21,10 @@ namespace {
 
 constexpr double kMaxOffset = 1e9;
 
+struct JumpEntry {
+  float dx, dy, weight;  // target - source in texels; weight 0 for unused slots
+};
+
 struct Box {  // texel-space offsets reachable from a vertex's address through its polygons
   float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
 };
@@ -109,7 +113,7 @@ class Synthesizer {
 
   // Texel offsets of a polygon's corners relative to its corner 0, in the polygon's own frame:
   // an exact similarity of the polygon's projection onto its plane.
-  void face_offsets(int32_t poly, std::vector<double>& xy) const {
+  void face_offsets(int32_t poly, float* xy) const {
     const int32_t* cv = m_.corner_verts + m_.poly_starts[poly];
     const int32_t n = m_.poly_sizes[poly];
     V3 normal_sum, up_sum;
@@ -126,21 +130,24 @@ class Synthesizer {
                           normalized_or(project_to_plane(v3(&up_[3 * size_t(cv[0])]), nf), any_perpendicular(nf)));
     V3 right = cross(up, nf);
     const double s = p_.scale * mult / n;
-    xy.resize(2 * size_t(n));
     V3 origin = pos(cv[0]);
     for (int32_t i = 0; i < n; ++i) {
       V3 e = pos(cv[i]) - origin;
-      xy[2 * i] = dot(e, right) * s;
-      xy[2 * i + 1] = -dot(e, up) * s;
+      xy[2 * i] = float(dot(e, right) * s);
+      xy[2 * i + 1] = float(-dot(e, up) * s);
     }
   }
 
-  // Pass 1: per-vertex reach boxes (validity, §4.2.4) and oversized-face statistics.
+  // Pass 1: in-face corner offsets (parallel, per polygon), then per-vertex reach boxes
+  // (validity, §4.2.4) and oversized-face statistics.
   void measure_faces(SynthStats& st) {
-    std::vector<double> xy;
+    corner_offset_.resize(size_t(m_.num_corners) * 2);
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+      for (int32_t poly = r.begin(); poly < r.end(); ++poly) face_offsets(poly, &corner_offset_[2 * size_t(m_.poly_starts[poly])]);
+    });
     const double w = pre_.width, h = pre_.height;
     for (int32_t poly = 0; poly < m_.num_polys; ++poly) {
-      face_offsets(poly, xy);
+      const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
       const int32_t n = m_.poly_sizes[poly];
       double lo_x = 0, hi_x = 0, lo_y = 0, hi_y = 0;
       for (int32_t i = 0; i < n; ++i) {
@@ -148,8 +155,8 @@ class Synthesizer {
         if (!(std::fabs(xy[2 * i]) <= kMaxOffset && std::fabs(xy[2 * i + 1]) <= kMaxOffset))
           throw std::invalid_argument("scale " + std::to_string(p_.scale) + " makes face " + std::to_string(poly) +
                                       " span more than 1e9 texels");
-        lo_x = std::min(lo_x, xy[2 * i]), hi_x = std::max(hi_x, xy[2 * i]);
-        lo_y = std::min(lo_y, xy[2 * i + 1]), hi_y = std::max(hi_y, xy[2 * i + 1]);
+        lo_x = std::min(lo_x, double(xy[2 * i])), hi_x = std::max(hi_x, double(xy[2 * i]));
+        lo_y = std::min(lo_y, double(xy[2 * i + 1])), hi_y = std::max(hi_y, double(xy[2 * i + 1]));
       }
       double ratio = std::max((hi_x - lo_x) / w, (hi_y - lo_y) / h);
       st.max_oversize_ratio = std::max(st.max_oversize_ratio, ratio);
@@ -211,8 +218,13 @@ class Synthesizer {
   void walk(const VertexOrder& order, SynthStats& st) {
     const int32_t k = pre_.jump_map.k;
     const int32_t width = pre_.width, height = pre_.height;
-    const int32_t* targets = pre_.jump_map.targets.data();
-    const float* weights = pre_.jump_map.weights.data();
+    jumps_.resize(pre_.jump_map.targets.size());
+    for (size_t i = 0; i < jumps_.size(); ++i) {
+      const int32_t t = pre_.jump_map.targets[i], source = int32_t(i / size_t(k));
+      jumps_[i] = t < 0 ? JumpEntry{0.f, 0.f, 0.f}
+                        : JumpEntry{float(t % width - source % width), float(t / width - source / width),
+                                    pre_.jump_map.weights[i]};
+    }
     const float rate = float(p_.jump_rate);
     address_.assign(size_t(m_.num_vertices) * 2, std::numeric_limits<float>::quiet_NaN());
     std::vector<char> done(m_.num_vertices, 0);
@@ -220,11 +232,18 @@ class Synthesizer {
     Rng rng(p_.seed, 0x6a756d70);  // "jump"
     for (int32_t v : order.order) {
       const Box& box = reach_[v];
-      table.clear();
+      // Filled field by field (a pushed temporary stalls on store forwarding in this hot loop).
+      const size_t needed = size_t(m_.degree(v)) * (1 + 4 * size_t(k));
+      if (table.size() < needed) table.resize(needed);
+      size_t count = 0;
       double total = 0;
       int32_t synthesized = 0;
       auto add = [&](float x, float y, float w, bool jump) {
-        if (w > 0.f && border_margin(x, y, box) >= 0.f) table.push_back({x, y, w, jump}), total += w;
+        if (w > 0.f && border_margin(x, y, box) >= 0.f) {
+          Candidate& c = table[count++];
+          c.x = x, c.y = y, c.weight = w, c.jump = jump;
+          total += w;
+        }
       };
       for (int32_t kk = m_.neighbour_start[v]; kk < m_.neighbour_start[v + 1]; ++kk) {
         const int32_t j = m_.neighbours[kk];
@@ -253,23 +272,18 @@ class Synthesizer {
           } else if (qx < 0 || qy < 0 || qx >= width || qy >= height) {
             continue;
           }
-          const size_t q = (size_t(qy) * width + qx) * k;
-          for (int32_t s = 0; s < k; ++s) {
-            const int32_t t = targets[q + s];
-            if (t < 0) continue;
-            const float ox = float(t % width - qx), oy = float(t / width - qy);
-            add(cx + ox, cy + oy, weights[q + s] * bw, true);
-          }
+          const JumpEntry* entry = &jumps_[(size_t(qy) * width + qx) * k];
+          for (int32_t s = 0; s < k; ++s) add(cx + entry[s].dx, cy + entry[s].dy, entry[s].weight * bw, true);
         }
       }
       float x, y;
-      if (table.empty()) {
+      if (count == 0) {
         random_address(rng, box, x, y);
         if (synthesized > 0) ++st.fallback_vertices;
       } else {
         double r = rng.uniform() * total;
         size_t pick = 0;
-        while (pick + 1 < table.size() && r >= table[pick].weight) r -= table[pick++].weight;
+        while (pick + 1 < count && r >= table[pick].weight) r -= table[pick++].weight;
         x = table[pick].x, y = table[pick].y;
         if (table[pick].jump) ++st.jumps;
       }
@@ -291,11 +305,10 @@ class Synthesizer {
     out.blend_weights.assign(L * S, 0.f);
     const uint64_t poly_seed = splitmix64(p_.seed ^ 0x62617365ull);  // "base"
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 2048), [&](const tbb::blocked_range<int32_t>& range) {
-      std::vector<double> xy;
       for (int32_t poly = range.begin(); poly < range.end(); ++poly) {
-        face_offsets(poly, xy);
         const int32_t n = m_.poly_sizes[poly];
         const size_t first = size_t(m_.poly_starts[poly]);
+        const float* xy = &corner_offset_[2 * first];
         // Writes the polygon's mapping grown from corner `from` into uv (indexed by corner).
         auto grow = [&](int32_t from, float* uv) {
           const int32_t v = m_.corner_verts[first + from];
@@ -334,6 +347,8 @@ class Synthesizer {
   const bool tileable_;
   float border_ramp_;
   std::vector<float> up_, right_, address_;
+  std::vector<float> corner_offset_;  // per corner: texel offset from its polygon's corner 0 (face frame)
+  std::vector<JumpEntry> jumps_;      // jump map with targets as texel offsets (no divisions in the walk)
   std::vector<Box> reach_;
 };
 
