@@ -116,16 +116,21 @@ class Synthesizer {
   void face_offsets(int32_t poly, float* xy) const {
     const int32_t* cv = m_.corner_verts + m_.poly_starts[poly];
     const int32_t n = m_.poly_sizes[poly];
-    V3 normal_sum, up_sum;
+    V3 up_sum;
     double mult = 0;
     for (int32_t i = 0; i < n; ++i) {
-      normal_sum = normal_sum + v3(&m_.normals[3 * size_t(cv[i])]);
       up_sum = up_sum + v3(&up_[3 * size_t(cv[i])]);
       mult += multiplier(cv[i]);
     }
-    Vec3f fallback_normal;
-    store(fallback_normal.data(), normalized_or(normal_sum, V3{0, 0, 1}));
-    V3 nf = v3(polygon_normal(m_, poly, fallback_normal));
+    V3 nf = newell_vector(m_.positions, cv, n);
+    const double area2 = norm(nf);
+    if (area2 > 1e-30 && std::isfinite(area2)) {
+      nf = nf * (1.0 / area2);
+    } else {  // zero-area polygon: its vertices' normals, which are always defined
+      V3 normal_sum;
+      for (int32_t i = 0; i < n; ++i) normal_sum = normal_sum + v3(&m_.normals[3 * size_t(cv[i])]);
+      nf = normalized_or(normal_sum, V3{0, 0, 1});
+    }
     V3 up = normalized_or(project_to_plane(up_sum, nf),
                           normalized_or(project_to_plane(v3(&up_[3 * size_t(cv[0])]), nf), any_perpendicular(nf)));
     V3 right = cross(up, nf);
@@ -304,6 +309,7 @@ class Synthesizer {
     out.blend_uv.resize(size_t(S) * L * 2);
     out.blend_weights.assign(L * S, 0.f);
     const uint64_t poly_seed = splitmix64(p_.seed ^ 0x62617365ull);  // "base"
+    const float inv_w = 1.f / W_, inv_h = 1.f / H_;
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 2048), [&](const tbb::blocked_range<int32_t>& range) {
       for (int32_t poly = range.begin(); poly < range.end(); ++poly) {
         const int32_t n = m_.poly_sizes[poly];
@@ -312,15 +318,15 @@ class Synthesizer {
         // Writes the polygon's mapping grown from corner `from` into uv (indexed by corner).
         auto grow = [&](int32_t from, float* uv) {
           const int32_t v = m_.corner_verts[first + from];
-          const double ax = address_[2 * size_t(v)] - xy[2 * from], ay = address_[2 * size_t(v) + 1] - xy[2 * from + 1];
+          const float ax = address_[2 * size_t(v)] - xy[2 * from], ay = address_[2 * size_t(v) + 1] - xy[2 * from + 1];
           for (int32_t i = 0; i < n; ++i) {
-            double x = ax + xy[2 * i], y = ay + xy[2 * i + 1];
-            if (!tileable_) x = std::clamp(x, 0.0, double(W_)), y = std::clamp(y, 0.0, double(H_));
-            uv[2 * (first + i)] = float(x / W_);
-            uv[2 * (first + i) + 1] = float(1.0 - y / H_);
+            float x = ax + xy[2 * i], y = ay + xy[2 * i + 1];
+            if (!tileable_) x = std::clamp(x, 0.f, W_), y = std::clamp(y, 0.f, H_);
+            uv[2 * (first + i)] = x * inv_w;
+            uv[2 * (first + i) + 1] = 1.f - y * inv_h;
           }
         };
-        const int32_t base = int32_t(splitmix64(poly_seed + uint64_t(poly)) % uint64_t(n));
+        const int32_t base = int32_t(((splitmix64(poly_seed + uint64_t(poly)) >> 32) * uint64_t(n)) >> 32);
         grow(base, out.base_uv.data());
         for (int32_t set = 0; set < S; ++set) {
           float* uv = out.blend_uv.data() + size_t(set) * L * 2;
