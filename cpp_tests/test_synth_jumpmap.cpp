@@ -3,6 +3,7 @@
 #include <tbb/global_control.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <set>
 #include <stdexcept>
@@ -234,6 +235,32 @@ TEST(SynthJumpMap, MeasuredJumpRateMatchesRequested) {
     EXPECT_NEAR(double(r.r.stats.jumps), expected, 0.08 * expected) << "rate " << rate;
     EXPECT_EQ(r.r.stats.fallback_vertices, 0);
   }
+}
+
+TEST(SynthJumpMap, RejectionDrawMatchesExactFilteredTable) {
+  // Half of every pixel's jump weight points at column 0, where most one-rings would leave the
+  // sample. The fast rejection draw must reproduce the exact filtered table's statistics
+  // (max_rejection_draws = 0 builds the table for every vertex, the paper's direct method),
+  // and both must differ clearly from what an unfiltered draw would give, 1 / (rate + 1).
+  auto pre = fixtures::planted(512, 512, 4, 1.0f, false, 128);
+  for (size_t i = 0; i < pre.jump_map.targets.size(); i += 2) pre.jump_map.targets[i] -= pre.jump_map.targets[i] % 512;
+  auto grid = fixtures::grid(150, 150, 1.0, false);
+  const double rate = 5.0;
+  JumpSynthParams p;
+  p.scale = 1.0;
+  p.jump_rate = rate;
+  p.border_ramp = 0.0;
+  auto fast = run(grid, pre, p);
+  p.max_rejection_draws = 0;
+  auto exact = run(grid, pre, p);
+  const double n = double(fast.r.stats.vertices - 1);
+  const double jf = double(fast.r.stats.jumps), je = double(exact.r.stats.jumps);
+  EXPECT_NEAR(jf, je, 4 * std::sqrt(je) + 1) << "fast " << jf << " exact " << je;
+  std::printf("jumps: fast %.0f exact %.0f unfiltered-expectation %.0f of %.0f\n", jf, je, n / (rate + 1), n);
+  EXPECT_LT(je, 0.8 * n / (rate + 1));
+  EXPECT_GT(je, 0.9 * n * 0.5 / (rate + 0.5));  // at least the always-valid half is drawn
+  expect_inside_sample(fast.r);
+  expect_inside_sample(exact.r);
 }
 
 TEST(SynthJumpMap, NoJumpsForcesFallbacksButEverythingStaysInside) {

@@ -53,6 +53,8 @@ void validate_params(const Mesh& m, const float* orientation, const JumpSynthPar
   if (!std::isfinite(p.scale) || p.scale <= 0 || p.scale > 1e30)
     throw std::invalid_argument("scale (texels per object unit) must be finite, > 0 and <= 1e30");
   if (!std::isfinite(p.jump_rate) || p.jump_rate <= 0) throw std::invalid_argument("jump_rate must be finite and > 0");
+  if (p.max_rejection_draws < 0 || p.max_rejection_draws > 1000)
+    throw std::invalid_argument("max_rejection_draws must be in [0, 1000]");
   if (!std::isfinite(p.border_ramp)) throw std::invalid_argument("border_ramp must be finite");  // 0 = no ramp
   if (m.num_vertices > 0 && !orientation) throw std::invalid_argument("orientation field is missing");
   for (int64_t i = 0; i < int64_t(m.num_vertices) * 3; ++i)
@@ -219,79 +221,137 @@ class Synthesizer {
     bool jump;
   };
 
+  // One synthesized neighbour's contribution to a vertex's selection table (§4.2.5): its
+  // continuation and the jump lists of the 4 texels around its address (§4.2.3).
+  struct Source {
+    float cx, cy, continuation;  // continuation address and weight (0 when invalid)
+    int32_t texel[4];            // pixel index, -1 when outside a non-tileable sample
+    float bilinear[4];           // bilinear weight of each texel
+    float texel_weight[4];       // bilinear × the texel's summed jump weights
+  };
+
   // Pass 2: the walk (§4.2.3–4.2.5). Sequential by nature; one RNG stream, so deterministic.
+  // Drawing from the filtered table is done by rejection: draw among continuations (validated
+  // exactly) and all jump entries, redraw when a drawn jump is invalid. That yields exactly the
+  // filtered distribution without validating every entry; after max_rejection_draws the exact
+  // filtered table is built instead (e.g. next to the border, where most jumps are invalid).
   void walk(const VertexOrder& order, SynthStats& st) {
+    const int max_draws = p_.max_rejection_draws;
     const int32_t k = pre_.jump_map.k;
     const int32_t width = pre_.width, height = pre_.height;
     jumps_.resize(pre_.jump_map.targets.size());
+    std::vector<float> pixel_weight(size_t(width) * height, 0.f);
     for (size_t i = 0; i < jumps_.size(); ++i) {
       const int32_t t = pre_.jump_map.targets[i], source = int32_t(i / size_t(k));
       jumps_[i] = t < 0 ? JumpEntry{0.f, 0.f, 0.f}
                         : JumpEntry{float(t % width - source % width), float(t / width - source / width),
                                     pre_.jump_map.weights[i]};
+      pixel_weight[source] += jumps_[i].weight;
     }
     const float rate = float(p_.jump_rate);
     address_.assign(size_t(m_.num_vertices) * 2, std::numeric_limits<float>::quiet_NaN());
     std::vector<char> done(m_.num_vertices, 0);
+    std::vector<Source> sources;
     std::vector<Candidate> table;
     Rng rng(p_.seed, 0x6a756d70);  // "jump"
     for (int32_t v : order.order) {
       const Box& box = reach_[v];
-      // Filled field by field (a pushed temporary stalls on store forwarding in this hot loop).
-      const size_t needed = size_t(m_.degree(v)) * (1 + 4 * size_t(k));
-      if (table.size() < needed) table.resize(needed);
+      if (sources.size() < size_t(m_.degree(v))) sources.resize(m_.degree(v));
       size_t count = 0;
       double total = 0;
-      int32_t synthesized = 0;
-      auto add = [&](float x, float y, float w, bool jump) {
-        if (w > 0.f && border_margin(x, y, box) >= 0.f) {
-          Candidate& c = table[count++];
-          c.x = x, c.y = y, c.weight = w, c.jump = jump;
-          total += w;
-        }
-      };
       for (int32_t kk = m_.neighbour_start[v]; kk < m_.neighbour_start[v + 1]; ++kk) {
         const int32_t j = m_.neighbours[kk];
         if (!done[j]) continue;
-        ++synthesized;
+        Source& src = sources[count++];
         float dx, dy;
         edge_offset(j, v, dx, dy);
         const float ax = address_[2 * size_t(j)], ay = address_[2 * size_t(j) + 1];
         // Continuation ("do not jump"): weight jump_rate / |offset|, ramped down near the border.
-        const float cx = ax + dx, cy = ay + dy;
+        src.cx = ax + dx, src.cy = ay + dy;
+        const float margin = border_margin(src.cx, src.cy, box);
         const float len = std::max(std::sqrt(dx * dx + dy * dy), 1e-3f);
-        const float ramp = tileable_ || border_ramp_ <= 0.f ? 1.f : std::min(1.f, border_margin(cx, cy, box) / border_ramp_);
-        add(cx, cy, rate / len * ramp, false);
-        if (k == 0) continue;
-        // Bilinear floating-point jump look-up at the neighbour's address (§4.2.3).
+        const float ramp = tileable_ || border_ramp_ <= 0.f ? 1.f : std::min(1.f, margin / border_ramp_);
+        src.continuation = margin >= 0.f ? rate / len * ramp : 0.f;
+        total += src.continuation;
+        // Bilinear floating-point jump look-up at the neighbour's address.
         const float fx = ax - 0.5f, fy = ay - 0.5f;
         const float x0 = std::floor(fx), y0 = std::floor(fy);
         const float tx = fx - x0, ty = fy - y0;
         for (int corner = 0; corner < 4; ++corner) {
-          const int32_t xi = int32_t(x0) + (corner & 1), yi = int32_t(y0) + (corner >> 1);
-          const float bw = ((corner & 1) ? tx : 1.f - tx) * ((corner >> 1) ? ty : 1.f - ty);
-          if (bw <= 0.f) continue;
-          int32_t qx = xi, qy = yi;
+          int32_t qx = int32_t(x0) + (corner & 1), qy = int32_t(y0) + (corner >> 1);
+          src.bilinear[corner] = ((corner & 1) ? tx : 1.f - tx) * ((corner >> 1) ? ty : 1.f - ty);
           if (tileable_) {
             qx = ((qx % width) + width) % width, qy = ((qy % height) + height) % height;
-          } else if (qx < 0 || qy < 0 || qx >= width || qy >= height) {
+          } else if (qx < 0 || qy < 0 || qx >= width || qy >= height || k == 0) {
+            src.texel[corner] = -1, src.texel_weight[corner] = 0.f;
             continue;
           }
-          const JumpEntry* entry = &jumps_[(size_t(qy) * width + qx) * k];
-          for (int32_t s = 0; s < k; ++s) add(cx + entry[s].dx, cy + entry[s].dy, entry[s].weight * bw, true);
+          src.texel[corner] = qy * width + qx;
+          src.texel_weight[corner] = src.bilinear[corner] * pixel_weight[src.texel[corner]];
+          total += src.texel_weight[corner];
         }
       }
-      float x, y;
-      if (count == 0) {
-        random_address(rng, box, x, y);
-        if (synthesized > 0) ++st.fallback_vertices;
-      } else {
+      float x = 0, y = 0;
+      bool chosen = false, jumped = false;
+      for (int draw = 0; draw < max_draws && total > 0 && !chosen; ++draw) {
         double r = rng.uniform() * total;
-        size_t pick = 0;
-        while (pick + 1 < count && r >= table[pick].weight) r -= table[pick++].weight;
-        x = table[pick].x, y = table[pick].y;
-        if (table[pick].jump) ++st.jumps;
+        bool landed = false;  // on a continuation or a jump entry (rounding may leave r past the end)
+        for (size_t i = 0; i < count && !landed; ++i) {
+          const Source& src = sources[i];
+          if (r < src.continuation) {
+            x = src.cx, y = src.cy, chosen = landed = true;
+            break;
+          }
+          r -= src.continuation;
+          for (int corner = 0; corner < 4; ++corner) {
+            if (r >= src.texel_weight[corner]) {
+              r -= src.texel_weight[corner];
+              continue;
+            }
+            const JumpEntry* entry = &jumps_[size_t(src.texel[corner]) * k];
+            for (int32_t e = 0; e < k; ++e) {
+              const double w = double(entry[e].weight) * src.bilinear[corner];
+              if (r < w || e + 1 == k) {
+                x = src.cx + entry[e].dx, y = src.cy + entry[e].dy;
+                chosen = entry[e].weight > 0.f && border_margin(x, y, box) >= 0.f;  // else: rejected, redraw
+                jumped = chosen;
+                landed = true;
+                break;
+              }
+              r -= w;
+            }
+            break;
+          }
+        }
       }
+      if (!chosen && total > 0) {  // exact filtered table
+        table.clear();
+        double exact_total = 0;
+        auto add = [&](float cx, float cy, float w, bool jump) {
+          if (w > 0.f && border_margin(cx, cy, box) >= 0.f) table.push_back({cx, cy, w, jump}), exact_total += w;
+        };
+        for (size_t i = 0; i < count; ++i) {
+          const Source& src = sources[i];
+          add(src.cx, src.cy, src.continuation, false);
+          for (int corner = 0; corner < 4; ++corner) {
+            if (src.texel_weight[corner] <= 0.f) continue;
+            const JumpEntry* entry = &jumps_[size_t(src.texel[corner]) * k];
+            for (int32_t e = 0; e < k; ++e)
+              add(src.cx + entry[e].dx, src.cy + entry[e].dy, entry[e].weight * src.bilinear[corner], true);
+          }
+        }
+        if (!table.empty()) {
+          double r = rng.uniform() * exact_total;
+          size_t pick = 0;
+          while (pick + 1 < table.size() && r >= table[pick].weight) r -= table[pick++].weight;
+          x = table[pick].x, y = table[pick].y, jumped = table[pick].jump, chosen = true;
+        }
+      }
+      if (!chosen) {
+        random_address(rng, box, x, y);
+        if (count > 0) ++st.fallback_vertices;
+      }
+      if (jumped) ++st.jumps;
       if (tileable_) x -= W_ * std::floor(x / W_), y -= H_ * std::floor(y / H_);
       address_[2 * size_t(v)] = x, address_[2 * size_t(v) + 1] = y;
       done[v] = 1;

@@ -37,6 +37,9 @@ struct JumpSynthParams {
   // (texels); 0 = no ramp; < 0 = automatic (5% of the smaller sample side, at least 1). Ignored
   // when tileable.
   double border_ramp = -1.0;
+  // Draws from the selection table by rejection (see walk()); after this many rejected draws the
+  // exact filtered table is built. 0 = always build the exact table (slower, same distribution).
+  int max_rejection_draws = 8;
 };
 
 struct SynthStats {
