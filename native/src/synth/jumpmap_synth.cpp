@@ -21,10 +21,6 @@ namespace {
 
 constexpr double kMaxOffset = 1e9;
 
-struct JumpEntry {
-  float dx, dy, weight;  // target - source in texels; weight 0 for unused slots
-};
-
 struct Box {  // texel-space offsets reachable from a vertex's address through its polygons
   float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
 };
@@ -239,15 +235,19 @@ class Synthesizer {
     const int max_draws = p_.max_rejection_draws;
     const int32_t k = pre_.jump_map.k;
     const int32_t width = pre_.width, height = pre_.height;
-    jumps_.resize(pre_.jump_map.targets.size());
+    const int32_t* targets = pre_.jump_map.targets.data();
+    const float* weights = pre_.jump_map.weights.data();
+    // Summed jump weight per pixel: the draw only looks at entries of the texel it lands in.
     std::vector<float> pixel_weight(size_t(width) * height, 0.f);
-    for (size_t i = 0; i < jumps_.size(); ++i) {
-      const int32_t t = pre_.jump_map.targets[i], source = int32_t(i / size_t(k));
-      jumps_[i] = t < 0 ? JumpEntry{0.f, 0.f, 0.f}
-                        : JumpEntry{float(t % width - source % width), float(t / width - source / width),
-                                    pre_.jump_map.weights[i]};
-      pixel_weight[source] += jumps_[i].weight;
-    }
+    for (size_t p = 0; p < pixel_weight.size(); ++p)
+      for (int32_t e = 0; e < k; ++e)
+        if (targets[p * k + e] >= 0) pixel_weight[p] += weights[p * k + e];
+    // Destination of jump entry e of `texel` taken from src: target - source pixel, plus src's address.
+    auto destination = [&](const Source& src, int32_t texel, int32_t e, float& x, float& y) {
+      const int32_t t = targets[size_t(texel) * k + e];
+      x = src.cx + float(t % width - texel % width);
+      y = src.cy + float(t / width - texel / width);
+    };
     const float rate = float(p_.jump_rate);
     address_.assign(size_t(m_.num_vertices) * 2, std::numeric_limits<float>::quiet_NaN());
     std::vector<char> done(m_.num_vertices, 0);
@@ -308,12 +308,14 @@ class Synthesizer {
               r -= src.texel_weight[corner];
               continue;
             }
-            const JumpEntry* entry = &jumps_[size_t(src.texel[corner]) * k];
+            const size_t base = size_t(src.texel[corner]) * k;
             for (int32_t e = 0; e < k; ++e) {
-              const double w = double(entry[e].weight) * src.bilinear[corner];
+              const bool used = targets[base + e] >= 0;
+              const double w = used ? double(weights[base + e]) * src.bilinear[corner] : 0.0;
               if (r < w || e + 1 == k) {
-                x = src.cx + entry[e].dx, y = src.cy + entry[e].dy;
-                chosen = entry[e].weight > 0.f && border_margin(x, y, box) >= 0.f;  // else: rejected, redraw
+                chosen = used && w > 0;
+                if (chosen) destination(src, src.texel[corner], e, x, y);
+                chosen = chosen && border_margin(x, y, box) >= 0.f;  // else: rejected, redraw
                 jumped = chosen;
                 landed = true;
                 break;
@@ -335,9 +337,12 @@ class Synthesizer {
           add(src.cx, src.cy, src.continuation, false);
           for (int corner = 0; corner < 4; ++corner) {
             if (src.texel_weight[corner] <= 0.f) continue;
-            const JumpEntry* entry = &jumps_[size_t(src.texel[corner]) * k];
-            for (int32_t e = 0; e < k; ++e)
-              add(src.cx + entry[e].dx, src.cy + entry[e].dy, entry[e].weight * src.bilinear[corner], true);
+            for (int32_t e = 0; e < k; ++e) {
+              if (targets[size_t(src.texel[corner]) * k + e] < 0) continue;
+              float jx, jy;
+              destination(src, src.texel[corner], e, jx, jy);
+              add(jx, jy, weights[size_t(src.texel[corner]) * k + e] * src.bilinear[corner], true);
+            }
           }
         }
         if (!table.empty()) {
@@ -414,7 +419,6 @@ class Synthesizer {
   float border_ramp_;
   std::vector<float> up_, right_, address_;
   std::vector<float> corner_offset_;  // per corner: texel offset from its polygon's corner 0 (face frame)
-  std::vector<JumpEntry> jumps_;      // jump map with targets as texel offsets (no divisions in the walk)
   std::vector<Box> reach_;
 };
 
