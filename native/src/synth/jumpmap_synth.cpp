@@ -84,7 +84,9 @@ class Synthesizer {
     VertexOrder order = region_growing_order(m_, p_.seed);
     walk(order, r.stats);
     write_corners(r.maps);
-    r.vertex_address = std::move(address_);
+    r.vertex_address.resize(size_t(m_.num_vertices) * 2);
+    for (int32_t v = 0; v < m_.num_vertices; ++v)
+      r.vertex_address[2 * size_t(v)] = state_[v].address[0], r.vertex_address[2 * size_t(v) + 1] = state_[v].address[1];
     r.stats.faces = m_.num_polys;
     r.stats.vertices = m_.num_vertices;
     r.stats.corners = m_.num_corners;
@@ -97,14 +99,15 @@ class Synthesizer {
   V3 pos(int32_t v) const { return v3(m_.positions + 3 * size_t(v)); }
 
   void build_frames(const float* orientation) {
-    up_.resize(size_t(m_.num_vertices) * 3);
-    right_.resize(size_t(m_.num_vertices) * 3);
+    state_.resize(size_t(m_.num_vertices));
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 8192), [&](const tbb::blocked_range<int32_t>& r) {
       for (int32_t v = r.begin(); v < r.end(); ++v) {
         V3 n = v3(&m_.normals[3 * size_t(v)]);
         V3 u = normalized_or(project_to_plane(v3(orientation + 3 * size_t(v)), n), any_perpendicular(n));
-        store(&up_[3 * size_t(v)], u);
-        store(&right_[3 * size_t(v)], cross(u, n));
+        VertexState& st = state_[v];
+        store(st.up, u);
+        store(st.right, cross(u, n));
+        st.address[0] = st.address[1] = std::numeric_limits<float>::quiet_NaN();
       }
     });
   }
@@ -117,7 +120,7 @@ class Synthesizer {
     V3 up_sum;
     double mult = 0;
     for (int32_t i = 0; i < n; ++i) {
-      up_sum = up_sum + v3(&up_[3 * size_t(cv[i])]);
+      up_sum = up_sum + v3(state_[cv[i]].up);
       mult += multiplier(cv[i]);
     }
     V3 nf = newell_vector(m_.positions, cv, n);
@@ -130,7 +133,7 @@ class Synthesizer {
       nf = normalized_or(normal_sum, V3{0, 0, 1});
     }
     V3 up = normalized_or(project_to_plane(up_sum, nf),
-                          normalized_or(project_to_plane(v3(&up_[3 * size_t(cv[0])]), nf), any_perpendicular(nf)));
+                          normalized_or(project_to_plane(v3(state_[cv[0]].up), nf), any_perpendicular(nf)));
     V3 right = cross(up, nf);
     const double s = p_.scale * mult / n;
     V3 origin = pos(cv[0]);
@@ -183,10 +186,10 @@ class Synthesizer {
     const float* pa = m_.positions + 3 * size_t(a);
     const float* pb = m_.positions + 3 * size_t(b);
     const float e[3] = {pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]};
-    const float* ua = &up_[3 * size_t(a)];
-    const float* ub = &up_[3 * size_t(b)];
-    const float* ra = &right_[3 * size_t(a)];
-    const float* rb = &right_[3 * size_t(b)];
+    const float* ua = state_[a].up;
+    const float* ub = state_[b].up;
+    const float* ra = state_[a].right;
+    const float* rb = state_[b].right;
     float U[3] = {ua[0] + ub[0], ua[1] + ub[1], ua[2] + ub[2]};
     float R[3] = {ra[0] + rb[0], ra[1] + rb[1], ra[2] + rb[2]};
     float lu = U[0] * U[0] + U[1] * U[1] + U[2] * U[2];
@@ -249,8 +252,6 @@ class Synthesizer {
       y = src.cy + float(t / width - texel / width);
     };
     const float rate = float(p_.jump_rate);
-    address_.assign(size_t(m_.num_vertices) * 2, std::numeric_limits<float>::quiet_NaN());
-    std::vector<char> done(m_.num_vertices, 0);
     std::vector<Source> sources;
     std::vector<Candidate> table;
     Rng rng(p_.seed, 0x6a756d70);  // "jump"
@@ -261,11 +262,11 @@ class Synthesizer {
       double total = 0;
       for (int32_t kk = m_.neighbour_start[v]; kk < m_.neighbour_start[v + 1]; ++kk) {
         const int32_t j = m_.neighbours[kk];
-        if (!done[j]) continue;
+        if (!state_[j].synthesized()) continue;
         Source& src = sources[count++];
         float dx, dy;
         edge_offset(j, v, dx, dy);
-        const float ax = address_[2 * size_t(j)], ay = address_[2 * size_t(j) + 1];
+        const float ax = state_[j].address[0], ay = state_[j].address[1];
         // Continuation ("do not jump"): weight jump_rate / |offset|, ramped down near the border.
         src.cx = ax + dx, src.cy = ay + dy;
         const float margin = border_margin(src.cx, src.cy, box);
@@ -358,8 +359,7 @@ class Synthesizer {
       }
       if (jumped) ++st.jumps;
       if (tileable_) x -= W_ * std::floor(x / W_), y -= H_ * std::floor(y / H_);
-      address_[2 * size_t(v)] = x, address_[2 * size_t(v) + 1] = y;
-      done[v] = 1;
+      state_[v].address[0] = x, state_[v].address[1] = y;
     }
   }
 
@@ -383,7 +383,7 @@ class Synthesizer {
         // Writes the polygon's mapping grown from corner `from` into uv (indexed by corner).
         auto grow = [&](int32_t from, float* uv) {
           const int32_t v = m_.corner_verts[first + from];
-          const float ax = address_[2 * size_t(v)] - xy[2 * from], ay = address_[2 * size_t(v) + 1] - xy[2 * from + 1];
+          const float ax = state_[v].address[0] - xy[2 * from], ay = state_[v].address[1] - xy[2 * from + 1];
           for (int32_t i = 0; i < n; ++i) {
             float x = ax + xy[2 * i], y = ay + xy[2 * i + 1];
             if (!tileable_) x = std::clamp(x, 0.f, W_), y = std::clamp(y, 0.f, H_);
@@ -417,7 +417,13 @@ class Synthesizer {
   const float W_, H_;
   const bool tileable_;
   float border_ramp_;
-  std::vector<float> up_, right_, address_;
+  // Everything the walk reads per neighbour in one 32-byte record (one cache line, not four).
+  struct VertexState {
+    float up[3], right[3];
+    float address[2];  // texel address; NaN until synthesized
+    bool synthesized() const { return address[0] == address[0]; }
+  };
+  std::vector<VertexState> state_;
   std::vector<float> corner_offset_;  // per corner: texel offset from its polygon's corner 0 (face frame)
   std::vector<Box> reach_;
 };
