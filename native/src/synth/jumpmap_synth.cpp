@@ -48,7 +48,7 @@ void validate_preprocessed(const Preprocessed& pre) {
 void validate_params(const Mesh& m, const float* orientation, const JumpSynthParams& p) {
   if (!std::isfinite(p.scale) || p.scale <= 0 || p.scale > 1e30)
     throw std::invalid_argument("scale (texels per object unit) must be finite, > 0 and <= 1e30");
-  if (!std::isfinite(p.jump_rate) || p.jump_rate <= 0) throw std::invalid_argument("jump_rate must be finite and > 0");
+  if (!(p.jump_rate > 0 && p.jump_rate <= 1e9)) throw std::invalid_argument("jump_rate must be in (0, 1e9]");
   if (p.max_rejection_draws < 0 || p.max_rejection_draws > 1000)
     throw std::invalid_argument("max_rejection_draws must be in [0, 1000]");
   if (!std::isfinite(p.border_ramp)) throw std::invalid_argument("border_ramp must be finite");  // 0 = no ramp
@@ -358,7 +358,11 @@ class Synthesizer {
         if (count > 0) ++st.fallback_vertices;
       }
       if (jumped) ++st.jumps;
-      if (tileable_) x -= W_ * std::floor(x / W_), y -= H_ * std::floor(y / H_);
+      if (tileable_) {
+        x -= W_ * std::floor(x / W_), y -= H_ * std::floor(y / H_);
+        if (x >= W_) x = 0.f;  // a tiny negative x rounds to exactly W_
+        if (y >= H_) y = 0.f;
+      }
       state_[v].address[0] = x, state_[v].address[1] = y;
     }
   }
