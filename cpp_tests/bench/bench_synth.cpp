@@ -202,7 +202,7 @@ int main(int argc, char** argv) {
     scaling_report(false, "default malloc");
     scaling_report(true, "default malloc");
     // Heap reuse for every size: the compute-only scaling.
-    mallopt(M_MMAP_THRESHOLD, 1 << 30);
+    mallopt(M_MMAP_MAX, 0);  // never mmap: everything from the (reused) heap
     mallopt(M_TRIM_THRESHOLD, 1 << 30);
     scaling_report(false, "heap reuse");
     scaling_report(true, "heap reuse");
