@@ -161,6 +161,8 @@ class Report:
         self.native_stats[name] = dict(stats or {})
 
     def summary(self):
+        if not self.objects and self.failures:
+            return "TexSynth: nothing written; " + "; ".join("%s: %s" % f for f in self.failures)
         total = self.seconds.get("total", 0.0)
         text = "TexSynth: %d object(s), %d faces in %.2f s (cache %s)" % (
             len(self.objects), self.faces, total, "hit" if self.cache_hit else "miss")
