@@ -5,6 +5,7 @@
 // (consumers). Pixel addressing everywhere: image convention, row 0 = top,
 // pixel index p = y * width + x, pixel (x, y) covers [x, x+1) × [y, y+1) in texel space.
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace texsynth {
@@ -46,6 +47,8 @@ struct Preprocessed {
   JumpMap jump_map;
 
   bool cache_hit = false;  // true when this object came from an on-disk cache instead of computing
+  // How the cache was used: "uncached" (no cache dir), "hit", "miss", "recomputed-corrupt", "loaded".
+  std::string cache_status = "uncached";
 
   int pixel_count() const { return width * height; }
 };

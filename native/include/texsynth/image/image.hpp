@@ -1,0 +1,70 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+// Sample images as TexSynth sees them.
+//
+// Pixels are stored as float, row 0 = top, interleaved channels (1 gray, 2 gray+alpha, 3 RGB, 4 RGBA).
+// Values are "as decoded": 8/16-bit integer data is normalised to [0, 1] and is taken to be
+// sRGB-encoded; half/float data is taken to be linear (scene-referred) RGB with sRGB/Rec.709 primaries.
+//
+// Feature colour space: CIE L*a*b* (D65). Preprocessing compares neighbourhoods in L*a*b* because it is
+// roughly perceptually uniform; linear radiance would let bright pixels dominate every distance.
+// Alpha (when present) is appended as an extra feature channel scaled to 0..100 like L*.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace texsynth {
+
+// Largest sample accepted (pixels). Preprocessing keeps ~100 bytes per pixel in flight, so a
+// 4096 x 4096 sample already needs ~1.7 GB; anything larger is refused with a clear error.
+constexpr int64_t kMaxImagePixels = int64_t(4096) * 4096;
+constexpr int kMaxImageSide = 65536;
+
+enum class ColorEncoding { kSrgb, kLinear };
+
+struct Image {
+  int width = 0;
+  int height = 0;
+  int channels = 0;
+  ColorEncoding encoding = ColorEncoding::kSrgb;
+  std::vector<float> pixels;  // width*height*channels, row 0 = top
+
+  int64_t pixel_count() const { return int64_t(width) * height; }
+};
+
+struct ImageInfo {
+  int width = 0;
+  int height = 0;
+  int channels = 0;
+  std::string format;     // file format as named by OpenImageIO, e.g. "png", "openexr"
+  std::string data_type;  // stored sample type, e.g. "uint8", "uint16", "half", "float"
+};
+
+// Reads header only. Throws std::invalid_argument naming the path and problem.
+ImageInfo read_image_info(const std::string& path);
+
+// Decodes the first subimage of any OpenImageIO-readable file.
+// Throws std::invalid_argument for missing/unreadable/zero-byte/corrupt files, directories,
+// images over the size limit and NaN/Inf pixels.
+Image load_image(const std::string& path);
+
+enum class PixelType { kUint8, kUint16, kFloat16, kFloat32 };
+
+// Builds an Image from raw interleaved pixels (row 0 = top). Integer types are normalised to [0, 1]
+// and marked sRGB; float types are kept as is and marked linear. Validates size, channels, NaN/Inf.
+Image image_from_pixels(const void* data, PixelType type, int width, int height, int channels);
+
+// Throws std::invalid_argument when dims/channels/size/pixel values are unusable.
+void validate_image(const Image& image);
+
+// 64-bit hash of the decoded pixels, dimensions, channel count and encoding.
+uint64_t image_hash(const Image& image);
+
+// Per-pixel feature channels in L*a*b* (+ alpha): returns width*height*feature_channel_count(image) floats.
+int feature_channel_count(const Image& image);
+std::vector<float> to_feature_colors(const Image& image);
+
+// Writes an 8-bit image (PNG/JPEG/TIFF...) via OpenImageIO; throws std::runtime_error on failure.
+void write_image_u8(const std::string& path, const uint8_t* pixels, int width, int height, int channels);
+
+}  // namespace texsynth

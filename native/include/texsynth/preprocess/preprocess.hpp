@@ -1,0 +1,43 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+// Preprocessing pipeline: features -> textons (k-means) -> distance table + bucket array -> jump map,
+// with an optional on-disk cache (cache.hpp).
+#include <atomic>
+#include <optional>
+#include <string>
+
+#include "texsynth/image/image.hpp"
+#include "texsynth/preprocess/preprocessed.hpp"
+
+namespace texsynth {
+
+// Largest K accepted: the K×K distance table must stay small (8192² floats = 256 MB).
+constexpr int kMaxTextons = 8192;
+constexpr int kMaxJumpCandidates = 32;
+
+// K actually used: params.num_textons, or round(sqrt(pixels)) when 0 (at least 1).
+int resolved_num_textons(const PreprocessParams& params, int64_t pixel_count);
+
+// Throws std::invalid_argument naming the problem (even/small n, image smaller than n, K > pixels, ...).
+void validate_preprocess(const PreprocessParams& params, int width, int height);
+
+// Where the time went (seconds), for benchmarks.
+struct PreprocessStats {
+  double features_seconds = 0, kmeans_seconds = 0, tables_seconds = 0, jump_map_seconds = 0;
+  int kmeans_full_iterations = 0;
+  double kmeans_last_change = 0;
+};
+
+// Computes everything; throws std::invalid_argument for bad input, Cancelled when *cancel is raised.
+Preprocessed preprocess(const Image& image, const PreprocessParams& params,
+                        const std::atomic<bool>* cancel = nullptr, PreprocessStats* stats = nullptr);
+
+// Like preprocess(), but loads a valid cache from cache_dir or computes and writes one.
+// Sets cache_hit and cache_status ("hit", "miss", "recomputed-corrupt").
+Preprocessed preprocess_cached(const Image& image, const PreprocessParams& params, const std::string& cache_dir,
+                               const std::atomic<bool>* cancel = nullptr);
+
+// Pseudo-colour rendering of the texton map (like Fig. 2 of Magda & Kriegman): H*W*3 bytes.
+std::vector<uint8_t> texton_map_colors(const Preprocessed& result);
+
+}  // namespace texsynth

@@ -1,0 +1,20 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+// Shared by the bindings: turns a Python path (str/PathLike) or numpy array into a texsynth::Image.
+#include <pybind11/pybind11.h>
+
+#include <optional>
+#include <string>
+
+#include "texsynth/image/image.hpp"
+
+namespace texsynth_python {
+
+// A str/os.PathLike as a filesystem path, or nullopt when `object` is not path-like.
+std::optional<std::string> as_path(pybind11::handle object);
+
+// Path -> decoded file; ndarray (H×W or H×W×C, uint8/uint16/float16/float32) -> pixels.
+// Throws std::invalid_argument (ValueError) naming the problem.
+texsynth::Image image_from_python(pybind11::handle object);
+
+}  // namespace texsynth_python

@@ -1,0 +1,257 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "texsynth/image/image.hpp"
+
+#include <OpenImageIO/imageio.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <stdexcept>
+
+#include "texsynth/common/hash.hpp"
+
+namespace texsynth {
+namespace fs = std::filesystem;
+
+namespace {
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  throw std::invalid_argument("image '" + path + "': " + what);
+}
+
+// Checks what OpenImageIO reports vaguely (or not at all) before handing the path over.
+void check_readable_file(const std::string& path) {
+  std::error_code ec;
+  if (path.empty()) throw std::invalid_argument("image path is empty");
+  if (!fs::exists(path, ec)) fail(path, "file does not exist");
+  if (fs::is_directory(path, ec)) fail(path, "is a directory, not an image file");
+  if (!fs::is_regular_file(path, ec)) fail(path, "is not a regular file");
+  const auto size = fs::file_size(path, ec);
+  if (ec) fail(path, "cannot read file size (" + ec.message() + ")");
+  if (size == 0) fail(path, "file is empty (0 bytes)");
+  std::ifstream probe(path, std::ios::binary);
+  if (!probe) fail(path, "file cannot be opened for reading (permissions?)");
+}
+
+std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
+  check_readable_file(path);
+  auto input = OIIO::ImageInput::open(path);
+  if (!input) {
+    std::string err = OIIO::geterror();
+    fail(path, "not a readable image (corrupt or unsupported format)" + (err.empty() ? "" : ": " + err));
+  }
+  return input;
+}
+
+void check_dims(int width, int height, int channels, const std::string& where) {
+  if (width <= 0 || height <= 0)
+    throw std::invalid_argument(where + ": image has no pixels (" + std::to_string(width) + "x" +
+                                std::to_string(height) + ")");
+  if (width > kMaxImageSide || height > kMaxImageSide || int64_t(width) * height > kMaxImagePixels)
+    throw std::invalid_argument(where + ": image " + std::to_string(width) + "x" + std::to_string(height) +
+                                " exceeds the limit of " + std::to_string(kMaxImagePixels) +
+                                " pixels (4096x4096); downscale the sample");
+  if (channels < 1 || channels > 4)
+    throw std::invalid_argument(where + ": image has " + std::to_string(channels) +
+                                " channels; expected 1 (gray), 2 (gray+alpha), 3 (RGB) or 4 (RGBA)");
+}
+
+void check_finite(const std::vector<float>& pixels, int width, int channels, const std::string& where) {
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    if (!std::isfinite(pixels[i])) {
+      const size_t pixel = i / size_t(channels);
+      throw std::invalid_argument(where + ": pixel (x=" + std::to_string(pixel % size_t(width)) +
+                                  ", y=" + std::to_string(pixel / size_t(width)) + ") is NaN or infinite");
+    }
+  }
+}
+
+std::string type_name(OIIO::TypeDesc t) {
+  switch (t.basetype) {
+    case OIIO::TypeDesc::UINT8: return "uint8";
+    case OIIO::TypeDesc::INT8: return "int8";
+    case OIIO::TypeDesc::UINT16: return "uint16";
+    case OIIO::TypeDesc::INT16: return "int16";
+    case OIIO::TypeDesc::HALF: return "half";
+    case OIIO::TypeDesc::FLOAT: return "float";
+    case OIIO::TypeDesc::DOUBLE: return "double";
+    default: return t.c_str();
+  }
+}
+
+// Integer-coded files are display-referred (sRGB); half/float files hold linear values.
+ColorEncoding encoding_of(OIIO::TypeDesc t) {
+  switch (t.basetype) {
+    case OIIO::TypeDesc::HALF:
+    case OIIO::TypeDesc::FLOAT:
+    case OIIO::TypeDesc::DOUBLE: return ColorEncoding::kLinear;
+    default: return ColorEncoding::kSrgb;
+  }
+}
+
+float srgb_to_linear(float v) {
+  return v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+}
+
+float lab_f(float t) {
+  constexpr float kDelta = 6.0f / 29.0f;
+  return t > kDelta * kDelta * kDelta ? std::cbrt(t) : t / (3 * kDelta * kDelta) + 4.0f / 29.0f;
+}
+
+float half_to_float(uint16_t h) {
+  const uint32_t sign = uint32_t(h & 0x8000u) << 16;
+  const uint32_t exponent = (h >> 10) & 0x1Fu;
+  const uint32_t mantissa = h & 0x3FFu;
+  uint32_t bits;
+  if (exponent == 0) {
+    if (mantissa == 0) {
+      bits = sign;
+    } else {  // subnormal
+      float v = std::ldexp(float(mantissa), -24);
+      return (h & 0x8000u) ? -v : v;
+    }
+  } else if (exponent == 31) {
+    bits = sign | 0x7F800000u | (mantissa << 13);
+  } else {
+    bits = sign | ((exponent + 112) << 23) | (mantissa << 13);
+  }
+  float f;
+  std::memcpy(&f, &bits, 4);
+  return f;
+}
+
+}  // namespace
+
+ImageInfo read_image_info(const std::string& path) {
+  auto input = open_input(path);
+  const OIIO::ImageSpec& spec = input->spec();
+  ImageInfo info;
+  info.width = spec.width;
+  info.height = spec.height;
+  info.channels = spec.nchannels;
+  info.format = input->format_name();
+  info.data_type = type_name(spec.format);
+  input->close();
+  return info;
+}
+
+Image load_image(const std::string& path) {
+  auto input = open_input(path);
+  const OIIO::ImageSpec spec = input->spec();
+  check_dims(spec.width, spec.height, spec.nchannels, "image '" + path + "'");
+  if (spec.depth > 1) fail(path, "volume images are not supported");
+  Image image;
+  image.width = spec.width;
+  image.height = spec.height;
+  image.channels = spec.nchannels;
+  image.encoding = encoding_of(spec.format);
+  image.pixels.resize(size_t(image.pixel_count()) * size_t(image.channels));
+  if (!input->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, image.pixels.data())) {
+    fail(path, "cannot decode pixels (truncated or corrupt file): " + input->geterror());
+  }
+  if (input->has_error()) fail(path, "decode error: " + input->geterror());
+  input->close();
+  check_finite(image.pixels, image.width, image.channels, "image '" + path + "'");
+  return image;
+}
+
+Image image_from_pixels(const void* data, PixelType type, int width, int height, int channels) {
+  check_dims(width, height, channels, "pixel array");
+  if (data == nullptr) throw std::invalid_argument("pixel array: null data");
+  Image image;
+  image.width = width;
+  image.height = height;
+  image.channels = channels;
+  const size_t count = size_t(width) * size_t(height) * size_t(channels);
+  image.pixels.resize(count);
+  switch (type) {
+    case PixelType::kUint8: {
+      const auto* src = static_cast<const uint8_t*>(data);
+      for (size_t i = 0; i < count; ++i) image.pixels[i] = src[i] * (1.0f / 255.0f);
+      image.encoding = ColorEncoding::kSrgb;
+      break;
+    }
+    case PixelType::kUint16: {
+      const auto* src = static_cast<const uint16_t*>(data);
+      for (size_t i = 0; i < count; ++i) image.pixels[i] = src[i] * (1.0f / 65535.0f);
+      image.encoding = ColorEncoding::kSrgb;
+      break;
+    }
+    case PixelType::kFloat16: {
+      const auto* src = static_cast<const uint16_t*>(data);
+      for (size_t i = 0; i < count; ++i) image.pixels[i] = half_to_float(src[i]);
+      image.encoding = ColorEncoding::kLinear;
+      break;
+    }
+    case PixelType::kFloat32: {
+      std::memcpy(image.pixels.data(), data, count * sizeof(float));
+      image.encoding = ColorEncoding::kLinear;
+      break;
+    }
+  }
+  check_finite(image.pixels, width, channels, "pixel array");
+  return image;
+}
+
+void validate_image(const Image& image) {
+  check_dims(image.width, image.height, image.channels, "image");
+  if (image.pixels.size() != size_t(image.pixel_count()) * size_t(image.channels))
+    throw std::invalid_argument("image: pixel buffer size does not match width*height*channels");
+  check_finite(image.pixels, image.width, image.channels, "image");
+}
+
+uint64_t image_hash(const Image& image) {
+  uint64_t h = hash_bytes(image.pixels.data(), image.pixels.size() * sizeof(float), 0x7465787379ull);
+  h = hash_combine(h, uint64_t(image.width));
+  h = hash_combine(h, uint64_t(image.height));
+  h = hash_combine(h, uint64_t(image.channels));
+  return hash_combine(h, image.encoding == ColorEncoding::kSrgb ? 1 : 2);
+}
+
+int feature_channel_count(const Image& image) {
+  const bool has_alpha = image.channels == 2 || image.channels == 4;
+  const bool has_color = image.channels >= 3;
+  return (has_color ? 3 : 1) + (has_alpha ? 1 : 0);
+}
+
+std::vector<float> to_feature_colors(const Image& image) {
+  const int c_in = image.channels;
+  const int c_out = feature_channel_count(image);
+  const bool has_color = c_in >= 3;
+  const bool has_alpha = c_in == 2 || c_in == 4;
+  const size_t n = size_t(image.pixel_count());
+  std::vector<float> out(n * size_t(c_out));
+  const bool srgb = image.encoding == ColorEncoding::kSrgb;
+  auto linear = [srgb](float v) { return srgb ? srgb_to_linear(v) : v; };
+  for (size_t p = 0; p < n; ++p) {
+    const float* src = &image.pixels[p * size_t(c_in)];
+    float* dst = &out[p * size_t(c_out)];
+    if (has_color) {
+      const float r = linear(src[0]), g = linear(src[1]), b = linear(src[2]);
+      // Linear sRGB (Rec.709 primaries) -> XYZ, normalised by the D65 white point.
+      const float x = (0.4124564f * r + 0.3575761f * g + 0.1804375f * b) / 0.95047f;
+      const float y = 0.2126729f * r + 0.7151522f * g + 0.0721750f * b;
+      const float z = (0.0193339f * r + 0.1191920f * g + 0.9503041f * b) / 1.08883f;
+      const float fx = lab_f(x), fy = lab_f(y), fz = lab_f(z);
+      dst[0] = 116.0f * fy - 16.0f;
+      dst[1] = 500.0f * (fx - fy);
+      dst[2] = 200.0f * (fy - fz);
+    } else {
+      dst[0] = 116.0f * lab_f(linear(src[0])) - 16.0f;
+    }
+    if (has_alpha) dst[c_out - 1] = 100.0f * src[c_in - 1];
+  }
+  return out;
+}
+
+void write_image_u8(const std::string& path, const uint8_t* pixels, int width, int height, int channels) {
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out) throw std::runtime_error("cannot write image '" + path + "': " + OIIO::geterror());
+  OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
+  if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::UINT8, pixels) || !out->close())
+    throw std::runtime_error("cannot write image '" + path + "': " + out->geterror());
+}
+
+}  // namespace texsynth

@@ -1,0 +1,307 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "texsynth/preprocess/kmeans.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include "texsynth/common/errors.hpp"
+#include "texsynth/common/rng.hpp"
+
+namespace texsynth {
+namespace {
+
+constexpr int kChunk = 4096;  // fixed work split: results never depend on the scheduler
+constexpr int kMaxListLength = 192;
+
+void check_cancel(const std::atomic<bool>* cancel) {
+  if (cancel && cancel->load(std::memory_order_relaxed)) throw Cancelled();
+}
+
+// Exact nearest centre, pruned by the triangle inequality around the guessed centre.
+int nearest_centre(const float* x, const float* centres, int k, int dims, const CentreIndex& index, int guess) {
+  const float guess_sq = squared_distance(x, centres + size_t(guess) * dims, dims);
+  const float guess_dist = std::sqrt(guess_sq);
+  int best = guess;
+  float best_sq = guess_sq, best_dist = guess_dist;
+  const int32_t* order = index.nearest(guess);
+  const float* between = index.nearest_distance(guess);
+  for (int j = 1; j < index.list_length; ++j) {
+    // Any centre c' with |c - c'| >= |x - c| + |x - best| is no closer than best (small slack for rounding).
+    if (between[j] > (guess_dist + best_dist) * 1.0001f + 1e-6f) return best;
+    const int c = order[j];
+    const float d = squared_distance(x, centres + size_t(c) * dims, dims);
+    if (d < best_sq || (d == best_sq && c < best)) {
+      best = c;
+      best_sq = d;
+      best_dist = std::sqrt(d);
+    }
+  }
+  if (index.list_length == k) return best;
+  for (int c = 0; c < k; ++c) {  // list exhausted: finish exactly by brute force
+    const float d = squared_distance(x, centres + size_t(c) * dims, dims);
+    if (d < best_sq || (d == best_sq && c < best)) {
+      best = c;
+      best_sq = d;
+    }
+  }
+  return best;
+}
+
+// Assigns every point; labels[i] < 0 means "no previous label" (guess the previous point's).
+// Returns how many labels changed.
+int64_t assign_all(const Features& points, const std::vector<float>& centres, int k, const CentreIndex& index,
+                   std::vector<int32_t>& labels) {
+  const int64_t n = points.count;
+  return tbb::parallel_reduce(
+      tbb::blocked_range<int64_t>(0, n, kChunk), int64_t(0),
+      [&](const tbb::blocked_range<int64_t>& r, int64_t changed) {
+        int previous = 0;
+        for (int64_t i = r.begin(); i < r.end(); ++i) {
+          const int old = labels[size_t(i)];
+          const int label =
+              nearest_centre(points.row(i), centres.data(), k, points.dims, index, old >= 0 ? old : previous);
+          if (label != old) ++changed;
+          labels[size_t(i)] = label;
+          previous = label;
+        }
+        return changed;
+      },
+      [](int64_t a, int64_t b) { return a + b; }, tbb::simple_partitioner());
+}
+
+// Centres = means of their members (summed in index order, in double). Empty clusters are reseeded
+// with a pseudo-random point derived from (seed, iteration, cluster).
+void update_centres(const Features& points, const std::vector<int32_t>& labels, int k, uint64_t seed, int iteration,
+                    std::vector<float>& centres) {
+  std::vector<int32_t> start, members;
+  build_buckets(labels, k, start, members);
+  const int dims = points.dims;
+  tbb::parallel_for(tbb::blocked_range<int>(0, k, 16), [&](const tbb::blocked_range<int>& r) {
+    std::vector<double> sum(static_cast<size_t>(dims), 0.0);
+    for (int c = r.begin(); c < r.end(); ++c) {
+      float* centre = centres.data() + size_t(c) * dims;
+      const int32_t begin = start[size_t(c)], end = start[size_t(c) + 1];
+      if (begin == end) {
+        Rng rng(seed, splitmix64(uint64_t(iteration) * 0x10001ull + uint64_t(c)));
+        const float* p = points.row(int64_t(rng.below(uint32_t(points.count))));
+        std::copy(p, p + dims, centre);
+        continue;
+      }
+      std::fill(sum.begin(), sum.end(), 0.0);
+      for (int32_t m = begin; m < end; ++m) {
+        const float* p = points.row(members[size_t(m)]);
+        for (int d = 0; d < dims; ++d) sum[size_t(d)] += p[d];
+      }
+      const double inv = 1.0 / double(end - begin);
+      for (int d = 0; d < dims; ++d) centre[d] = float(sum[size_t(d)] * inv);
+    }
+  });
+}
+
+// k-means++ seeding (Arthur & Vassilvitskii) on the given points.
+std::vector<float> seed_centres(const Features& points, int k, uint64_t seed, const std::atomic<bool>* cancel) {
+  const int dims = points.dims;
+  const int64_t n = points.count;
+  Rng rng(seed, 0x6B6D2B2Bull);  // "km++"
+  std::vector<float> centres(size_t(k) * dims);
+  std::vector<float> nearest_sq(static_cast<size_t>(n), std::numeric_limits<float>::max());
+  int64_t chosen = int64_t(rng.below(uint32_t(n)));
+  for (int c = 0; c < k; ++c) {
+    if ((c & 63) == 0) check_cancel(cancel);
+    const float* centre = points.row(chosen);
+    std::copy(centre, centre + dims, centres.data() + size_t(c) * dims);
+    if (c + 1 == k) break;
+    tbb::parallel_for(tbb::blocked_range<int64_t>(0, n, kChunk), [&](const tbb::blocked_range<int64_t>& r) {
+      for (int64_t i = r.begin(); i < r.end(); ++i)
+        nearest_sq[size_t(i)] = std::min(nearest_sq[size_t(i)], squared_distance(points.row(i), centre, dims));
+    });
+    double total = 0.0;
+    for (float d : nearest_sq) total += d;
+    if (!(total > 0.0)) {  // every point coincides with a centre: any choice is as good
+      chosen = int64_t(rng.below(uint32_t(n)));
+      continue;
+    }
+    const double target = rng.uniform() * total;
+    double running = 0.0;
+    chosen = n - 1;
+    for (int64_t i = 0; i < n; ++i) {
+      running += nearest_sq[size_t(i)];
+      if (running > target) {
+        chosen = i;
+        break;
+      }
+    }
+  }
+  return centres;
+}
+
+// Lloyd iterations; the final step is always an assignment, so labels are each point's nearest centre.
+int lloyd(const Features& points, int k, uint64_t seed, double change_fraction, int max_iterations,
+          std::vector<float>& centres, std::vector<int32_t>& labels, double& last_change,
+          const std::atomic<bool>* cancel) {
+  int iteration = 0;
+  for (;; ++iteration) {
+    check_cancel(cancel);
+    const CentreIndex index =
+        build_centre_index(centre_distance_table(centres, k, points.dims), k, std::min(k, kMaxListLength));
+    const bool first = labels[0] < 0;
+    const int64_t changed = assign_all(points, centres, k, index, labels);
+    last_change = double(changed) / double(points.count);
+    if ((!first && last_change <= change_fraction) || iteration >= max_iterations) break;
+    update_centres(points, labels, k, seed, iteration, centres);
+  }
+  return iteration;
+}
+
+}  // namespace
+
+std::vector<float> centre_distance_table(const std::vector<float>& centres, int k, int dims) {
+  std::vector<float> table(size_t(k) * size_t(k), 0.0f);
+  tbb::parallel_for(tbb::blocked_range<int>(0, k, 8), [&](const tbb::blocked_range<int>& r) {
+    for (int i = r.begin(); i < r.end(); ++i)
+      for (int j = i + 1; j < k; ++j) {
+        const float d = squared_distance(centres.data() + size_t(i) * dims, centres.data() + size_t(j) * dims, dims);
+        table[size_t(i) * k + j] = d;
+        table[size_t(j) * k + i] = d;
+      }
+  });
+  return table;
+}
+
+CentreIndex build_centre_index(const std::vector<float>& squared_distance_table, int k, int list_length) {
+  CentreIndex index;
+  index.num_centres = k;
+  index.list_length = std::clamp(list_length, 1, k);
+  const int len = index.list_length;
+  index.order.resize(size_t(k) * len);
+  index.distance.resize(size_t(k) * len);
+  tbb::parallel_for(tbb::blocked_range<int>(0, k, 8), [&](const tbb::blocked_range<int>& r) {
+    std::vector<int32_t> all(static_cast<size_t>(k));
+    for (int c = r.begin(); c < r.end(); ++c) {
+      const float* row = squared_distance_table.data() + size_t(c) * k;
+      std::iota(all.begin(), all.end(), 0);
+      auto closer = [&](int32_t a, int32_t b) {
+        if (a == c || b == c) return a == c && b != c;  // the centre itself first
+        return row[a] < row[b] || (row[a] == row[b] && a < b);
+      };
+      std::partial_sort(all.begin(), all.begin() + len, all.end(), closer);
+      for (int j = 0; j < len; ++j) {
+        index.order[size_t(c) * len + j] = all[size_t(j)];
+        index.distance[size_t(c) * len + j] = std::sqrt(row[all[size_t(j)]]);
+      }
+    }
+  });
+  return index;
+}
+
+void build_buckets(const std::vector<int32_t>& labels, int k, std::vector<int32_t>& bucket_start,
+                   std::vector<int32_t>& bucket_pixels) {
+  bucket_start.assign(size_t(k) + 1, 0);
+  for (int32_t t : labels) {
+    if (t < 0 || t >= k) throw std::invalid_argument("texton label " + std::to_string(t) + " out of range");
+    ++bucket_start[size_t(t) + 1];
+  }
+  for (int t = 0; t < k; ++t) bucket_start[size_t(t) + 1] += bucket_start[size_t(t)];
+  bucket_pixels.resize(labels.size());
+  std::vector<int32_t> cursor(bucket_start.begin(), bucket_start.end() - 1);
+  for (size_t p = 0; p < labels.size(); ++p) bucket_pixels[size_t(cursor[size_t(labels[p])]++)] = int32_t(p);
+}
+
+KMeansResult kmeans(const Features& points, const KMeansParams& params, const std::atomic<bool>* cancel) {
+  const int k = params.num_clusters;
+  const int64_t n = points.count;
+  if (k < 1 || k > n)
+    throw std::invalid_argument("number of textons K=" + std::to_string(k) + " must be between 1 and the pixel count " +
+                                std::to_string(n));
+  const int dims = points.dims;
+
+  // Phase 1: seed and converge on a deterministic subsample (sorted, so neighbours stay neighbours).
+  int64_t sub_n = params.subsample_size > 0 ? params.subsample_size : std::max<int64_t>(int64_t(32) * k, 20000);
+  sub_n = std::clamp<int64_t>(sub_n, k, n);
+  Features sub;
+  if (sub_n == n) {
+    sub = points;
+  } else {
+    std::vector<int32_t> ids(static_cast<size_t>(n));
+    std::iota(ids.begin(), ids.end(), 0);
+    Rng rng(params.seed, 0x73756273ull);  // "subs"
+    for (int64_t i = 0; i < sub_n; ++i) std::swap(ids[size_t(i)], ids[size_t(i + rng.below(uint32_t(n - i)))]);
+    ids.resize(size_t(sub_n));
+    std::sort(ids.begin(), ids.end());
+    sub.count = int(sub_n);
+    sub.dims = dims;
+    sub.values.resize(size_t(sub_n) * dims);
+    for (int64_t i = 0; i < sub_n; ++i)
+      std::copy(points.row(ids[size_t(i)]), points.row(ids[size_t(i)]) + dims, sub.values.data() + size_t(i) * dims);
+  }
+  KMeansResult result;
+  result.num_clusters = k;
+  result.dims = dims;
+  result.centres = seed_centres(sub, k, params.seed, cancel);
+  double change = 1.0;
+  if (sub_n < n) {
+    std::vector<int32_t> sub_labels(size_t(sub_n), -1);
+    lloyd(sub, k, params.seed, params.change_fraction, params.max_iterations, result.centres, sub_labels, change, cancel);
+    // Means of the converged subsample clusters seed the full-data phase.
+    update_centres(sub, sub_labels, k, params.seed, 1 << 20, result.centres);
+  }
+  sub = Features();
+
+  // Phase 2: all points.
+  result.labels.assign(size_t(n), -1);
+  result.iterations = lloyd(points, k, params.seed ^ 0x5A5A5A5Aull, params.change_fraction, params.max_iterations,
+                            result.centres, result.labels, change, cancel);
+  result.last_change_fraction = change;
+  return result;
+}
+
+std::vector<int32_t> assign_brute_force(const Features& points, const std::vector<float>& centres, int k) {
+  std::vector<int32_t> labels(size_t(points.count));
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, points.count, kChunk), [&](const tbb::blocked_range<int64_t>& r) {
+    for (int64_t i = r.begin(); i < r.end(); ++i) {
+      int best = 0;
+      float best_sq = std::numeric_limits<float>::max();
+      for (int c = 0; c < k; ++c) {
+        const float d = squared_distance(points.row(i), centres.data() + size_t(c) * points.dims, points.dims);
+        if (d < best_sq) {
+          best_sq = d;
+          best = c;
+        }
+      }
+      labels[size_t(i)] = best;
+    }
+  });
+  return labels;
+}
+
+double within_cluster_sse(const Features& points, const std::vector<int32_t>& labels, int k) {
+  const int dims = points.dims;
+  std::vector<double> sums(size_t(k) * dims, 0.0);
+  std::vector<int64_t> counts(static_cast<size_t>(k), 0);
+  for (int64_t i = 0; i < points.count; ++i) {
+    const int t = labels[size_t(i)];
+    ++counts[size_t(t)];
+    for (int d = 0; d < dims; ++d) sums[size_t(t) * dims + d] += points.row(i)[d];
+  }
+  for (int t = 0; t < k; ++t)
+    for (int d = 0; d < dims; ++d) if (counts[size_t(t)]) sums[size_t(t) * dims + d] /= double(counts[size_t(t)]);
+  double sse = 0.0;
+  for (int64_t i = 0; i < points.count; ++i) {
+    const double* mean = sums.data() + size_t(labels[size_t(i)]) * dims;
+    for (int d = 0; d < dims; ++d) {
+      const double diff = points.row(i)[d] - mean[d];
+      sse += diff * diff;
+    }
+  }
+  return sse;
+}
+
+}  // namespace texsynth

@@ -1,0 +1,144 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "texsynth/preprocess/preprocess.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+
+#include "texsynth/common/errors.hpp"
+#include "texsynth/common/rng.hpp"
+#include "texsynth/preprocess/cache.hpp"
+#include "texsynth/preprocess/features.hpp"
+#include "texsynth/preprocess/jump_map.hpp"
+#include "texsynth/preprocess/kmeans.hpp"
+
+namespace texsynth {
+
+int resolved_num_textons(const PreprocessParams& params, int64_t pixel_count) {
+  if (params.num_textons > 0) return params.num_textons;
+  return int(std::max<int64_t>(1, std::llround(std::sqrt(double(pixel_count)))));
+}
+
+void validate_preprocess(const PreprocessParams& params, int width, int height) {
+  auto bad = [](const std::string& what) { throw std::invalid_argument(what); };
+  const int n = params.neighbourhood;
+  if (n < 3 || n % 2 == 0 || n > 63)
+    bad("neighbourhood must be an odd number between 3 and 63, got " + std::to_string(n));
+  if (width < n || height < n)
+    bad("sample " + std::to_string(width) + "x" + std::to_string(height) + " is smaller than the " +
+        std::to_string(n) + "x" + std::to_string(n) + " neighbourhood");
+  const int64_t pixels = int64_t(width) * height;
+  if (pixels > kMaxImagePixels) bad("sample exceeds the pixel limit (4096x4096)");
+  if (params.num_textons < 0) bad("num_textons must be >= 0 (0 = automatic), got " + std::to_string(params.num_textons));
+  const int k = resolved_num_textons(params, pixels);
+  if (k > pixels)
+    bad("num_textons " + std::to_string(k) + " exceeds the sample's pixel count " + std::to_string(pixels));
+  if (k > kMaxTextons) bad("num_textons " + std::to_string(k) + " exceeds the limit " + std::to_string(kMaxTextons));
+  if (params.jump_candidates < 1 || params.jump_candidates > kMaxJumpCandidates)
+    bad("jump_candidates must be between 1 and " + std::to_string(kMaxJumpCandidates) + ", got " +
+        std::to_string(params.jump_candidates));
+  if (params.feature_dims < 0 || params.feature_dims > 4096)
+    bad("feature_dims must be between 0 (full) and 4096, got " + std::to_string(params.feature_dims));
+  if (!(params.kmeans_change_fraction >= 0.0 && params.kmeans_change_fraction <= 1.0))
+    bad("kmeans_change_fraction must be within [0, 1]");
+  if (params.kmeans_max_iterations < 1 || params.kmeans_max_iterations > 10000)
+    bad("kmeans_max_iterations must be between 1 and 10000");
+}
+
+Preprocessed preprocess(const Image& image, const PreprocessParams& params, const std::atomic<bool>* cancel,
+                        PreprocessStats* stats) {
+  validate_image(image);
+  validate_preprocess(params, image.width, image.height);
+  const int k = resolved_num_textons(params, image.pixel_count());
+  PreprocessStats local_stats;
+  if (!stats) stats = &local_stats;
+  auto clock = std::chrono::steady_clock::now();
+  auto lap = [&clock](double& into) {
+    const auto now = std::chrono::steady_clock::now();
+    into = std::chrono::duration<double>(now - clock).count();
+    clock = now;
+  };
+
+  const Features features =
+      compute_features(image, params.neighbourhood, params.feature_dims, params.tileable, params.seed);
+  if (cancel && cancel->load()) throw Cancelled();
+  lap(stats->features_seconds);
+
+  KMeansParams km;
+  km.num_clusters = k;
+  km.seed = params.seed;
+  km.change_fraction = params.kmeans_change_fraction;
+  km.max_iterations = params.kmeans_max_iterations;
+  KMeansResult clusters = kmeans(features, km, cancel);
+  stats->kmeans_full_iterations = clusters.iterations;
+  stats->kmeans_last_change = clusters.last_change_fraction;
+  lap(stats->kmeans_seconds);
+
+  Preprocessed out;
+  out.width = image.width;
+  out.height = image.height;
+  out.params = params;
+  out.sample_hash = image_hash(image);
+  out.num_textons = k;
+  out.texton_dims = features.dims;
+  out.texton_map = std::move(clusters.labels);
+  out.textons = std::move(clusters.centres);
+  out.texton_distances = centre_distance_table(out.textons, k, out.texton_dims);
+  build_buckets(out.texton_map, k, out.bucket_start, out.bucket_pixels);
+
+  JumpSearchParams jp;
+  jp.k = params.jump_candidates;
+  jp.neighbourhood = params.neighbourhood;
+  jp.tileable = params.tileable;
+  jp.seed = params.seed;
+  const CentreIndex index = build_centre_index(out.texton_distances, k, std::min(k, 64));
+  lap(stats->tables_seconds);
+  out.jump_map = build_jump_map(features, out.width, out.height, out.texton_map, out.bucket_start, out.bucket_pixels,
+                                index, jp, cancel);
+  lap(stats->jump_map_seconds);
+  return out;
+}
+
+Preprocessed preprocess_cached(const Image& image, const PreprocessParams& params, const std::string& cache_dir,
+                               const std::atomic<bool>* cancel) {
+  validate_image(image);
+  validate_preprocess(params, image.width, image.height);
+  if (cache_dir.empty()) throw std::invalid_argument("cache_dir is empty");
+  const uint64_t hash = image_hash(image);
+  const std::string path = cache_file_path(cache_dir, hash, params);
+  std::string status = "miss";
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec)) {
+    try {
+      Preprocessed cached = load_preprocessed(path, hash);
+      if (params_hash(cached.params) == params_hash(params)) {
+        cached.cache_hit = true;
+        cached.cache_status = "hit";
+        return cached;
+      }
+    } catch (const CacheError&) {
+    }
+    status = "recomputed-corrupt";
+  }
+  Preprocessed result = preprocess(image, params, cancel);
+  std::filesystem::create_directories(cache_dir, ec);
+  if (ec) throw std::runtime_error("cannot create cache directory '" + cache_dir + "': " + ec.message());
+  save_preprocessed(result, path);
+  result.cache_hit = false;
+  result.cache_status = status;
+  return result;
+}
+
+std::vector<uint8_t> texton_map_colors(const Preprocessed& result) {
+  std::vector<uint8_t> rgb(result.texton_map.size() * 3);
+  for (size_t p = 0; p < result.texton_map.size(); ++p) {
+    // Distinct, fairly bright pseudo-colour per label; stable across runs.
+    const uint64_t h = splitmix64(uint64_t(result.texton_map[p]) + 0x7465787465ull);
+    for (int c = 0; c < 3; ++c) rgb[p * 3 + c] = uint8_t(48 + ((h >> (16 * c)) & 0xFF) * 207 / 255);
+  }
+  return rgb;
+}
+
+}  // namespace texsynth
