@@ -40,6 +40,7 @@ class Settings:
     orientation: str = "AXIS"
     axis: tuple = (0.0, 0.0, 1.0)
     direction_attribute: str = ""    # FIELD: per-vertex vectors; ANCHORS: non-zero vectors mark anchors
+    allow_oversized: bool = False    # map faces larger than the sample anyway (visible stretching/repeats)
     neighbourhood: int = 11
     tileable: bool = False
 
@@ -274,7 +275,7 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale):
     if mesh_arrays.num_faces == 0:
         raise SettingsError("mesh has no faces")
     kwargs = dict(scale=float(scale), jump_rate=float(settings.jump_rate), seed=int(seed),
-                  blend=bool(settings.blend))
+                  blend=bool(settings.blend), allow_oversized=bool(settings.allow_oversized))
     if settings.orientation == "AXIS":
         kwargs.update(orientation="axis", axis=tuple(float(c) for c in settings.axis))
     elif settings.orientation == "FIELD":
@@ -286,8 +287,11 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale):
             raise SettingsError("attribute %r has no non-zero vectors: no anchors" % settings.direction_attribute)
         kwargs.update(orientation="anchors", anchor_vertices=anchors,
                       anchor_directions=np.ascontiguousarray(direction[anchors]))
-    result = module.synthesize_jumpmap(preprocessed, mesh_arrays.positions, mesh_arrays.corner_verts,
-                                       mesh_arrays.poly_starts, mesh_arrays.poly_sizes, **kwargs)
+    result = dict(module.synthesize_jumpmap(preprocessed, mesh_arrays.positions, mesh_arrays.corner_verts,
+                                            mesh_arrays.poly_starts, mesh_arrays.poly_sizes, **kwargs))
+    if not settings.blend:
+        # Without blending the native single set is the base mapping with weight 1: write the base only.
+        result.update(num_blend_sets=0, blend_uv=None, blend_weights=None)
     check_result(result, mesh_arrays.num_corners)
     return result
 
@@ -318,9 +322,17 @@ def check_result(result, num_corners):
 
 
 def weights_rgba(result, num_corners):
-    """The blend weights as a flat float32 RGBA corner buffer (unused channels zero)."""
+    """The blend weights as a flat float32 RGBA corner buffer: R, G, B = w0, w1, w2 and A = 1 - w3.
+
+    Alpha holds 1 - w3 (not w3) because shaders read a missing attribute as (0, 0, 0, 1): a mesh
+    without weights then gets all-zero weights and the node group falls back to the base mapping.
+    Unused channels are 0 (alpha 1)."""
     sets = int(result["num_blend_sets"])
     rgba = np.zeros((num_corners, 4), dtype=np.float32)
+    rgba[:, 3] = 1.0
     if sets:
-        rgba[:, :sets] = result["blend_weights"]
+        weights = np.asarray(result["blend_weights"], dtype=np.float32)
+        rgba[:, :min(sets, 3)] = weights[:, :3]
+        if sets == 4:
+            rgba[:, 3] = 1.0 - weights[:, 3]
     return rgba.ravel()

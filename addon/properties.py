@@ -39,6 +39,10 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                                   description="Vertex FLOAT_VECTOR attribute name")
     blend: bpy.props.BoolProperty(name="Blending", default=True,
                                   description="Write blend UV sets and weights that hide patch seams")
+    allow_oversized: bpy.props.BoolProperty(
+        name="Allow Oversized Faces", default=False,
+        description="Also map faces larger than the sample at this scale (otherwise they are refused: "
+                    "subdivide them or raise the scale)")
     material_mode: bpy.props.EnumProperty(
         name="Material",
         items=(("NEW", "New Material", "Assign a ready material using the TexSynth blend group"),
@@ -50,7 +54,8 @@ class TexSynthSettings(bpy.types.PropertyGroup):
         return pipeline.Settings(method=self.method, sample_world_size=float(self.scale), seed=int(self.seed),
                                  jump_rate=float(self.jump_rate), blend=bool(self.blend),
                                  orientation=self.orientation, axis=tuple(self.axis),
-                                 direction_attribute=self.direction_attribute)
+                                 direction_attribute=self.direction_attribute,
+                                 allow_oversized=bool(self.allow_oversized))
 
 
 class TexSynthPreferences(bpy.types.AddonPreferences):

@@ -2,7 +2,7 @@
 """Shader side: the node group "TexSynth Blend: <image>" = sum_k w_k * image(uv_k), and materials using it.
 
 The group samples the image through each blend UV map (TexSynth_B0..B3), weights the samples with the
-corner attribute TexSynth_Weights (RGBA = w0..w3) and adds the base map TexSynth weighted by
+corner attribute TexSynth_Weights (RGB = w0..w2, A = 1 - w3) and adds the base map TexSynth weighted by
 1 - sum(w): without blending (no weights) it shows the base mapping alone. Same nodes work in Eevee
 and Cycles. One group per image: a normal or roughness map is driven through the same mapping by
 inserting its own group (insert_into_material(..., target="Roughness"/"Normal")).
@@ -75,7 +75,11 @@ def ensure_blend_group(image, num_blend_sets=pipeline.MAX_BLEND_SETS):
     separate = compat.new_separate_color_node(nodes)
     separate.location = (-700, 300)
     links.new(attribute.outputs["Color"], separate.inputs[0])
-    weights = compat.separate_color_outputs(separate) + [attribute.outputs["Alpha"]]
+    # Alpha stores 1 - w3 (see pipeline.weights_rgba): a missing attribute reads (0,0,0,1) = no weights.
+    w3 = node("ShaderNodeMath", -700, 100, operation="SUBTRACT")
+    w3.inputs[0].default_value = 1.0
+    links.new(attribute.outputs["Alpha"], w3.inputs[1])
+    weights = compat.separate_color_outputs(separate) + [w3.outputs[0]]
 
     color = alpha = weight_sum = None
     for k in range(num_blend_sets):

@@ -49,6 +49,8 @@ def parse_args(argv):
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--jump-rate", type=float, default=20.0)
     parser.add_argument("--no-blend", action="store_true", help="only the base UV layer, no blend sets")
+    parser.add_argument("--allow-oversized", action="store_true",
+                        help="map faces larger than the sample at this scale instead of refusing them")
     parser.add_argument("--material", default="new", choices=["new", "insert", "none"])
     parser.add_argument("--cache-dir", default="", help="preprocessing cache folder (default: Blender's)")
     parser.add_argument("--save", metavar="OUT.blend")
@@ -157,7 +159,8 @@ def main(argv):
         raise CliError("sample image not found: %s" % args.sample)
     objects = find_objects(args, compat)
     settings = pipeline.Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
-                                 jump_rate=args.jump_rate, blend=not args.no_blend)
+                                 jump_rate=args.jump_rate, blend=not args.no_blend,
+                                 allow_oversized=args.allow_oversized)
     try:
         settings.validate()
         report = synthesis.synthesize(objects, synthesis.Sample(path=os.path.abspath(args.sample)), settings,

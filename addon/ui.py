@@ -45,6 +45,7 @@ class TEXSYNTH_PT_main(bpy.types.Panel):
         else:
             layout.prop(props, "direction_attribute")
         layout.prop(props, "blend")
+        layout.prop(props, "allow_oversized")
         layout.prop(props, "material_mode")
 
         column = layout.column()

@@ -94,9 +94,16 @@ def make_scene():
     bpy.ops.object.shade_smooth()
     modifier = monkey.modifiers.new("Subdivision", "SUBSURF")
     modifier.levels = modifier.render_levels = 1
-    bpy.ops.mesh.primitive_plane_add(size=8.0, location=(0, 0, 0))
+    # A grid, not a single quad: each face must stay smaller than the sample at the demo scale.
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=24, y_subdivisions=24, size=8.0, location=(0, 0, 0))
     ground = bpy.context.active_object
     ground.name = ground.data.name = "Ground"
+    ground_material = bpy.data.materials.new("Ground")
+    ground_material.use_nodes = True
+    principled = ground_material.node_tree.nodes["Principled BSDF"]
+    principled.inputs["Base Color"].default_value = (0.3, 0.3, 0.28, 1.0)
+    principled.inputs["Roughness"].default_value = 0.9
+    ground.data.materials.append(ground_material)
     bpy.ops.object.camera_add(location=(4.2, -5.6, 3.4))
     camera = bpy.context.active_object
     camera.name = "Camera"

@@ -105,11 +105,16 @@ def test_check_result_rejects_wrong_shapes_types_and_nan():
         pipeline.check_result(_result(6, 5), 6)
 
 
-def test_weights_rgba_pads_unused_channels_with_zero():
-    result = _result(5, 3)
-    rgba = pipeline.weights_rgba(result, 5).reshape(5, 4)
-    assert np.array_equal(rgba[:, :3], result["blend_weights"]) and np.all(rgba[:, 3] == 0)
-    assert pipeline.weights_rgba(_result(5, 0), 5).reshape(5, 4).sum() == 0
+def test_weights_rgba_stores_w0_w1_w2_and_one_minus_w3():
+    three = _result(5, 3)
+    rgba = pipeline.weights_rgba(three, 5).reshape(5, 4)
+    assert np.array_equal(rgba[:, :3], three["blend_weights"]) and np.all(rgba[:, 3] == 1)
+    four = _result(6, 4)  # corners 3 of each 4 carry w3 = 1
+    rgba = pipeline.weights_rgba(four, 6).reshape(6, 4)
+    assert np.array_equal(rgba[:, :3], four["blend_weights"][:, :3])
+    assert np.array_equal(rgba[:, 3], [1, 1, 1, 0, 1, 1])
+    # Without weights the buffer reads like a missing attribute: (0, 0, 0, 1).
+    assert np.array_equal(pipeline.weights_rgba(_result(5, 0), 5).reshape(5, 4), np.tile([0, 0, 0, 1], (5, 1)))
 
 
 def test_load_sample_checks_paths_and_arrays(tmp_path):

@@ -59,12 +59,10 @@ def synthesize_jumpmap(pre, positions, corner_verts, poly_starts, poly_sizes, *,
     corners = len(corner_verts)
     result = {"base_uv": base, "stats": {"faces": len(poly_starts), "vertices": len(positions),
                                           "corners": corners, "jumps": 0}}
-    sets = (3 if np.all(poly_sizes == 3) else 4) if blend else 0
+    sets = (3 if np.all(poly_sizes == 3) else 4) if blend else 1  # no blending: one set = base, weight 1
     result["num_blend_sets"] = sets
-    result["blend_uv"] = np.stack([np.mod(base + 0.125 * (k + 1), 1.0) for k in range(sets)]).astype(np.float32) \
-        if sets else np.zeros((0, corners, 2), np.float32)
+    result["blend_uv"] = np.stack([np.mod(base + 0.125 * k, 1.0) for k in range(sets)]).astype(np.float32)
     weights = np.zeros((corners, sets), np.float32)
-    if sets:
-        weights[np.arange(corners), corner_verts % sets] = 1.0
+    weights[np.arange(corners), corner_verts % sets] = 1.0
     result["blend_weights"] = weights
     return result

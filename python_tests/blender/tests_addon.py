@@ -37,9 +37,9 @@ def clean():
 
 def configure(**overrides):
     props = bpy.context.scene.texsynth
-    values = dict(sample_source="FILE", sample_path=BRICKS, method="JUMPMAP", scale=1.5, seed=7, jump_rate=20.0,
+    values = dict(sample_source="FILE", sample_path=BRICKS, method="JUMPMAP", scale=4.0, seed=7, jump_rate=20.0,
                   orientation="AXIS", axis=(0.0, 0.0, 1.0), direction_attribute="", blend=True,
-                  material_mode="NEW")
+                  allow_oversized=False, material_mode="NEW")
     values.update(overrides)
     for key, value in values.items():
         setattr(props, key, value)
@@ -75,13 +75,13 @@ def expected_result(obj, props):
     return native.get().synthesize_jumpmap(
         pre, arrays.positions, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes,
         scale=pre.width / props.scale, jump_rate=props.jump_rate, seed=pipeline.object_seed(props.seed, obj.name),
-        blend=props.blend, orientation="axis", axis=tuple(props.axis))
+        blend=props.blend, orientation="axis", axis=tuple(props.axis), allow_oversized=props.allow_oversized)
 
 
 def check_written(obj, props, foreign=("UVMap",)):
     mesh = obj.data
     expected = expected_result(obj, props)
-    sets = int(expected["num_blend_sets"])
+    sets = int(expected["num_blend_sets"]) if props.blend else 0  # no blending: base layer only
     names = ["TexSynth"] + ["TexSynth_B%d" % k for k in range(sets)]
     present_foreign = [name for name in foreign if name in mesh.uv_layers]
     assert [layer.name for layer in mesh.uv_layers] == present_foreign + names, [l.name for l in mesh.uv_layers]
@@ -94,9 +94,11 @@ def check_written(obj, props, foreign=("UVMap",)):
         rgba = np.empty(len(mesh.loops) * 4, np.float32)
         weights.data.foreach_get("color", rgba)
         rgba = rgba.reshape(-1, 4)
-        assert np.array_equal(rgba[:, :sets], expected["blend_weights"])
-        assert np.all(rgba[:, sets:] == 0)
-        assert np.all(rgba.sum(axis=1) == 1.0), "weights must be one-hot per corner"
+        # R, G, B = w0, w1, w2; A = 1 - w3 (so a missing attribute, read as (0,0,0,1), means no weights).
+        weights_read = np.concatenate([rgba[:, :3], 1.0 - rgba[:, 3:]], axis=1)
+        assert np.array_equal(weights_read[:, :sets], expected["blend_weights"])
+        assert np.all(weights_read[:, sets:] == 0)
+        assert np.all(weights_read.sum(axis=1) == 1.0), "weights must be one-hot per corner"
     else:
         assert weights is None
     assert np.all(np.isfinite(uv_values(mesh, "TexSynth")))
@@ -356,6 +358,20 @@ def test_direction_attribute_is_read_in_world_space():
     props = synthesize_one(obj, orientation="FIELD", direction_attribute="flow")
     assert "TexSynth" in obj.data.uv_layers and props.orientation == "FIELD"
     synthesize_one(obj, orientation="ANCHORS", direction_attribute="flow")
+
+
+def test_oversized_faces_refused_unless_allowed():
+    if USE_FAKE:
+        print("SKIP the contract double does not model face sizes")
+        return
+    clean()
+    obj = harness.add_primitive("cube", "Big")  # 2-unit faces; at scale 1.0 the 192-texel sample spans 1 unit
+    before = harness.mesh_hash(obj.data)
+    configure(scale=1.0)
+    harness.select_only([obj])
+    expect_error(run_operator, "larger than")
+    assert harness.mesh_hash(obj.data) == before
+    check_written(obj, synthesize_one(obj, scale=1.0, allow_oversized=True))
 
 
 def test_texton_method_is_refused():
