@@ -116,8 +116,9 @@ def blender_pixels_to_image(flat_pixels, width, height, channels):
 
 
 class Timings:
-    """Accumulates wall-clock seconds per phase: `with timings.phase("synthesis"): ...`."""
-    PHASES = ("preprocess", "synthesis", "transfer")
+    """Accumulates wall-clock seconds per phase: `with timings.phase("synthesis"): ...`.
+    transfer = read + write (bpy mesh I/O)."""
+    PHASES = ("preprocess", "read", "synthesis", "write", "material")
 
     def __init__(self):
         self.seconds = {name: 0.0 for name in self.PHASES}
@@ -137,6 +138,7 @@ class Timings:
 
     def as_dict(self):
         result = dict(self.seconds)
+        result["transfer"] = result["read"] + result["write"]
         result["total"] = time.perf_counter() - self._start
         return result
 

@@ -98,7 +98,7 @@ def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", p
     for index, obj in enumerate(meshes):
         progress((index + 0.1) / len(meshes), "TexSynth: %s (%d/%d)" % (obj.name, index + 1, len(meshes)))
         try:
-            with timings.phase("transfer"):
+            with timings.phase("read"):
                 arrays = bridge.read_mesh(obj, settings.direction_attribute if settings.orientation != "AXIS" else "")
             if arrays.num_faces == 0:
                 raise pipeline.SettingsError("mesh %r has no faces" % obj.data.name)
@@ -106,9 +106,10 @@ def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", p
             with timings.phase("synthesis"):
                 result = pipeline.synthesize(preprocessed, arrays, settings,
                                              pipeline.object_seed(settings.seed, obj.name), scale)
-            with timings.phase("transfer"):
+            with timings.phase("write"):
                 bridge.write_result(obj.data, result)
-            shading.apply_material(obj, image, material_mode)
+            with timings.phase("material"):
+                shading.apply_material(obj, image, material_mode)
             report.add_object(obj.name, arrays, result.get("stats"))
         except (ValueError, RuntimeError) as error:
             report.failures.append((obj.name, str(error)))

@@ -145,11 +145,12 @@ def test_report_summary_and_json():
 
 def test_timings_accumulate_per_phase():
     timings = pipeline.Timings()
-    for _ in range(2):
-        with timings.phase("transfer"):
+    for phase in ("read", "write", "write"):
+        with timings.phase(phase):
             sum(range(1000))
     seconds = timings.as_dict()
-    assert seconds["transfer"] > 0 and seconds["synthesis"] == 0.0
+    assert seconds["read"] > 0 and seconds["write"] > 0 and seconds["synthesis"] == 0.0
+    assert seconds["transfer"] == seconds["read"] + seconds["write"]
     assert seconds["total"] >= seconds["transfer"]
 
 
