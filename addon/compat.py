@@ -81,6 +81,17 @@ def import_mesh_file(path):
     return [obj for obj in bpy.data.objects if obj not in before and obj.type == "MESH"]
 
 
+def use_eevee(scene):
+    """Selects Eevee (named BLENDER_EEVEE_NEXT in 4.2 - 4.x, BLENDER_EEVEE otherwise)."""
+    for name in ("BLENDER_EEVEE_NEXT", "BLENDER_EEVEE"):
+        try:
+            scene.render.engine = name
+            return name
+        except TypeError:
+            continue
+    raise RuntimeError("this Blender has no Eevee render engine")
+
+
 def status_text_set(context, text):
     """Shows text in the status bar when there is a UI (no-op in background mode)."""
     workspace = getattr(context, "workspace", None)

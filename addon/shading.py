@@ -14,7 +14,7 @@ from . import compat, pipeline
 GROUP_PREFIX = "TexSynth Blend: "
 MATERIAL_PREFIX = "TexSynth: "
 NODE_PREFIX = "TexSynth "
-TARGETS = ("Base Color", "Roughness", "Metallic", "Specular", "Normal")
+TARGETS = ("Base Color", "Roughness", "Metallic", "Normal")  # Principled inputs named alike in 3.x and 4.x
 
 
 def group_name(image):

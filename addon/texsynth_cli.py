@@ -136,8 +136,9 @@ def frame_scene(scene, objects):
 
 
 def render(scene, objects, path, resolution):
+    from texsynth import compat
     frame_scene(scene, objects)
-    scene.render.engine = "BLENDER_EEVEE"
+    compat.use_eevee(scene)
     if resolution:
         scene.render.resolution_x, scene.render.resolution_y = resolution
         scene.render.resolution_percentage = 100

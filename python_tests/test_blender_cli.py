@@ -76,10 +76,20 @@ def test_mesh_file_import_no_blend_and_render(tmp_path):
     obj.write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nv 1 1 0\nv 2 1 0\nv 3 0.5 0\nv 1 2 0\n"
                    "f 1 2 5 4\nf 2 3 6 5\nf 3 7 6\nf 4 5 6 8\n")
     stats_path, render = tmp_path / "stats.json", tmp_path / "mesh.png"
-    process = blender_run.cli("--sample", BRICKS, "--mesh", str(obj), "--no-blend", "--stats", str(stats_path),
+    process = blender_run.cli("--sample", BRICKS, "--mesh", str(obj), "--scale", "4", "--no-blend",
+                              "--stats", str(stats_path),
                               "--render", str(render), "--resolution", "64", "48")
     assert process.returncode == 0, process.stdout[-2000:] + process.stderr[-2000:]
     stats = json.loads(stats_path.read_text())
     assert (stats["vertices"], stats["faces"], stats["corners"]) == (8, 4, 15)
     assert render.is_file() and render.stat().st_size > 0
     assert "render" in stats["seconds"]
+
+
+def test_oversized_faces_and_unknown_mesh_type_exit_1(tmp_path):
+    big = tmp_path / "big.obj"
+    big.write_text("v 0 0 0\nv 10 0 0\nv 10 10 0\nv 0 10 0\nf 1 2 3 4\n")  # a 10-unit quad, 1-unit sample
+    run_failing("--sample", BRICKS, "--mesh", str(big), code=1, fragment="larger than")
+    odd = tmp_path / "mesh.xyz"
+    odd.write_text("0 0 0\n")
+    run_failing("--sample", BRICKS, "--mesh", str(odd), code=1, fragment="unsupported mesh file type")

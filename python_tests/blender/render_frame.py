@@ -38,7 +38,10 @@ def render(name, out_path):
             raise RuntimeError(report.summary())
         print("FRAME", name, report.summary(), flush=True)
     scene = bpy.context.scene
-    scene.render.engine = frame["engine"]
+    if frame["engine"] == "CYCLES":
+        scene.render.engine = "CYCLES"
+    else:
+        texsynth.compat.use_eevee(scene)
     scene.render.resolution_x, scene.render.resolution_y = frame["resolution"]
     scene.render.resolution_percentage = 100
     if frame["engine"] == "CYCLES":

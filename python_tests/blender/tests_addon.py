@@ -478,6 +478,55 @@ def test_panel_draws_without_native_module():
         native._module, native._reason, native._tried = saved
 
 
+class RecordingLayout:
+    """Stands in for a UILayout (none exists in background mode): records what draw() shows."""
+
+    def __init__(self, log):
+        self.log = log
+
+    def _record(self, kind, *args, **kwargs):
+        self.log.append((kind, args, kwargs))
+        return self
+
+    def __getattr__(self, name):
+        if name in ("row", "column", "box"):
+            return lambda *a, **k: self
+        if name in ("prop", "label", "operator", "template_ID", "separator"):
+            return lambda *a, **k: self._record(name, *a, **k)
+        raise AttributeError(name)
+
+
+def draw_panel(panel_class):
+    log = []
+    panel = type("PanelStandIn", (), {"layout": RecordingLayout(log)})()
+    panel_class.draw(panel, bpy.context)
+    return log
+
+
+def test_panel_draws_every_setting_and_the_native_reason():
+    configure()
+    log = draw_panel(texsynth.ui.TEXSYNTH_PT_main)
+    props_shown = {args[1] for kind, args, _ in log if kind == "prop"}
+    assert props_shown >= {"sample_source", "sample_path", "method", "scale", "seed", "jump_rate", "orientation",
+                           "axis", "blend", "allow_oversized", "material_mode"}, props_shown
+    operators_shown = {args[0] for kind, args, _ in log if kind == "operator"}
+    assert operators_shown == {"texsynth.preprocess", "texsynth.check_cache", "texsynth.synthesize", "texsynth.clear"}
+    assert any(kind == "label" and kw.get("text", "").startswith("Cache:") for kind, _, kw in log)
+    configure(sample_source="IMAGE", orientation="FIELD", method="TEXTON")
+    log = draw_panel(texsynth.ui.TEXSYNTH_PT_main)
+    assert any(kind == "template_ID" for kind, _, _ in log)
+    assert "direction_attribute" in {args[1] for kind, args, _ in log if kind == "prop"}
+    assert any("not implemented" in kw.get("text", "") for kind, _, kw in log if kind == "label")
+    saved = (native._module, native._reason, native._tried)
+    try:
+        native._module, native._reason, native._tried = None, "native module missing: no texsynth_native", True
+        labels = " ".join(kw.get("text", "") for kind, _, kw in draw_panel(texsynth.ui.TEXSYNTH_PT_main)
+                          if kind == "label")
+        assert "Native module unavailable" in labels and "no texsynth_native" in labels
+    finally:
+        native._module, native._reason, native._tried = saved
+
+
 if __name__ == "__main__":
     harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")],
                          only=harness.script_args())
