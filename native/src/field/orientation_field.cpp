@@ -147,15 +147,26 @@ std::vector<float> compute_orientation_field(const Mesh& m, const FieldParams& p
     roots.insert(roots.end(), p.sinks.begin(), p.sinks.end());
     std::vector<float> flow(size_t(nv) * 3, 0.f);  // unsigned "away from root" direction
     std::vector<signed char> sign(nv, 0);
-    for (int32_t s : p.sinks) sign[s] = -1;
-    for (int32_t s : p.sources) sign[s] = 1;  // a vertex listed as both counts as a source
+    std::vector<int32_t> root(nv, -1);
+    for (int32_t s : p.sinks) sign[s] = -1, root[s] = s;
+    for (int32_t s : p.sources) sign[s] = 1, root[s] = s;  // a vertex listed as both counts as a source
     std::vector<float> singular_length;
     bfs(m, roots, singular_length, [&](int32_t w, int32_t parent) {
+      // The chord from the root, projected on the tangent plane, is the exact away-direction on
+      // planes and spheres; where it is nearly normal (folded surfaces) trust the BFS-transported
+      // direction instead, in proportion.
       V3 n = ctx.normal(w);
-      V3 step = normalized_or(project_to_plane(ctx.position(w) - ctx.position(parent), n), V3{});
-      V3 carried = project_to_plane(v3(&flow[3 * size_t(parent)]), n);
-      store(&flow[3 * size_t(w)], normalized_or(carried + step, step));
+      root[w] = root[parent];
       sign[w] = sign[parent];
+      V3 chord = ctx.position(w) - ctx.position(root[w]);
+      V3 tangent = project_to_plane(chord, n);
+      double chord_len = norm(chord), tangent_len = norm(tangent);
+      double trust = chord_len > 0 ? tangent_len / chord_len : 0.0;
+      V3 carried = normalized_or(project_to_plane(v3(&flow[3 * size_t(parent)]), n), V3{});
+      V3 step = normalized_or(project_to_plane(ctx.position(w) - ctx.position(parent), n), V3{});
+      if (norm(carried) == 0) carried = step;
+      V3 chord_dir = normalized_or(tangent, carried);
+      store(&flow[3 * size_t(w)], normalized_or(chord_dir * trust + carried * (1 - trust), step));
     });
     parallel_vertices(nv, [&](int32_t v) {
       if (fixed[v] || singular_length[v] < 0) return;

@@ -37,7 +37,10 @@ void check_readable_file(const std::string& path) {
 
 std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   check_readable_file(path);
-  auto input = OIIO::ImageInput::open(path);
+  // Keep colour and alpha as stored (no premultiplication): features compare what the artist painted.
+  OIIO::ImageSpec config;
+  config.attribute("oiio:UnassociatedAlpha", 1);
+  auto input = OIIO::ImageInput::open(path, &config);
   if (!input) {
     std::string err = OIIO::geterror();
     fail(path, "not a readable image (corrupt or unsupported format)" + (err.empty() ? "" : ": " + err));

@@ -100,10 +100,7 @@ void build_normals(Mesh& m, const float* given) {
     // Newell's vector = 2 × area × unit normal: summing it weights faces by area.
     const int32_t* cv = m.corner_verts + m.poly_starts[p];
     const int32_t n = m.poly_sizes[p];
-    V3 newell;
-    V3 origin = v3(m.positions + 3 * size_t(cv[0]));
-    for (int32_t i = 1; i + 1 < n; ++i)
-      newell = newell + cross(v3(m.positions + 3 * size_t(cv[i])) - origin, v3(m.positions + 3 * size_t(cv[i + 1])) - origin);
+    const V3 newell = newell_vector(m.positions, cv, n);
     for (int32_t i = 0; i < n; ++i) {
       double* a = &acc[3 * size_t(cv[i])];
       a[0] += newell.x, a[1] += newell.y, a[2] += newell.z;
@@ -169,17 +166,6 @@ Mesh build_mesh(const PolyMeshInput& in, const float* normals) {
   build_normals(m, normals);
   build_components(m);
   return m;
-}
-
-Vec3f polygon_normal(const Mesh& m, int32_t poly, const Vec3f& fallback) {
-  const int32_t* cv = m.corner_verts + m.poly_starts[poly];
-  const int32_t n = m.poly_sizes[poly];
-  V3 origin = v3(m.positions + 3 * size_t(cv[0]));
-  V3 newell;
-  for (int32_t i = 1; i + 1 < n; ++i)
-    newell = newell + cross(v3(m.positions + 3 * size_t(cv[i])) - origin, v3(m.positions + 3 * size_t(cv[i + 1])) - origin);
-  V3 r = normalized_or(newell, v3(fallback), 1e-30);
-  return {float(r.x), float(r.y), float(r.z)};
 }
 
 }  // namespace texsynth

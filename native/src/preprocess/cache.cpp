@@ -100,6 +100,8 @@ std::vector<uint8_t> read_file(const std::string& path, uint64_t max_size) {
 
 }  // namespace
 
+uint64_t cache_checksum(const void* data, size_t size) { return hash_bytes(data, size, kChecksumSeed); }
+
 uint32_t params_hash(const PreprocessParams& params) {
   Writer w;
   w.put<uint32_t>(kCacheFormatVersion);
@@ -139,7 +141,7 @@ void save_preprocessed(const Preprocessed& r, const std::string& path) {
   w.put_array(r.textons.data(), r.textons.size());
   w.put_array(r.jump_map.targets.data(), r.jump_map.targets.size());
   for (float weight : r.jump_map.weights) w.put<uint16_t>(uint16_t(std::lround(double(weight) * 65535.0)));
-  w.put<uint64_t>(hash_bytes(w.bytes.data(), w.bytes.size(), kChecksumSeed));
+  w.put<uint64_t>(cache_checksum(w.bytes.data(), w.bytes.size()));
 
   // Atomic: a reader sees either the old file, or the complete new one.
   static std::atomic<uint64_t> counter{0};
@@ -219,7 +221,7 @@ Preprocessed load_preprocessed(const std::string& path, std::optional<uint64_t> 
   if (bytes.size() > expected) throw bad("unexpected trailing bytes");
   uint64_t stored_checksum;
   std::memcpy(&stored_checksum, bytes.data() + expected - 8, 8);
-  if (hash_bytes(bytes.data(), expected - 8, kChecksumSeed) != stored_checksum) throw bad("checksum mismatch (corrupt)");
+  if (cache_checksum(bytes.data(), expected - 8) != stored_checksum) throw bad("checksum mismatch (corrupt)");
   if (expected_hash && *expected_hash != r.sample_hash) throw bad("made from a different sample (hash mismatch)");
 
   const int k = r.num_textons;

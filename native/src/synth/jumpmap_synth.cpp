@@ -19,6 +19,8 @@
 namespace texsynth {
 namespace {
 
+constexpr double kMaxOffset = 1e9;
+
 struct Box {  // texel-space offsets reachable from a vertex's address through its polygons
   float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
 };
@@ -44,10 +46,12 @@ void validate_preprocessed(const Preprocessed& pre) {
 }
 
 void validate_params(const Mesh& m, const float* orientation, const JumpSynthParams& p) {
-  if (!std::isfinite(p.scale) || p.scale <= 0)
-    throw std::invalid_argument("scale (texels per object unit) must be finite and > 0");
+  if (!std::isfinite(p.scale) || p.scale <= 0 || p.scale > 1e30)
+    throw std::invalid_argument("scale (texels per object unit) must be finite, > 0 and <= 1e30");
   if (!std::isfinite(p.jump_rate) || p.jump_rate <= 0) throw std::invalid_argument("jump_rate must be finite and > 0");
-  if (!std::isfinite(p.border_ramp)) throw std::invalid_argument("border_ramp must be finite");
+  if (p.max_rejection_draws < 0 || p.max_rejection_draws > 1000)
+    throw std::invalid_argument("max_rejection_draws must be in [0, 1000]");
+  if (!std::isfinite(p.border_ramp)) throw std::invalid_argument("border_ramp must be finite");  // 0 = no ramp
   if (m.num_vertices > 0 && !orientation) throw std::invalid_argument("orientation field is missing");
   for (int64_t i = 0; i < int64_t(m.num_vertices) * 3; ++i)
     if (!std::isfinite(orientation[i]))
@@ -80,7 +84,9 @@ class Synthesizer {
     VertexOrder order = region_growing_order(m_, p_.seed);
     walk(order, r.stats);
     write_corners(r.maps);
-    r.vertex_address = std::move(address_);
+    r.vertex_address.resize(size_t(m_.num_vertices) * 2);
+    for (int32_t v = 0; v < m_.num_vertices; ++v)
+      r.vertex_address[2 * size_t(v)] = state_[v].address[0], r.vertex_address[2 * size_t(v) + 1] = state_[v].address[1];
     r.stats.faces = m_.num_polys;
     r.stats.vertices = m_.num_vertices;
     r.stats.corners = m_.num_corners;
@@ -93,60 +99,70 @@ class Synthesizer {
   V3 pos(int32_t v) const { return v3(m_.positions + 3 * size_t(v)); }
 
   void build_frames(const float* orientation) {
-    up_.resize(size_t(m_.num_vertices) * 3);
-    right_.resize(size_t(m_.num_vertices) * 3);
+    state_.resize(size_t(m_.num_vertices));
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 8192), [&](const tbb::blocked_range<int32_t>& r) {
       for (int32_t v = r.begin(); v < r.end(); ++v) {
         V3 n = v3(&m_.normals[3 * size_t(v)]);
         V3 u = normalized_or(project_to_plane(v3(orientation + 3 * size_t(v)), n), any_perpendicular(n));
-        store(&up_[3 * size_t(v)], u);
-        store(&right_[3 * size_t(v)], cross(u, n));
+        VertexState& st = state_[v];
+        store(st.up, u);
+        store(st.right, cross(u, n));
+        st.address[0] = st.address[1] = std::numeric_limits<float>::quiet_NaN();
       }
     });
   }
 
   // Texel offsets of a polygon's corners relative to its corner 0, in the polygon's own frame:
   // an exact similarity of the polygon's projection onto its plane.
-  void face_offsets(int32_t poly, std::vector<double>& xy) const {
+  void face_offsets(int32_t poly, float* xy) const {
     const int32_t* cv = m_.corner_verts + m_.poly_starts[poly];
     const int32_t n = m_.poly_sizes[poly];
-    V3 normal_sum, up_sum;
+    V3 up_sum;
     double mult = 0;
     for (int32_t i = 0; i < n; ++i) {
-      normal_sum = normal_sum + v3(&m_.normals[3 * size_t(cv[i])]);
-      up_sum = up_sum + v3(&up_[3 * size_t(cv[i])]);
+      up_sum = up_sum + v3(state_[cv[i]].up);
       mult += multiplier(cv[i]);
     }
-    Vec3f fallback_normal;
-    store(fallback_normal.data(), normalized_or(normal_sum, V3{0, 0, 1}));
-    V3 nf = v3(polygon_normal(m_, poly, fallback_normal));
+    V3 nf = newell_vector(m_.positions, cv, n);
+    const double area2 = norm(nf);
+    if (area2 > 1e-30 && std::isfinite(area2)) {
+      nf = nf * (1.0 / area2);
+    } else {  // zero-area polygon: its vertices' normals, which are always defined
+      V3 normal_sum;
+      for (int32_t i = 0; i < n; ++i) normal_sum = normal_sum + v3(&m_.normals[3 * size_t(cv[i])]);
+      nf = normalized_or(normal_sum, V3{0, 0, 1});
+    }
     V3 up = normalized_or(project_to_plane(up_sum, nf),
-                          normalized_or(project_to_plane(v3(&up_[3 * size_t(cv[0])]), nf), any_perpendicular(nf)));
+                          normalized_or(project_to_plane(v3(state_[cv[0]].up), nf), any_perpendicular(nf)));
     V3 right = cross(up, nf);
     const double s = p_.scale * mult / n;
-    xy.resize(2 * size_t(n));
     V3 origin = pos(cv[0]);
     for (int32_t i = 0; i < n; ++i) {
       V3 e = pos(cv[i]) - origin;
-      xy[2 * i] = dot(e, right) * s;
-      xy[2 * i + 1] = -dot(e, up) * s;
+      xy[2 * i] = float(dot(e, right) * s);
+      xy[2 * i + 1] = float(-dot(e, up) * s);
     }
   }
 
-  // Pass 1: per-vertex reach boxes (validity, §4.2.4) and oversized-face statistics.
+  // Pass 1: in-face corner offsets (parallel, per polygon), then per-vertex reach boxes
+  // (validity, §4.2.4) and oversized-face statistics.
   void measure_faces(SynthStats& st) {
-    std::vector<double> xy;
+    corner_offset_.resize(size_t(m_.num_corners) * 2);
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+      for (int32_t poly = r.begin(); poly < r.end(); ++poly) face_offsets(poly, &corner_offset_[2 * size_t(m_.poly_starts[poly])]);
+    });
     const double w = pre_.width, h = pre_.height;
     for (int32_t poly = 0; poly < m_.num_polys; ++poly) {
-      face_offsets(poly, xy);
+      const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
       const int32_t n = m_.poly_sizes[poly];
       double lo_x = 0, hi_x = 0, lo_y = 0, hi_y = 0;
       for (int32_t i = 0; i < n; ++i) {
-        if (!std::isfinite(xy[2 * i]) || !std::isfinite(xy[2 * i + 1]))
-          throw std::invalid_argument("scale " + std::to_string(p_.scale) + " makes texture offsets of face " +
-                                      std::to_string(poly) + " overflow");
-        lo_x = std::min(lo_x, xy[2 * i]), hi_x = std::max(hi_x, xy[2 * i]);
-        lo_y = std::min(lo_y, xy[2 * i + 1]), hi_y = std::max(hi_y, xy[2 * i + 1]);
+        // Beyond ~1e9 texels float addresses are meaningless; refuse even with allow_oversized.
+        if (!(std::fabs(xy[2 * i]) <= kMaxOffset && std::fabs(xy[2 * i + 1]) <= kMaxOffset))
+          throw std::invalid_argument("scale " + std::to_string(p_.scale) + " makes face " + std::to_string(poly) +
+                                      " span more than 1e9 texels");
+        lo_x = std::min(lo_x, double(xy[2 * i])), hi_x = std::max(hi_x, double(xy[2 * i]));
+        lo_y = std::min(lo_y, double(xy[2 * i + 1])), hi_y = std::max(hi_y, double(xy[2 * i + 1]));
       }
       double ratio = std::max((hi_x - lo_x) / w, (hi_y - lo_y) / h);
       st.max_oversize_ratio = std::max(st.max_oversize_ratio, ratio);
@@ -170,10 +186,10 @@ class Synthesizer {
     const float* pa = m_.positions + 3 * size_t(a);
     const float* pb = m_.positions + 3 * size_t(b);
     const float e[3] = {pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]};
-    const float* ua = &up_[3 * size_t(a)];
-    const float* ub = &up_[3 * size_t(b)];
-    const float* ra = &right_[3 * size_t(a)];
-    const float* rb = &right_[3 * size_t(b)];
+    const float* ua = state_[a].up;
+    const float* ub = state_[b].up;
+    const float* ra = state_[a].right;
+    const float* rb = state_[b].right;
     float U[3] = {ua[0] + ub[0], ua[1] + ub[1], ua[2] + ub[2]};
     float R[3] = {ra[0] + rb[0], ra[1] + rb[1], ra[2] + rb[2]};
     float lu = U[0] * U[0] + U[1] * U[1] + U[2] * U[2];
@@ -204,75 +220,146 @@ class Synthesizer {
     bool jump;
   };
 
+  // One synthesized neighbour's contribution to a vertex's selection table (§4.2.5): its
+  // continuation and the jump lists of the 4 texels around its address (§4.2.3).
+  struct Source {
+    float cx, cy, continuation;  // continuation address and weight (0 when invalid)
+    int32_t texel[4];            // pixel index, -1 when outside a non-tileable sample
+    float bilinear[4];           // bilinear weight of each texel
+    float texel_weight[4];       // bilinear × the texel's summed jump weights
+  };
+
   // Pass 2: the walk (§4.2.3–4.2.5). Sequential by nature; one RNG stream, so deterministic.
+  // Drawing from the filtered table is done by rejection: draw among continuations (validated
+  // exactly) and all jump entries, redraw when a drawn jump is invalid. That yields exactly the
+  // filtered distribution without validating every entry; after max_rejection_draws the exact
+  // filtered table is built instead (e.g. next to the border, where most jumps are invalid).
   void walk(const VertexOrder& order, SynthStats& st) {
+    const int max_draws = p_.max_rejection_draws;
     const int32_t k = pre_.jump_map.k;
     const int32_t width = pre_.width, height = pre_.height;
     const int32_t* targets = pre_.jump_map.targets.data();
     const float* weights = pre_.jump_map.weights.data();
+    // Summed jump weight per pixel: the draw only looks at entries of the texel it lands in.
+    std::vector<float> pixel_weight(size_t(width) * height, 0.f);
+    for (size_t p = 0; p < pixel_weight.size(); ++p)
+      for (int32_t e = 0; e < k; ++e)
+        if (targets[p * k + e] >= 0) pixel_weight[p] += weights[p * k + e];
+    // Destination of jump entry e of `texel` taken from src: target - source pixel, plus src's address.
+    auto destination = [&](const Source& src, int32_t texel, int32_t e, float& x, float& y) {
+      const int32_t t = targets[size_t(texel) * k + e];
+      x = src.cx + float(t % width - texel % width);
+      y = src.cy + float(t / width - texel / width);
+    };
     const float rate = float(p_.jump_rate);
-    address_.assign(size_t(m_.num_vertices) * 2, std::numeric_limits<float>::quiet_NaN());
-    std::vector<char> done(m_.num_vertices, 0);
+    std::vector<Source> sources;
     std::vector<Candidate> table;
     Rng rng(p_.seed, 0x6a756d70);  // "jump"
     for (int32_t v : order.order) {
       const Box& box = reach_[v];
-      table.clear();
+      if (sources.size() < size_t(m_.degree(v))) sources.resize(m_.degree(v));
+      size_t count = 0;
       double total = 0;
-      int32_t synthesized = 0;
-      auto add = [&](float x, float y, float w, bool jump) {
-        if (w > 0.f && border_margin(x, y, box) >= 0.f) table.push_back({x, y, w, jump}), total += w;
-      };
       for (int32_t kk = m_.neighbour_start[v]; kk < m_.neighbour_start[v + 1]; ++kk) {
         const int32_t j = m_.neighbours[kk];
-        if (!done[j]) continue;
-        ++synthesized;
+        if (!state_[j].synthesized()) continue;
+        Source& src = sources[count++];
         float dx, dy;
         edge_offset(j, v, dx, dy);
-        const float ax = address_[2 * size_t(j)], ay = address_[2 * size_t(j) + 1];
+        const float ax = state_[j].address[0], ay = state_[j].address[1];
         // Continuation ("do not jump"): weight jump_rate / |offset|, ramped down near the border.
-        const float cx = ax + dx, cy = ay + dy;
+        src.cx = ax + dx, src.cy = ay + dy;
+        const float margin = border_margin(src.cx, src.cy, box);
         const float len = std::max(std::sqrt(dx * dx + dy * dy), 1e-3f);
-        const float ramp = tileable_ ? 1.f : std::min(1.f, border_margin(cx, cy, box) / border_ramp_);
-        add(cx, cy, rate / len * ramp, false);
-        if (k == 0) continue;
-        // Bilinear floating-point jump look-up at the neighbour's address (§4.2.3).
+        const float ramp = tileable_ || border_ramp_ <= 0.f ? 1.f : std::min(1.f, margin / border_ramp_);
+        src.continuation = margin >= 0.f ? rate / len * ramp : 0.f;
+        total += src.continuation;
+        // Bilinear floating-point jump look-up at the neighbour's address.
         const float fx = ax - 0.5f, fy = ay - 0.5f;
         const float x0 = std::floor(fx), y0 = std::floor(fy);
         const float tx = fx - x0, ty = fy - y0;
         for (int corner = 0; corner < 4; ++corner) {
-          const int32_t xi = int32_t(x0) + (corner & 1), yi = int32_t(y0) + (corner >> 1);
-          const float bw = ((corner & 1) ? tx : 1.f - tx) * ((corner >> 1) ? ty : 1.f - ty);
-          if (bw <= 0.f) continue;
-          int32_t qx = xi, qy = yi;
+          int32_t qx = int32_t(x0) + (corner & 1), qy = int32_t(y0) + (corner >> 1);
+          src.bilinear[corner] = ((corner & 1) ? tx : 1.f - tx) * ((corner >> 1) ? ty : 1.f - ty);
           if (tileable_) {
             qx = ((qx % width) + width) % width, qy = ((qy % height) + height) % height;
-          } else if (qx < 0 || qy < 0 || qx >= width || qy >= height) {
+          } else if (qx < 0 || qy < 0 || qx >= width || qy >= height || k == 0) {
+            src.texel[corner] = -1, src.texel_weight[corner] = 0.f;
             continue;
           }
-          const size_t q = (size_t(qy) * width + qx) * k;
-          for (int32_t s = 0; s < k; ++s) {
-            const int32_t t = targets[q + s];
-            if (t < 0) continue;
-            const float ox = float(t % width - qx), oy = float(t / width - qy);
-            add(cx + ox, cy + oy, weights[q + s] * bw, true);
+          src.texel[corner] = qy * width + qx;
+          src.texel_weight[corner] = src.bilinear[corner] * pixel_weight[src.texel[corner]];
+          total += src.texel_weight[corner];
+        }
+      }
+      float x = 0, y = 0;
+      bool chosen = false, jumped = false;
+      for (int draw = 0; draw < max_draws && total > 0 && !chosen; ++draw) {
+        double r = rng.uniform() * total;
+        bool landed = false;  // on a continuation or a jump entry (rounding may leave r past the end)
+        for (size_t i = 0; i < count && !landed; ++i) {
+          const Source& src = sources[i];
+          if (r < src.continuation) {
+            x = src.cx, y = src.cy, chosen = landed = true;
+            break;
+          }
+          r -= src.continuation;
+          for (int corner = 0; corner < 4; ++corner) {
+            if (r >= src.texel_weight[corner]) {
+              r -= src.texel_weight[corner];
+              continue;
+            }
+            const size_t base = size_t(src.texel[corner]) * k;
+            for (int32_t e = 0; e < k; ++e) {
+              const bool used = targets[base + e] >= 0;
+              const double w = used ? double(weights[base + e]) * src.bilinear[corner] : 0.0;
+              if (r < w || e + 1 == k) {
+                chosen = used && w > 0;
+                if (chosen) destination(src, src.texel[corner], e, x, y);
+                chosen = chosen && border_margin(x, y, box) >= 0.f;  // else: rejected, redraw
+                jumped = chosen;
+                landed = true;
+                break;
+              }
+              r -= w;
+            }
+            break;
           }
         }
       }
-      float x, y;
-      if (table.empty()) {
-        random_address(rng, box, x, y);
-        if (synthesized > 0) ++st.fallback_vertices;
-      } else {
-        double r = rng.uniform() * total;
-        size_t pick = 0;
-        while (pick + 1 < table.size() && r >= table[pick].weight) r -= table[pick++].weight;
-        x = table[pick].x, y = table[pick].y;
-        if (table[pick].jump) ++st.jumps;
+      if (!chosen && total > 0) {  // exact filtered table
+        table.clear();
+        double exact_total = 0;
+        auto add = [&](float cx, float cy, float w, bool jump) {
+          if (w > 0.f && border_margin(cx, cy, box) >= 0.f) table.push_back({cx, cy, w, jump}), exact_total += w;
+        };
+        for (size_t i = 0; i < count; ++i) {
+          const Source& src = sources[i];
+          add(src.cx, src.cy, src.continuation, false);
+          for (int corner = 0; corner < 4; ++corner) {
+            if (src.texel_weight[corner] <= 0.f) continue;
+            for (int32_t e = 0; e < k; ++e) {
+              if (targets[size_t(src.texel[corner]) * k + e] < 0) continue;
+              float jx, jy;
+              destination(src, src.texel[corner], e, jx, jy);
+              add(jx, jy, weights[size_t(src.texel[corner]) * k + e] * src.bilinear[corner], true);
+            }
+          }
+        }
+        if (!table.empty()) {
+          double r = rng.uniform() * exact_total;
+          size_t pick = 0;
+          while (pick + 1 < table.size() && r >= table[pick].weight) r -= table[pick++].weight;
+          x = table[pick].x, y = table[pick].y, jumped = table[pick].jump, chosen = true;
+        }
       }
+      if (!chosen) {
+        random_address(rng, box, x, y);
+        if (count > 0) ++st.fallback_vertices;
+      }
+      if (jumped) ++st.jumps;
       if (tileable_) x -= W_ * std::floor(x / W_), y -= H_ * std::floor(y / H_);
-      address_[2 * size_t(v)] = x, address_[2 * size_t(v) + 1] = y;
-      done[v] = 1;
+      state_[v].address[0] = x, state_[v].address[1] = y;
     }
   }
 
@@ -287,24 +374,24 @@ class Synthesizer {
     out.blend_uv.resize(size_t(S) * L * 2);
     out.blend_weights.assign(L * S, 0.f);
     const uint64_t poly_seed = splitmix64(p_.seed ^ 0x62617365ull);  // "base"
+    const float inv_w = 1.f / W_, inv_h = 1.f / H_;
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 2048), [&](const tbb::blocked_range<int32_t>& range) {
-      std::vector<double> xy;
       for (int32_t poly = range.begin(); poly < range.end(); ++poly) {
-        face_offsets(poly, xy);
         const int32_t n = m_.poly_sizes[poly];
         const size_t first = size_t(m_.poly_starts[poly]);
+        const float* xy = &corner_offset_[2 * first];
         // Writes the polygon's mapping grown from corner `from` into uv (indexed by corner).
         auto grow = [&](int32_t from, float* uv) {
           const int32_t v = m_.corner_verts[first + from];
-          const double ax = address_[2 * size_t(v)] - xy[2 * from], ay = address_[2 * size_t(v) + 1] - xy[2 * from + 1];
+          const float ax = state_[v].address[0] - xy[2 * from], ay = state_[v].address[1] - xy[2 * from + 1];
           for (int32_t i = 0; i < n; ++i) {
-            double x = ax + xy[2 * i], y = ay + xy[2 * i + 1];
-            if (!tileable_) x = std::clamp(x, 0.0, double(W_)), y = std::clamp(y, 0.0, double(H_));
-            uv[2 * (first + i)] = float(x / W_);
-            uv[2 * (first + i) + 1] = float(1.0 - y / H_);
+            float x = ax + xy[2 * i], y = ay + xy[2 * i + 1];
+            if (!tileable_) x = std::clamp(x, 0.f, W_), y = std::clamp(y, 0.f, H_);
+            uv[2 * (first + i)] = x * inv_w;
+            uv[2 * (first + i) + 1] = 1.f - y * inv_h;
           }
         };
-        const int32_t base = int32_t(splitmix64(poly_seed + uint64_t(poly)) % uint64_t(n));
+        const int32_t base = int32_t(((splitmix64(poly_seed + uint64_t(poly)) >> 32) * uint64_t(n)) >> 32);
         grow(base, out.base_uv.data());
         for (int32_t set = 0; set < S; ++set) {
           float* uv = out.blend_uv.data() + size_t(set) * L * 2;
@@ -330,7 +417,14 @@ class Synthesizer {
   const float W_, H_;
   const bool tileable_;
   float border_ramp_;
-  std::vector<float> up_, right_, address_;
+  // Everything the walk reads per neighbour in one 32-byte record (one cache line, not four).
+  struct VertexState {
+    float up[3], right[3];
+    float address[2];  // texel address; NaN until synthesized
+    bool synthesized() const { return address[0] == address[0]; }
+  };
+  std::vector<VertexState> state_;
+  std::vector<float> corner_offset_;  // per corner: texel offset from its polygon's corner 0 (face frame)
   std::vector<Box> reach_;
 };
 

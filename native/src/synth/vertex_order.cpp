@@ -30,33 +30,41 @@ VertexOrder region_growing_order(const Mesh& m, uint64_t seed) {
   out.order.reserve(m.num_vertices);
   out.component_start.reserve(size_t(m.num_components) + 1);
   std::vector<int32_t> done_neighbours(m.num_vertices, 0);
-  enum : char { kUntouched = 0, kQueued = 1, kDone = 2 };
-  std::vector<char> state(m.num_vertices, kUntouched);
+  // Level of the vertex's live queue entry; -1 = not queued yet, kDone = ordered.
+  constexpr signed char kDone = 127;
+  std::vector<signed char> queued_level(m.num_vertices, -1);
   std::vector<int32_t> buckets[kOrderLevels + 1];
-  auto level = [&](int32_t v) { return int32_t((int64_t(done_neighbours[v]) * kOrderLevels) / m.degree(v)); };
+  // floor(done * levels / degree) without a division per edge: degree-indexed reciprocals. The
+  // epsilon is far below the 1/degree gap between a fraction and the next integer.
+  float reciprocal[256];
+  for (int d = 1; d < 256; ++d) reciprocal[d] = float(kOrderLevels) / float(d);
+  auto level = [&](int32_t v) {
+    const int32_t degree = m.degree(v);
+    return degree < 256 ? int32_t(float(done_neighbours[v]) * reciprocal[degree] + 1e-4f)
+                        : int32_t((int64_t(done_neighbours[v]) * kOrderLevels) / degree);
+  };
 
   for (int32_t start : component_seeds(m, seed)) {
     out.component_start.push_back(int32_t(out.order.size()));
     int top = 0;
     buckets[0].push_back(start);
-    state[start] = kQueued;
+    queued_level[start] = 0;
     while (true) {
       while (top >= 0 && buckets[top].empty()) --top;
       if (top < 0) break;
       int32_t v = buckets[top].back();
       buckets[top].pop_back();
-      // Stale entry: the vertex was raised to a higher level (it has a newer entry) or already done.
-      if (state[v] == kDone || (m.degree(v) > 0 && level(v) != top)) continue;
-      state[v] = kDone;
+      // Stale entry: the vertex was raised to a higher level (it has a newer entry) or is done.
+      if (queued_level[v] != top) continue;
+      queued_level[v] = kDone;
       out.order.push_back(v);
       for (int32_t k = m.neighbour_start[v]; k < m.neighbour_start[v + 1]; ++k) {
         int32_t w = m.neighbours[k];
-        if (state[w] == kDone) continue;
-        int32_t before = level(w);
+        if (queued_level[w] == kDone) continue;
         ++done_neighbours[w];
-        int32_t after = level(w);
-        if (after != before || state[w] == kUntouched) {
-          state[w] = kQueued;
+        const int32_t after = level(w);
+        if (after != queued_level[w]) {
+          queued_level[w] = static_cast<signed char>(after);
           buckets[after].push_back(w);
           if (after > top) top = after;
         }

@@ -44,8 +44,4 @@ struct Mesh {
 // (zero vectors get the computed normal). Throws std::invalid_argument naming the first problem.
 Mesh build_mesh(const PolyMeshInput& in, const float* normals = nullptr);
 
-// Unit normal of one polygon (Newell's method, exact for planar polygons); `fallback` when the
-// polygon has (numerically) zero area.
-Vec3f polygon_normal(const Mesh& mesh, int32_t poly, const Vec3f& fallback);
-
 }  // namespace texsynth

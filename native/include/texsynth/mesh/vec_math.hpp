@@ -3,6 +3,8 @@
 // Minimal 3-vector helpers for the mesh/field/synth hot loops (plain structs: no Eigen
 // temporaries, trivially inlined, identical results whatever the build's vectorisation).
 #include <cmath>
+#include <cstddef>
+#include <cstdint>
 
 #include "texsynth/mesh/poly_mesh.hpp"
 
@@ -37,6 +39,19 @@ inline V3 any_perpendicular(V3 n) {
             : std::fabs(n.y) <= std::fabs(n.z)                                   ? V3{0, 1, 0}
                                                                                  : V3{0, 0, 1};
   return normalized_or(project_to_plane(axis, n), V3{1, 0, 0});
+}
+
+// Newell's vector of a polygon (corners cv[0..n) into positions): 2 × area × unit normal, exact
+// for planar polygons and a robust average normal for non-planar ones.
+inline V3 newell_vector(const float* positions, const int32_t* cv, int32_t n) {
+  const V3 origin = v3(positions + 3 * size_t(cv[0]));
+  V3 prev = v3(positions + 3 * size_t(cv[1])) - origin, sum;
+  for (int32_t i = 2; i < n; ++i) {
+    V3 cur = v3(positions + 3 * size_t(cv[i])) - origin;
+    sum = sum + cross(prev, cur);
+    prev = cur;
+  }
+  return sum;
 }
 
 }  // namespace texsynth

@@ -22,6 +22,9 @@ constexpr uint32_t kCacheFormatVersion = 1;
 void save_preprocessed(const Preprocessed& result, const std::string& path);
 Preprocessed load_preprocessed(const std::string& path, std::optional<uint64_t> expected_hash = std::nullopt);
 
+// The trailing checksum of a cache whose first `size` bytes are `data` (everything before the checksum).
+uint64_t cache_checksum(const void* data, size_t size);
+
 // 32-bit fingerprint of everything in the params that changes the result (and the format version).
 uint32_t params_hash(const PreprocessParams& params);
 

@@ -34,8 +34,12 @@ struct JumpSynthParams {
   const float* scale_multiplier = nullptr;  // optional, num_vertices floats > 0 (borrowed)
   bool allow_oversized = false;
   // Continuation weights ramp linearly from 0 at the sample border to full at this distance
-  // (texels); < 0 = automatic (5% of the smaller sample side, at least 1). Ignored when tileable.
+  // (texels); 0 = no ramp; < 0 = automatic (5% of the smaller sample side, at least 1). Ignored
+  // when tileable.
   double border_ramp = -1.0;
+  // Draws from the selection table by rejection (see walk()); after this many rejected draws the
+  // exact filtered table is built. 0 = always build the exact table (slower, same distribution).
+  int max_rejection_draws = 8;
 };
 
 struct SynthStats {
