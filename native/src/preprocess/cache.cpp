@@ -59,7 +59,10 @@ class Reader {
     if (count) std::memcpy(data, bytes_.data() + at_, count * sizeof(T));
     at_ += count * sizeof(T);
   }
-  size_t position() const { return at_; }
+  void skip(size_t size) {
+    need(size);
+    at_ += size;
+  }
 
  private:
   void need(size_t size) {
@@ -85,15 +88,15 @@ size_t payload_size(int64_t pixels, int64_t k, int64_t dims, int64_t jump_k) {
   return size_t(pixels) * 2 + size_t(k * dims) * 4 + size_t(pixels * jump_k) * (4 + 2);
 }
 
-std::vector<uint8_t> read_file(const std::string& path, uint64_t max_size) {
+// Reads the first min(file size, max_bytes) bytes; reports the whole file's size.
+std::vector<uint8_t> read_file(const std::string& path, uint64_t max_bytes, uint64_t& file_size) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw CacheError("cache '" + path + "': missing or not a regular file");
-  const uint64_t size = fs::file_size(path, ec);
+  file_size = fs::file_size(path, ec);
   if (ec) throw CacheError("cache '" + path + "': cannot read size");
-  if (size > max_size) throw CacheError("cache '" + path + "': file larger than any valid cache");
-  std::vector<uint8_t> bytes(size);
+  std::vector<uint8_t> bytes(std::min(file_size, max_bytes));
   std::ifstream in(path, std::ios::binary);
-  if (!in || !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(size)))
+  if (!in || !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size())))
     throw CacheError("cache '" + path + "': cannot read file");
   return bytes;
 }
@@ -168,12 +171,12 @@ void save_preprocessed(const Preprocessed& r, const std::string& path) {
 }
 
 Preprocessed load_preprocessed(const std::string& path, std::optional<uint64_t> expected_hash) {
-  const uint64_t max_size =
-      kHeaderSize + payload_size(kMaxImagePixels, kMaxTextons, 4096, kMaxJumpCandidates) + 8;
-  const std::vector<uint8_t> bytes = read_file(path, max_size);
+  // Header first: nothing is sized from the file until the header has been validated.
+  uint64_t file_size = 0;
+  const std::vector<uint8_t> head = read_file(path, kHeaderSize, file_size);
   auto bad = [&](const std::string& what) -> CacheError { return CacheError("cache '" + path + "': " + what); };
-  if (bytes.size() < kHeaderSize + 8) throw bad("truncated (" + std::to_string(bytes.size()) + " bytes)");
-  Reader in(bytes, path);
+  if (file_size < kHeaderSize + 8) throw bad("truncated (" + std::to_string(file_size) + " bytes)");
+  Reader in(head, path);
   char magic[8];
   in.get_array(magic, 8);
   if (std::memcmp(magic, kMagic, 8) != 0) throw bad("not a TexSynth preprocessing cache (bad magic)");
@@ -213,38 +216,46 @@ Preprocessed load_preprocessed(const std::string& path, std::optional<uint64_t> 
   const int64_t n = int64_t(r.width) * r.height;
   if (r.num_textons != resolved_num_textons(p, n)) throw bad("texton count does not match parameters");
   if (jump_k != p.jump_candidates) throw bad("jump map size does not match parameters");
-  if (r.texton_dims < 1 || r.texton_dims > 4096 || (p.feature_dims > 0 && r.texton_dims > p.feature_dims))
-    throw bad("invalid texton dimension in header");
+  bool dims_match = false;  // texton_dims follows from n, feature_dims and the (1-4) feature channels
+  for (int channels = 1; channels <= 4; ++channels) {
+    const int full = p.neighbourhood * p.neighbourhood * channels;
+    dims_match |= r.texton_dims == (p.feature_dims > 0 && p.feature_dims < full ? p.feature_dims : full);
+  }
+  if (!dims_match) throw bad("invalid texton dimension in header");
   const size_t expected = kHeaderSize + payload_size(n, r.num_textons, r.texton_dims, jump_k) + 8;
-  if (bytes.size() < expected)
-    throw bad("truncated (" + std::to_string(bytes.size()) + " of " + std::to_string(expected) + " bytes)");
-  if (bytes.size() > expected) throw bad("unexpected trailing bytes");
+  if (file_size < expected)
+    throw bad("truncated (" + std::to_string(file_size) + " of " + std::to_string(expected) + " bytes)");
+  if (file_size > expected) throw bad("unexpected trailing bytes");
+  const std::vector<uint8_t> bytes = read_file(path, expected, file_size);
+  if (bytes.size() != expected) throw bad("file changed while reading");
   uint64_t stored_checksum;
   std::memcpy(&stored_checksum, bytes.data() + expected - 8, 8);
   if (cache_checksum(bytes.data(), expected - 8) != stored_checksum) throw bad("checksum mismatch (corrupt)");
   if (expected_hash && *expected_hash != r.sample_hash) throw bad("made from a different sample (hash mismatch)");
 
   const int k = r.num_textons;
+  Reader payload(bytes, path);
+  payload.skip(kHeaderSize);
   r.texton_map.resize(size_t(n));
   for (int64_t i = 0; i < n; ++i) {
-    const uint16_t t = in.get<uint16_t>();
+    const uint16_t t = payload.get<uint16_t>();
     if (t >= k) throw bad("texton label out of range");
     r.texton_map[size_t(i)] = t;
   }
   r.textons.resize(size_t(k) * r.texton_dims);
-  in.get_array(r.textons.data(), r.textons.size());
+  payload.get_array(r.textons.data(), r.textons.size());
   for (float v : r.textons)
     if (!std::isfinite(v)) throw bad("non-finite texton value");
   r.jump_map.k = jump_k;
   r.jump_map.targets.resize(size_t(n) * jump_k);
-  in.get_array(r.jump_map.targets.data(), r.jump_map.targets.size());
+  payload.get_array(r.jump_map.targets.data(), r.jump_map.targets.size());
   r.jump_map.weights.resize(size_t(n) * jump_k);
   for (int64_t p = 0; p < n; ++p) {
     double sum = 0.0;
     for (int i = 0; i < jump_k; ++i) {
       const size_t at = size_t(p) * jump_k + i;
       const int32_t target = r.jump_map.targets[at];
-      const uint16_t q = in.get<uint16_t>();
+      const uint16_t q = payload.get<uint16_t>();
       if (target < -1 || target >= n || target == p) throw bad("jump target out of range");
       if (target == -1 && q != 0) throw bad("weight on an empty jump slot");
       r.jump_map.weights[at] = float(q / 65535.0);

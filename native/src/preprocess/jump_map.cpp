@@ -4,6 +4,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -40,26 +41,7 @@ struct TopK {
   }
 };
 
-// Squared distance that gives up (returns >= limit) once the partial sum exceeds limit.
-// PCA orders dimensions by variance, so most rejections happen after the first block.
-inline float bounded_distance(const float* a, const float* b, int dims, float limit) {
-  float sum = 0.0f;
-  int d = 0;
-  for (; d + 8 <= dims; d += 8) {
-    for (int i = 0; i < 8; ++i) {
-      const float diff = a[d + i] - b[d + i];
-      sum += diff * diff;
-    }
-    if (sum >= limit) return sum;
-  }
-  for (; d < dims; ++d) {
-    const float diff = a[d] - b[d];
-    sum += diff * diff;
-  }
-  return sum;
-}
-
-int axis_distance(int a, int b, int size, bool periodic) {
+inline int axis_distance(int a, int b, int size, bool periodic) {
   int d = std::abs(a - b);
   return periodic ? std::min(d, size - d) : d;
 }
@@ -77,6 +59,20 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
                        const std::vector<int32_t>& bucket_start, const std::vector<int32_t>& bucket_pixels,
                        const CentreIndex& textons, const JumpSearchParams& params, const std::atomic<bool>* cancel) {
   if (params.k < 1 || params.k > kMaxTopK) throw std::invalid_argument("jump candidates out of range");
+  if (int64_t(labels.size()) != int64_t(width) * height || bucket_pixels.size() != labels.size() ||
+      features.count != int64_t(labels.size()) || bucket_start.size() < 2 ||
+      int(bucket_start.size()) - 1 != textons.num_centres || bucket_start.back() != int32_t(labels.size()))
+    throw std::invalid_argument("build_jump_map: inconsistent texton data");
+  for (size_t t = 0; t + 1 < bucket_start.size(); ++t)
+    if (bucket_start[t] < 0 || bucket_start[t] > bucket_start[t + 1])
+      throw std::invalid_argument("build_jump_map: bucket offsets not ascending");
+  if (textons.list_length < 1 || textons.list_length > textons.num_centres ||
+      textons.order.size() != size_t(textons.num_centres) * size_t(textons.list_length))
+    throw std::invalid_argument("build_jump_map: bad texton index");
+  for (int32_t t : textons.order)
+    if (t < 0 || t >= textons.num_centres) throw std::invalid_argument("build_jump_map: bad texton index");
+  for (int32_t q : bucket_pixels)
+    if (q < 0 || int64_t(q) >= int64_t(labels.size())) throw std::invalid_argument("build_jump_map: bad bucket pixel");
   const int64_t n = int64_t(width) * height;
   const int k = params.k;
   const int dims = features.dims;
@@ -85,41 +81,84 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
   map.targets.assign(size_t(n) * k, -1);
   std::vector<float> distances(size_t(n) * k, 0.0f);
 
-  tbb::parallel_for(tbb::blocked_range<int64_t>(0, n, 1024), [&](const tbb::blocked_range<int64_t>& r) {
-    if (cancel && cancel->load(std::memory_order_relaxed)) return;
-    for (int64_t p = r.begin(); p < r.end(); ++p) {
-      TopK best(k);
-      const float* query = features.row(p);
-      const int px = int(p % width), py = int(p / width);
-      const int own = labels[size_t(p)];
-      const int32_t* order = textons.nearest(own);
-      int examined = 0;
-      for (int j = 0; j < textons.list_length && examined < params.max_candidates; ++j) {
-        const int t = order[j];
-        const int32_t begin = bucket_start[size_t(t)], end = bucket_start[size_t(t) + 1];
-        const int32_t count = end - begin;
-        if (count == 0) continue;
-        const int32_t budget = std::min<int32_t>(count, params.max_candidates - examined);
-        // Enter big buckets at a per-pixel offset so the examined part is not always the same rows.
-        const int32_t offset =
-            budget < count ? int32_t(Rng(params.seed ^ uint64_t(p), uint64_t(t)).below(uint32_t(count))) : 0;
-        for (int32_t i = 0; i < budget; ++i) {
-          int32_t slot = offset + i;
-          if (slot >= count) slot -= count;
-          const int32_t q = bucket_pixels[size_t(begin + slot)];
-          const int qx = q % width, qy = q / width;
-          if (std::max(axis_distance(px, qx, width, params.tileable), axis_distance(py, qy, height, params.tileable)) <=
-              params.neighbourhood / 2)
-            continue;
-          const float limit = best.worst();
-          const float d = bounded_distance(query, features.row(q), dims, limit);
-          if (d <= limit) best.offer(q, d);
+  // Candidates are read bucket by bucket: copy features and coordinates into bucket order so each
+  // scan streams through memory instead of jumping across the whole sample.
+  std::vector<float> bucket_features(size_t(n) * dims);
+  std::vector<uint16_t> bucket_x(static_cast<size_t>(n)), bucket_y(static_cast<size_t>(n));
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, n, 4096), [&](const tbb::blocked_range<int64_t>& r) {
+    for (int64_t i = r.begin(); i < r.end(); ++i) {
+      const int32_t q = bucket_pixels[size_t(i)];
+      std::copy(features.row(q), features.row(q) + dims, bucket_features.data() + size_t(i) * dims);
+      bucket_x[size_t(i)] = uint16_t(q % width);
+      bucket_y[size_t(i)] = uint16_t(q / width);
+    }
+  });
+  const int radius = params.neighbourhood / 2;
+  const int num_textons = int(bucket_start.size()) - 1;
+  constexpr int kQueryBlock = 64;
+
+  // Queries are grouped by texton: a block of up to 64 pixels of texton t shares one candidate set
+  // (t's bucket, then the buckets of t's nearest textons, up to max_candidates; buckets too big for the
+  // remaining budget are sampled with a stride so candidates spread over the whole sample). Distances
+  // of a block to its candidates are one small GEMM: |c|² + |q|² − 2 c·q.
+  tbb::parallel_for(tbb::blocked_range<int>(0, num_textons, 1), [&](const tbb::blocked_range<int>& range) {
+    std::vector<int32_t> candidates;  // positions in bucket order
+    Eigen::MatrixXf candidate_matrix, products;
+    Eigen::VectorXf candidate_norms;
+    for (int t = range.begin(); t < range.end(); ++t) {
+      if (cancel && cancel->load(std::memory_order_relaxed)) return;
+      const int32_t own_begin = bucket_start[size_t(t)], own_end = bucket_start[size_t(t) + 1];
+      for (int32_t block = own_begin; block < own_end; block += kQueryBlock) {
+        const int block_size = std::min<int32_t>(kQueryBlock, own_end - block);
+        candidates.clear();
+        Rng rng(params.seed ^ splitmix64(uint64_t(t)), uint64_t(block));
+        const int32_t* order = textons.nearest(t);
+        for (int j = 0; j < textons.list_length && int(candidates.size()) < params.max_candidates; ++j) {
+          const int32_t begin = bucket_start[size_t(order[j])], count = bucket_start[size_t(order[j]) + 1] - begin;
+          const int32_t budget = std::min<int32_t>(count, params.max_candidates - int32_t(candidates.size()));
+          const double stride = double(count) / double(std::max(budget, 1));
+          const double phase = budget < count ? rng.uniform() : 0.0;
+          for (int32_t i = 0; i < budget; ++i) candidates.push_back(begin + int32_t((i + phase) * stride));
         }
-        examined += budget;
-      }
-      for (int i = 0; i < best.size; ++i) {
-        map.targets[size_t(p) * k + i] = best.target[i];
-        distances[size_t(p) * k + i] = best.distance[i];
+        const int c_n = int(candidates.size());
+        if (c_n == 0) continue;
+        candidate_matrix.resize(dims, c_n);
+        for (int c = 0; c < c_n; ++c)
+          std::copy_n(bucket_features.data() + size_t(candidates[size_t(c)]) * dims, dims, candidate_matrix.col(c).data());
+        candidate_norms = candidate_matrix.colwise().squaredNorm().transpose();
+        const Eigen::Map<const Eigen::MatrixXf> queries(bucket_features.data() + size_t(block) * dims, dims, block_size);
+        // partial(c, q) = |c|² − 2 c·q; adding |q|² gives the squared distance (constant per query).
+        products.noalias() = candidate_matrix.transpose() * queries;  // c_n × block_size
+        products = (products * -2.0f).colwise() + candidate_norms;
+        for (int qi = 0; qi < block_size; ++qi) {
+          const size_t query_at = size_t(block + qi);
+          const int px = bucket_x[query_at], py = bucket_y[query_at];
+          const float query_norm = queries.col(qi).squaredNorm();
+          const float* partial = products.col(qi).data();
+          TopK best(k);
+          float threshold = std::numeric_limits<float>::max();
+          for (int c = 0; c < c_n; ++c) {
+            if (!(partial[c] < threshold)) continue;
+            const float d = partial[c] + query_norm;
+            const size_t at = size_t(candidates[size_t(c)]);
+            if (std::max(axis_distance(px, bucket_x[at], width, params.tileable),
+                         axis_distance(py, bucket_y[at], height, params.tileable)) <= radius)
+              continue;
+            best.offer(int32_t(at), d);
+            if (best.size == k) threshold = best.worst() - query_norm;
+          }
+          // Exact distances for the winners (the GEMM form loses precision to cancellation).
+          TopK exact(k);
+          const float* query = bucket_features.data() + query_at * dims;
+          for (int i = 0; i < best.size; ++i)
+            exact.offer(bucket_pixels[size_t(best.target[i])],
+                        squared_distance(query, bucket_features.data() + size_t(best.target[i]) * dims, dims));
+          const int64_t p = bucket_pixels[query_at];
+          for (int i = 0; i < exact.size; ++i) {
+            map.targets[size_t(p) * k + i] = exact.target[i];
+            distances[size_t(p) * k + i] = exact.distance[i];
+          }
+        }
       }
     }
   });

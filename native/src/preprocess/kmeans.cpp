@@ -25,85 +25,130 @@ void check_cancel(const std::atomic<bool>* cancel) {
   if (cancel && cancel->load(std::memory_order_relaxed)) throw Cancelled();
 }
 
+struct Nearest {
+  int label;
+  float distance;       // to the nearest centre
+  float second_bound;   // lower bound on the distance to any other centre
+};
+
 // Exact nearest centre, pruned by the triangle inequality around the guessed centre.
-int nearest_centre(const float* x, const float* centres, int k, int dims, const CentreIndex& index, int guess) {
-  const float guess_sq = squared_distance(x, centres + size_t(guess) * dims, dims);
-  const float guess_dist = std::sqrt(guess_sq);
+Nearest nearest_centre(const float* x, const float* centres, int k, int dims, const CentreIndex& index, int guess) {
+  const float guess_dist = std::sqrt(squared_distance(x, centres + size_t(guess) * dims, dims));
   int best = guess;
-  float best_sq = guess_sq, best_dist = guess_dist;
+  float best_dist = guess_dist, second_dist = std::numeric_limits<float>::max();
+  auto consider = [&](int c) {
+    const float d = std::sqrt(squared_distance(x, centres + size_t(c) * dims, dims));
+    if (d < best_dist || (d == best_dist && c < best)) {
+      second_dist = best_dist;
+      best = c;
+      best_dist = d;
+    } else if (d < second_dist) {
+      second_dist = d;
+    }
+  };
   const int32_t* order = index.nearest(guess);
   const float* between = index.nearest_distance(guess);
   for (int j = 1; j < index.list_length; ++j) {
-    // Any centre c' with |c - c'| >= |x - c| + |x - best| is no closer than best (small slack for rounding).
-    if (between[j] > (guess_dist + best_dist) * 1.0001f + 1e-6f) return best;
-    const int c = order[j];
-    const float d = squared_distance(x, centres + size_t(c) * dims, dims);
-    if (d < best_sq || (d == best_sq && c < best)) {
-      best = c;
-      best_sq = d;
-      best_dist = std::sqrt(d);
-    }
+    // Any centre c' with |c - c'| >= |x - c| + |x - best| is no closer than best (small slack for rounding);
+    // every unscanned centre is at least |c - c'| - |x - c| away.
+    if (between[j] > (guess_dist + best_dist) * 1.0001f + 1e-6f)
+      return {best, best_dist, std::min(second_dist, between[j] - guess_dist) * 0.9999f};
+    consider(order[j]);
   }
-  if (index.list_length == k) return best;
-  for (int c = 0; c < k; ++c) {  // list exhausted: finish exactly by brute force
-    const float d = squared_distance(x, centres + size_t(c) * dims, dims);
-    if (d < best_sq || (d == best_sq && c < best)) {
-      best = c;
-      best_sq = d;
-    }
+  if (index.list_length < k) {  // list exhausted: finish exactly by brute force
+    second_dist = std::numeric_limits<float>::max();
+    for (int c = 0; c < k; ++c)
+      if (c != best) consider(c);
   }
-  return best;
+  return {best, best_dist, second_dist * 0.9999f};
 }
+
+// Per-point bounds (Hamerly): upper >= distance to the own centre, lower <= distance to any other.
+// After centres move, upper grows by the own centre's drift and lower shrinks by the largest drift;
+// a point with upper <= lower provably keeps its label and costs no distance computation.
+struct PointBounds {
+  std::vector<float> upper, lower;
+};
 
 // Assigns every point; labels[i] < 0 means "no previous label" (guess the previous point's).
 // Returns how many labels changed.
 int64_t assign_all(const Features& points, const std::vector<float>& centres, int k, const CentreIndex& index,
-                   std::vector<int32_t>& labels) {
+                   std::vector<int32_t>& labels, PointBounds& bounds) {
   const int64_t n = points.count;
+  const int dims = points.dims;
   return tbb::parallel_reduce(
       tbb::blocked_range<int64_t>(0, n, kChunk), int64_t(0),
       [&](const tbb::blocked_range<int64_t>& r, int64_t changed) {
         int previous = 0;
         for (int64_t i = r.begin(); i < r.end(); ++i) {
           const int old = labels[size_t(i)];
-          const int label =
-              nearest_centre(points.row(i), centres.data(), k, points.dims, index, old >= 0 ? old : previous);
-          if (label != old) ++changed;
-          labels[size_t(i)] = label;
-          previous = label;
+          const float* x = points.row(i);
+          if (old >= 0) {
+            float& upper = bounds.upper[size_t(i)];
+            if (upper <= bounds.lower[size_t(i)]) continue;
+            upper = std::sqrt(squared_distance(x, centres.data() + size_t(old) * dims, dims));
+            if (upper <= bounds.lower[size_t(i)]) continue;
+          }
+          const Nearest found = nearest_centre(x, centres.data(), k, dims, index, old >= 0 ? old : previous);
+          if (found.label != old) ++changed;
+          labels[size_t(i)] = found.label;
+          bounds.upper[size_t(i)] = found.distance;
+          bounds.lower[size_t(i)] = found.second_bound;
+          previous = found.label;
         }
         return changed;
       },
       [](int64_t a, int64_t b) { return a + b; }, tbb::simple_partitioner());
 }
 
-// Centres = means of their members (summed in index order, in double). Empty clusters are reseeded
-// with a pseudo-random point derived from (seed, iteration, cluster).
-void update_centres(const Features& points, const std::vector<int32_t>& labels, int k, uint64_t seed, int iteration,
-                    std::vector<float>& centres) {
-  std::vector<int32_t> start, members;
-  build_buckets(labels, k, start, members);
-  const int dims = points.dims;
-  tbb::parallel_for(tbb::blocked_range<int>(0, k, 16), [&](const tbb::blocked_range<int>& r) {
-    std::vector<double> sum(static_cast<size_t>(dims), 0.0);
-    for (int c = r.begin(); c < r.end(); ++c) {
-      float* centre = centres.data() + size_t(c) * dims;
-      const int32_t begin = start[size_t(c)], end = start[size_t(c) + 1];
-      if (begin == end) {
+// Running per-cluster sums (double) so each Lloyd step only touches the points that changed cluster.
+// All updates run sequentially in point order: bit-identical whatever the thread count.
+class ClusterSums {
+ public:
+  ClusterSums(int k, int dims) : k_(k), dims_(dims), sums_(size_t(k) * dims, 0.0), counts_(size_t(k), 0) {}
+
+  void add_all(const Features& points, const std::vector<int32_t>& labels) {
+    for (int64_t i = 0; i < points.count; ++i) move(points.row(i), -1, labels[size_t(i)]);
+  }
+  void apply_changes(const Features& points, const std::vector<int32_t>& before, const std::vector<int32_t>& after) {
+    for (int64_t i = 0; i < points.count; ++i)
+      if (before[size_t(i)] != after[size_t(i)]) move(points.row(i), before[size_t(i)], after[size_t(i)]);
+  }
+  // Centres = means; an empty cluster is reseeded at a pseudo-random point from (seed, iteration, cluster).
+  void write_centres(const Features& points, uint64_t seed, int iteration, std::vector<float>& centres) const {
+    for (int c = 0; c < k_; ++c) {
+      float* centre = centres.data() + size_t(c) * dims_;
+      if (counts_[size_t(c)] == 0) {
         Rng rng(seed, splitmix64(uint64_t(iteration) * 0x10001ull + uint64_t(c)));
         const float* p = points.row(int64_t(rng.below(uint32_t(points.count))));
-        std::copy(p, p + dims, centre);
+        std::copy(p, p + dims_, centre);
         continue;
       }
-      std::fill(sum.begin(), sum.end(), 0.0);
-      for (int32_t m = begin; m < end; ++m) {
-        const float* p = points.row(members[size_t(m)]);
-        for (int d = 0; d < dims; ++d) sum[size_t(d)] += p[d];
-      }
-      const double inv = 1.0 / double(end - begin);
-      for (int d = 0; d < dims; ++d) centre[d] = float(sum[size_t(d)] * inv);
+      const double inv = 1.0 / double(counts_[size_t(c)]);
+      for (int d = 0; d < dims_; ++d) centre[d] = float(sums_[size_t(c) * dims_ + d] * inv);
     }
-  });
+  }
+
+ private:
+  void move(const float* x, int from, int to) {
+    if (from >= 0) {
+      --counts_[size_t(from)];
+      for (int d = 0; d < dims_; ++d) sums_[size_t(from) * dims_ + d] -= x[d];
+    }
+    ++counts_[size_t(to)];
+    for (int d = 0; d < dims_; ++d) sums_[size_t(to) * dims_ + d] += x[d];
+  }
+  int k_, dims_;
+  std::vector<double> sums_;
+  std::vector<int64_t> counts_;
+};
+
+// Centres = means of the labelled points (one-off, from scratch).
+void update_centres(const Features& points, const std::vector<int32_t>& labels, int k, uint64_t seed, int iteration,
+                    std::vector<float>& centres) {
+  ClusterSums sums(k, points.dims);
+  sums.add_all(points, labels);
+  sums.write_centres(points, seed, iteration, centres);
 }
 
 // k-means++ seeding (Arthur & Vassilvitskii) on the given points.
@@ -147,16 +192,42 @@ std::vector<float> seed_centres(const Features& points, int k, uint64_t seed, co
 int lloyd(const Features& points, int k, uint64_t seed, double change_fraction, int max_iterations,
           std::vector<float>& centres, std::vector<int32_t>& labels, double& last_change,
           const std::atomic<bool>* cancel) {
+  PointBounds bounds;
+  bounds.upper.assign(size_t(points.count), 0.0f);
+  bounds.lower.assign(size_t(points.count), 0.0f);
+  std::vector<float> previous_centres;
+  std::vector<float> drift(static_cast<size_t>(k));
+  ClusterSums sums(k, points.dims);
+  std::vector<int32_t> previous_labels;
   int iteration = 0;
   for (;; ++iteration) {
     check_cancel(cancel);
     const CentreIndex index =
         build_centre_index(centre_distance_table(centres, k, points.dims), k, std::min(k, kMaxListLength));
     const bool first = labels[0] < 0;
-    const int64_t changed = assign_all(points, centres, k, index, labels);
+    previous_labels = labels;
+    const int64_t changed = assign_all(points, centres, k, index, labels, bounds);
     last_change = double(changed) / double(points.count);
     if ((!first && last_change <= change_fraction) || iteration >= max_iterations) break;
-    update_centres(points, labels, k, seed, iteration, centres);
+    previous_centres = centres;
+    if (first) {
+      sums.add_all(points, labels);
+    } else {
+      sums.apply_changes(points, previous_labels, labels);
+    }
+    sums.write_centres(points, seed, iteration, centres);
+    float max_drift = 0.0f;
+    for (int c = 0; c < k; ++c) {
+      drift[size_t(c)] = std::sqrt(squared_distance(centres.data() + size_t(c) * points.dims,
+                                                    previous_centres.data() + size_t(c) * points.dims, points.dims));
+      max_drift = std::max(max_drift, drift[size_t(c)]);
+    }
+    tbb::parallel_for(tbb::blocked_range<int64_t>(0, points.count, kChunk), [&](const tbb::blocked_range<int64_t>& r) {
+      for (int64_t i = r.begin(); i < r.end(); ++i) {
+        bounds.upper[size_t(i)] += drift[size_t(labels[size_t(i)])] * 1.0001f + 1e-6f;
+        bounds.lower[size_t(i)] -= max_drift * 1.0001f + 1e-6f;
+      }
+    });
   }
   return iteration;
 }
@@ -192,7 +263,8 @@ CentreIndex build_centre_index(const std::vector<float>& squared_distance_table,
         if (a == c || b == c) return a == c && b != c;  // the centre itself first
         return row[a] < row[b] || (row[a] == row[b] && a < b);
       };
-      std::partial_sort(all.begin(), all.begin() + len, all.end(), closer);
+      if (len < k) std::nth_element(all.begin(), all.begin() + len, all.end(), closer);
+      std::sort(all.begin(), all.begin() + len, closer);
       for (int j = 0; j < len; ++j) {
         index.order[size_t(c) * len + j] = all[size_t(j)];
         index.distance[size_t(c) * len + j] = std::sqrt(row[all[size_t(j)]]);

@@ -2,6 +2,7 @@
 #include "texsynth/preprocess/preprocess.hpp"
 
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <filesystem>
 #include <stdexcept>
@@ -24,8 +25,9 @@ int resolved_num_textons(const PreprocessParams& params, int64_t pixel_count) {
 void validate_preprocess(const PreprocessParams& params, int width, int height) {
   auto bad = [](const std::string& what) { throw std::invalid_argument(what); };
   const int n = params.neighbourhood;
-  if (n < 3 || n % 2 == 0 || n > 63)
-    bad("neighbourhood must be an odd number between 3 and 63, got " + std::to_string(n));
+  if (n < 3 || n % 2 == 0 || n > kMaxNeighbourhood)
+    bad("neighbourhood must be an odd number between 3 and " + std::to_string(kMaxNeighbourhood) + ", got " +
+        std::to_string(n));
   if (width < n || height < n)
     bad("sample " + std::to_string(width) + "x" + std::to_string(height) + " is smaller than the " +
         std::to_string(n) + "x" + std::to_string(n) + " neighbourhood");
@@ -39,8 +41,9 @@ void validate_preprocess(const PreprocessParams& params, int width, int height) 
   if (params.jump_candidates < 1 || params.jump_candidates > kMaxJumpCandidates)
     bad("jump_candidates must be between 1 and " + std::to_string(kMaxJumpCandidates) + ", got " +
         std::to_string(params.jump_candidates));
-  if (params.feature_dims < 0 || params.feature_dims > 4096)
-    bad("feature_dims must be between 0 (full) and 4096, got " + std::to_string(params.feature_dims));
+  if (params.feature_dims < 0 || params.feature_dims > kMaxFeatureDims)
+    bad("feature_dims must be between 0 (full) and " + std::to_string(kMaxFeatureDims) + ", got " +
+        std::to_string(params.feature_dims));
   if (!(params.kmeans_change_fraction >= 0.0 && params.kmeans_change_fraction <= 1.0))
     bad("kmeans_change_fraction must be within [0, 1]");
   if (params.kmeans_max_iterations < 1 || params.kmeans_max_iterations > 10000)
@@ -52,19 +55,29 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
   validate_image(image);
   validate_preprocess(params, image.width, image.height);
   const int k = resolved_num_textons(params, image.pixel_count());
+  const int full_dims = full_feature_dims(image, params.neighbourhood);
+  const int dims = params.feature_dims > 0 && params.feature_dims < full_dims ? params.feature_dims : full_dims;
+  if (double(image.pixel_count()) * dims > double(kMaxFeatureValues))
+    throw std::invalid_argument("features of " + std::to_string(dims) + " dimensions for " +
+                                std::to_string(image.pixel_count()) +
+                                " pixels exceed the memory limit (1 GB); use fewer feature_dims or a smaller sample");
   PreprocessStats local_stats;
   if (!stats) stats = &local_stats;
   auto clock = std::chrono::steady_clock::now();
-  auto lap = [&clock](double& into) {
+  std::clock_t cpu_clock = std::clock();
+  auto lap = [&](double& wall, double& cpu) {
     const auto now = std::chrono::steady_clock::now();
-    into = std::chrono::duration<double>(now - clock).count();
+    const std::clock_t cpu_now = std::clock();
+    wall = std::chrono::duration<double>(now - clock).count();
+    cpu = double(cpu_now - cpu_clock) / CLOCKS_PER_SEC;
     clock = now;
+    cpu_clock = cpu_now;
   };
 
   const Features features =
       compute_features(image, params.neighbourhood, params.feature_dims, params.tileable, params.seed);
   if (cancel && cancel->load()) throw Cancelled();
-  lap(stats->features_seconds);
+  lap(stats->features_seconds, stats->features_cpu);
 
   KMeansParams km;
   km.num_clusters = k;
@@ -74,7 +87,7 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
   KMeansResult clusters = kmeans(features, km, cancel);
   stats->kmeans_full_iterations = clusters.iterations;
   stats->kmeans_last_change = clusters.last_change_fraction;
-  lap(stats->kmeans_seconds);
+  lap(stats->kmeans_seconds, stats->kmeans_cpu);
 
   Preprocessed out;
   out.width = image.width;
@@ -94,10 +107,10 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
   jp.tileable = params.tileable;
   jp.seed = params.seed;
   const CentreIndex index = build_centre_index(out.texton_distances, k, std::min(k, 64));
-  lap(stats->tables_seconds);
+  lap(stats->tables_seconds, stats->tables_cpu);
   out.jump_map = build_jump_map(features, out.width, out.height, out.texton_map, out.bucket_start, out.bucket_pixels,
                                 index, jp, cancel);
-  lap(stats->jump_map_seconds);
+  lap(stats->jump_map_seconds, stats->jump_map_cpu);
   return out;
 }
 

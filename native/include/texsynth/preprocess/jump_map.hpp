@@ -4,9 +4,12 @@
 // excluding pixels within Chebyshev distance n/2 (periodic when tileable), so a jump always
 // lands somewhere new.
 //
-// Search index: the textons themselves. Candidates are the pixels of the pixel's own texton bucket,
-// then of the textons nearest to it (texton distance table), until `max_candidates` pixels were
-// examined (large buckets are entered at a per-pixel pseudo-random offset to avoid spatial bias).
+// Search index: the textons themselves. Pixels are processed texton by texton in blocks of 64; a block's
+// candidates are its own texton bucket, then the buckets of the nearest textons (texton distance table),
+// up to `max_candidates` pixels; a bucket larger than the remaining budget is sampled with a stride (random
+// phase per block) so candidates spread over the whole sample. Block-to-candidate distances are one small
+// GEMM; the k winners' distances are recomputed exactly. (bench_preprocess compares this with exact
+// brute force and with an hnswlib HNSW index.)
 //
 // Weights: w_i = exp(-d_i / sigma), d_i the squared feature distance and sigma the median over all
 // pixels of their best jump's distance (a typical best match weighs e^-1). If sum w_i > 1 the

@@ -14,6 +14,11 @@ namespace texsynth {
 // Largest K accepted: the K×K distance table must stay small (8192² floats = 256 MB).
 constexpr int kMaxTextons = 8192;
 constexpr int kMaxJumpCandidates = 32;
+// Larger windows make the PCA eigen-solve (dimension n²·channels) impractically slow.
+constexpr int kMaxNeighbourhood = 25;
+constexpr int kMaxFeatureDims = 2500;  // = 25² · 4 channels, the largest full dimension
+// Feature values held in memory at once (floats): 1 GB.
+constexpr int64_t kMaxFeatureValues = int64_t(1) << 28;
 
 // K actually used: params.num_textons, or round(sqrt(pixels)) when 0 (at least 1).
 int resolved_num_textons(const PreprocessParams& params, int64_t pixel_count);
@@ -21,9 +26,11 @@ int resolved_num_textons(const PreprocessParams& params, int64_t pixel_count);
 // Throws std::invalid_argument naming the problem (even/small n, image smaller than n, K > pixels, ...).
 void validate_preprocess(const PreprocessParams& params, int width, int height);
 
-// Where the time went (seconds), for benchmarks.
+// Where the time went, for benchmarks: wall-clock seconds, and process CPU seconds (all threads; less
+// sensitive to other processes competing for the cores).
 struct PreprocessStats {
   double features_seconds = 0, kmeans_seconds = 0, tables_seconds = 0, jump_map_seconds = 0;
+  double features_cpu = 0, kmeans_cpu = 0, tables_cpu = 0, jump_map_cpu = 0;
   int kmeans_full_iterations = 0;
   double kmeans_last_change = 0;
 };
