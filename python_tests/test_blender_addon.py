@@ -35,3 +35,12 @@ def test_enabling_without_native_module_does_not_fail(tmp_path):
     output = process.stdout + process.stderr
     assert process.returncode == 0, output[-3000:]
     assert "REASON native module missing" in output, output[-3000:]
+
+
+def test_addon_suite_on_the_contract_double():
+    """The same suite against fake_native.py: the add-on's I/O checked independently of the synthesizer."""
+    process = blender_run.blender("--python", os.path.join(blender_run.BLENDER_TESTS, "tests_addon.py"),
+                                  env={"TEXSYNTH_FAKE_NATIVE": "1"})
+    output = process.stdout + process.stderr
+    assert "NATIVE fake" in output
+    assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-6000:]
