@@ -207,19 +207,10 @@ def clear(mesh):
 
 def read_image_pixels(image):
     """A bpy image (file, generated or packed) as float32 H x W x C, row 0 = top."""
-    width, height = int(image.size[0]), int(image.size[1])
-    if width == 0 or height == 0 or not image.has_data and not _load_image(image):
+    width, height = int(image.size[0]), int(image.size[1])  # reading the size loads file/packed buffers
+    if width == 0 or height == 0 or not image.has_data:
         raise pipeline.SettingsError("image %r could not be loaded (missing or unreadable file?)" % image.name)
-    width, height = int(image.size[0]), int(image.size[1])
     channels = int(image.channels)
     pixels = np.empty(width * height * channels, dtype=np.float32)
     image.pixels.foreach_get(pixels)
     return pipeline.blender_pixels_to_image(pixels, width, height, channels)
-
-
-def _load_image(image):
-    try:
-        image.pixels[0]  # forces Blender to load the buffer
-    except (IndexError, RuntimeError):
-        return False
-    return image.has_data

@@ -1,10 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Small helpers hiding Blender-version-dependent API (3.4 ... 4.x)."""
+"""Small helpers hiding Blender-version-dependent API (3.4 ... 4.x).
+
+The blend group sums weighted colours with Vector Math nodes (same in 3.x and 4.x), so it needs no
+MixRGB / Mix node switch."""
 import os
 
 import bpy
-
-BLENDER_4 = bpy.app.version >= (4, 0, 0)
 
 
 def group_socket_names(group, in_out):
@@ -38,22 +39,6 @@ def separate_color_outputs(node):
     """The three channel outputs of new_separate_color_node()."""
     names = ("Red", "Green", "Blue") if node.bl_idname == "ShaderNodeSeparateColor" else ("R", "G", "B")
     return [node.outputs[name] for name in names]
-
-
-def new_mix_color_node(nodes, blend_type="MIX"):
-    """A colour mix node and its (factor, color1, color2, result) sockets: ShaderNodeMix (3.4+) or MixRGB."""
-    if hasattr(bpy.types, "ShaderNodeMix"):
-        node = nodes.new("ShaderNodeMix")
-        node.data_type = "RGBA"
-        node.blend_type = blend_type
-        return node, node.inputs[0], node.inputs[6], node.inputs[7], node.outputs[2]
-    node = nodes.new("ShaderNodeMixRGB")
-    node.blend_type = blend_type
-    return node, node.inputs[0], node.inputs[1], node.inputs[2], node.outputs[0]
-
-
-def principled_base_color_input(node):
-    return node.inputs["Base Color"]
 
 
 def import_mesh_file(path):

@@ -2,7 +2,7 @@
 """Operators: Preprocess, Synthesize (all selected mesh objects), Clear."""
 import bpy
 
-from . import compat, native, pipeline, properties, synthesis
+from . import compat, pipeline, properties, synthesis
 
 # Last known cache status per sample description, shown by the panel.
 cache_status_by_sample = {}

@@ -1,6 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """bpy-free core of the add-on (addon/pipeline.py, addon/native.py), under plain pytest."""
-import os
 
 import numpy as np
 import pytest

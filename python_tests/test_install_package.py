@@ -8,7 +8,6 @@ import zipfile
 import pytest
 
 import addon_package
-import blender_run
 
 ROOT = addon_package.ROOT
 
