@@ -478,6 +478,23 @@ def test_panel_draws_without_native_module():
         native._module, native._reason, native._tried = saved
 
 
+def test_settings_persist_in_the_blend_file():
+    clean()
+    image = bpy.data.images.load(BRICKS)
+    configure(sample_source="IMAGE", sample_image=image, scale=2.5, seed=42, jump_rate=7.5, orientation="ANCHORS",
+              direction_attribute="flow", blend=False, allow_oversized=True, material_mode="INSERT")
+    path = os.path.join(tempfile.mkdtemp(), "settings.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    assert bpy.context.scene.texsynth.seed == 0
+    bpy.ops.wm.open_mainfile(filepath=path)
+    props = bpy.context.scene.texsynth
+    assert (props.sample_source, props.sample_image.name, props.scale, props.seed, props.jump_rate) == \
+        ("IMAGE", "bricks.png", 2.5, 42, 7.5)
+    assert (props.orientation, props.direction_attribute, props.blend, props.allow_oversized,
+            props.material_mode) == ("ANCHORS", "flow", False, True, "INSERT")
+
+
 class RecordingLayout:
     """Stands in for a UILayout (none exists in background mode): records what draw() shows."""
 
