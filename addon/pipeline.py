@@ -294,8 +294,7 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale):
     if not settings.blend:
         # Without blending the native single set is the base mapping with weight 1: write the base only.
         result.update(num_blend_sets=0, blend_uv=None, blend_weights=None)
-    check_result(result, mesh_arrays.num_corners)
-    return result
+    return result  # validated by bridge.write_result before anything is written
 
 
 def _require_direction(mesh_arrays, settings):
@@ -330,11 +329,12 @@ def weights_rgba(result, num_corners):
     without weights then gets all-zero weights and the node group falls back to the base mapping.
     Unused channels are 0 (alpha 1)."""
     sets = int(result["num_blend_sets"])
+    if sets == 4:  # the common case: one contiguous copy, then flip the alpha column
+        rgba = np.array(result["blend_weights"], dtype=np.float32, order="C", copy=True)
+        np.subtract(1.0, rgba[:, 3], out=rgba[:, 3])
+        return rgba.ravel()
     rgba = np.zeros((num_corners, 4), dtype=np.float32)
     rgba[:, 3] = 1.0
     if sets:
-        weights = np.asarray(result["blend_weights"], dtype=np.float32)
-        rgba[:, :min(sets, 3)] = weights[:, :3]
-        if sets == 4:
-            rgba[:, 3] = 1.0 - weights[:, 3]
+        rgba[:, :sets] = result["blend_weights"]
     return rgba.ravel()
