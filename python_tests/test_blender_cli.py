@@ -93,3 +93,36 @@ def test_oversized_faces_and_unknown_mesh_type_exit_1(tmp_path):
     odd = tmp_path / "mesh.xyz"
     odd.write_text("0 0 0\n")
     run_failing("--sample", BRICKS, "--mesh", str(odd), code=1, fragment="unsupported mesh file type")
+
+
+TETRA_VERTS = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+TETRA_FACES = [(0, 2, 1), (0, 1, 3), (1, 2, 3), (0, 3, 2)]
+
+
+def write_tetrahedron(path):
+    """The same 4-triangle tetrahedron as .obj, ASCII .ply or ASCII .stl."""
+    if path.suffix == ".obj":
+        lines = ["v %g %g %g" % v for v in TETRA_VERTS] + ["f %d %d %d" % tuple(i + 1 for i in f) for f in TETRA_FACES]
+    elif path.suffix == ".ply":
+        lines = ["ply", "format ascii 1.0", "element vertex 4", "property float x", "property float y",
+                 "property float z", "element face 4", "property list uchar int vertex_indices", "end_header"]
+        lines += ["%g %g %g" % v for v in TETRA_VERTS] + ["3 %d %d %d" % f for f in TETRA_FACES]
+    else:
+        lines = ["solid tetra"]
+        for face in TETRA_FACES:
+            lines += ["facet normal 0 0 0", "outer loop"] + ["vertex %g %g %g" % TETRA_VERTS[i] for i in face] + \
+                     ["endloop", "endfacet"]
+        lines.append("endsolid tetra")
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".ply", ".stl"])
+def test_mesh_importers(tmp_path, suffix):
+    mesh = tmp_path / ("tetra" + suffix)
+    write_tetrahedron(mesh)
+    stats_path = tmp_path / "stats.json"
+    process = blender_run.cli("--sample", BRICKS, "--mesh", str(mesh), "--scale", "4", "--stats", str(stats_path))
+    assert process.returncode == 0, process.stdout[-2000:] + process.stderr[-2000:]
+    stats = json.loads(stats_path.read_text())
+    assert stats["faces"] == 4 and stats["corners"] == 12
+    assert stats["vertices"] in (4, 12)  # STL stores unshared triangle corners
