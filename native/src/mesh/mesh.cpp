@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "texsynth/common/errors.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 
 namespace texsynth {
@@ -66,7 +67,7 @@ void for_each_poly_edge(const Mesh& m, F&& f) {
   }
 }
 
-void build_one_rings(Mesh& m) {
+void build_one_rings(Mesh& m, const std::atomic<bool>* cancel) {
   const int32_t nv = m.num_vertices;
   // Directed half-edges in both directions, bucketed by source vertex, then deduplicated per vertex.
   std::vector<int32_t> start(size_t(nv) + 1, 0);
@@ -77,8 +78,10 @@ void build_one_rings(Mesh& m) {
     std::vector<int32_t> fill(start.begin(), start.end() - 1);
     for_each_poly_edge(m, [&](int32_t a, int32_t b) { ring[fill[a]++] = b, ring[fill[b]++] = a; });
   }
+  throw_if_cancelled(cancel);
   std::vector<int32_t> unique_count(nv);
   tbb::parallel_for(tbb::blocked_range<int32_t>(0, nv, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+    throw_if_cancelled(cancel);
     for (int32_t v = r.begin(); v < r.end(); ++v) {
       int32_t* b = ring.data() + start[v];
       int32_t* e = ring.data() + start[v + 1];
@@ -152,8 +155,9 @@ int32_t Mesh::max_poly_size() const {
   return best;
 }
 
-Mesh build_mesh(const PolyMeshInput& in, const float* normals) {
+Mesh build_mesh(const PolyMeshInput& in, const float* normals, const std::atomic<bool>* cancel) {
   validate(in, normals);
+  throw_if_cancelled(cancel);
   Mesh m;
   m.num_vertices = in.num_vertices;
   m.num_corners = in.num_corners;
@@ -162,8 +166,10 @@ Mesh build_mesh(const PolyMeshInput& in, const float* normals) {
   m.corner_verts = in.corner_verts;
   m.poly_starts = in.poly_starts;
   m.poly_sizes = in.poly_sizes;
-  build_one_rings(m);
+  build_one_rings(m, cancel);
+  throw_if_cancelled(cancel);
   build_normals(m, normals);
+  throw_if_cancelled(cancel);
   build_components(m);
   return m;
 }
