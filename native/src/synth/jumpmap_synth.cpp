@@ -155,10 +155,12 @@ class Synthesizer {
   void measure_faces(SynthStats& st) {
     corner_offset_.resize(size_t(m_.num_corners) * 2);
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+      throw_if_cancelled(p_.cancel);
       for (int32_t poly = r.begin(); poly < r.end(); ++poly) face_offsets(poly, &corner_offset_[2 * size_t(m_.poly_starts[poly])]);
     });
     const double w = pre_.width, h = pre_.height;
     for (int32_t poly = 0; poly < m_.num_polys; ++poly) {
+      if ((poly & 0xFFFF) == 0) throw_if_cancelled(p_.cancel);
       const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
       const int32_t n = m_.poly_sizes[poly];
       double lo_x = 0, hi_x = 0, lo_y = 0, hi_y = 0;
