@@ -181,9 +181,14 @@ class Job:
             try:
                 name = obj.name  # ReferenceError if the object was deleted meanwhile
                 with self.timings.phase("write"):
-                    bridge.write_result(obj.data, result)
+                    snapshot = bridge.write_result(obj.data, result)
                 with self.timings.phase("material"):
-                    shading.apply_material(obj, image, self.material_mode)
+                    try:
+                        bridge.fail_point("material")
+                        shading.apply_material(obj, image, self.material_mode)
+                    except Exception as error:
+                        bridge.restore(obj.data, snapshot)
+                        raise bridge.MeshWriteError("material setup failed (mesh restored): %s" % error) from error
                 self.report.add_object(name, arrays, result.get("stats"))
             except (ValueError, RuntimeError, ReferenceError) as error:
                 self.report.failures.append((getattr(obj, "name", "?"), str(error)))

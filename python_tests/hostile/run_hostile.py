@@ -22,12 +22,20 @@ DEFAULT_TIMEOUT = 60.0
 FAILURES = ("crash", "hang", "partial", "invalid", "unclear", "unexpected")
 
 
-def run_cases(corpus, cases_file, cases):
-    """Returns one dict per case: index, id, outcome (ok | error | crash | hang | partial | ...), detail."""
+def native_worker(corpus, cases_file):
+    return lambda first: [PYTHON, os.path.join(HERE, "worker.py"), corpus, cases_file, str(first)]
+
+
+def run_cases(corpus, cases_file, cases, command=None):
+    """Returns one dict per case: index, id, outcome (ok | error | crash | hang | partial | ...), detail.
+    command(first_index) -> argv of a worker that runs cases[first_index:] printing JSON lines
+    (default: worker.py on texsynth_native); other output lines are ignored."""
+    command = command or native_worker(corpus, cases_file)
     results, index = {}, 0
     while index < len(cases):
-        worker = subprocess.Popen([PYTHON, os.path.join(HERE, "worker.py"), corpus, cases_file, str(index)],
-                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=HERE, text=True)
+        worker = subprocess.Popen(command(index), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, cwd=HERE, text=True,
+                                  errors="replace")
+        output = []
         selector = selectors.DefaultSelector()
         selector.register(worker.stdout, selectors.EVENT_READ)
         running, started = None, time.monotonic()
@@ -43,12 +51,18 @@ def run_cases(corpus, cases_file, cases):
             if not line:  # worker exited
                 code = worker.wait()
                 if running is not None and running not in results:
-                    tail = worker.stderr.read()[-800:]
+                    tail = "".join(output[-12:])[-1200:]
                     results[running] = dict(outcome="crash", detail="worker exited with %s: %s" % (code, tail))
                     index = running + 1
+                elif running is None:  # died before its first case: nothing more can run
+                    results[index] = dict(outcome="crash", detail="worker failed to start: %s" % "".join(output)[-1200:])
+                    index += 1
                 else:
                     index = len(cases)
                 break
+            if not line.startswith("{"):
+                output.append(line)
+                continue
             message = json.loads(line)
             if "start" in message:
                 running, started = message["start"], time.monotonic()
