@@ -2,6 +2,72 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
-namespace py = pybind11;
+#include "field_args.hpp"
+#include "texsynth/mesh/mesh.hpp"
+#include "texsynth/preprocess/preprocessed.hpp"
+#include "texsynth/synth/jumpmap_synth.hpp"
 
-void bind_synth(py::module_& m) { (void)m; }
+namespace py = pybind11;
+using namespace texsynth_py;
+
+void bind_synth(py::module_& m) {
+  m.def(
+      "synthesize_jumpmap",
+      [](const texsynth::Preprocessed& pre, py::object positions, py::object corner_verts, py::object poly_starts,
+         py::object poly_sizes, double scale, double jump_rate, uint64_t seed, bool blend, const std::string& orientation,
+         py::object axis, py::object direction, py::object anchor_vertices, py::object anchor_directions,
+         py::object sources, py::object sinks, py::object normals, py::object scale_multiplier, bool allow_oversized) {
+        MeshArrays arrays = mesh_arrays(positions, corner_verts, poly_starts, poly_sizes);
+        const int32_t nv = arrays.input.num_vertices;
+        FloatArray normal_array = optional_vectors(normals, nv, "normals");
+        FieldArgs field = field_args(nv, orientation, axis, direction, anchor_vertices, anchor_directions, sources, sinks);
+        FloatArray multiplier;
+        if (!scale_multiplier.is_none()) {
+          multiplier = float_array(scale_multiplier, "scale_multiplier");
+          require_shape(multiplier, {nv}, "scale_multiplier");
+        }
+        texsynth::JumpSynthParams params;
+        params.scale = scale;
+        params.jump_rate = jump_rate;
+        params.seed = seed;
+        params.blend = blend;
+        params.allow_oversized = allow_oversized;
+        params.scale_multiplier = scale_multiplier.is_none() ? nullptr : multiplier.data();
+        texsynth::JumpSynthResult r;
+        {
+          py::gil_scoped_release release;
+          texsynth::Mesh mesh = texsynth::build_mesh(arrays.input, normals.is_none() ? nullptr : normal_array.data());
+          std::vector<float> up = texsynth::compute_orientation_field(mesh, field.params);
+          r = texsynth::synthesize_jumpmap(pre, mesh, up.data(), params);
+        }
+        const py::ssize_t L = r.maps.num_corners, S = r.maps.num_blend_sets;
+        py::dict stats;
+        stats["faces"] = r.stats.faces;
+        stats["vertices"] = r.stats.vertices;
+        stats["corners"] = r.stats.corners;
+        stats["components"] = r.stats.components;
+        stats["jumps"] = r.stats.jumps;
+        stats["fallback_vertices"] = r.stats.fallback_vertices;
+        stats["oversized_faces"] = r.stats.oversized_faces;
+        stats["max_oversize_ratio"] = r.stats.max_oversize_ratio;
+        stats["seconds"] = r.stats.seconds;
+        py::dict out;
+        out["base_uv"] = to_numpy(std::move(r.maps.base_uv), {L, 2});
+        out["blend_uv"] = to_numpy(std::move(r.maps.blend_uv), {S, L, 2});
+        out["blend_weights"] = to_numpy(std::move(r.maps.blend_weights), {L, S});
+        out["num_blend_sets"] = r.maps.num_blend_sets;
+        out["stats"] = stats;
+        return out;
+      },
+      py::arg("pre"), py::arg("positions"), py::arg("corner_verts"), py::arg("poly_starts"), py::arg("poly_sizes"),
+      py::kw_only(), py::arg("scale"), py::arg("jump_rate") = 20.0, py::arg("seed") = 0, py::arg("blend") = true,
+      py::arg("orientation") = "axis", py::arg("axis") = py::make_tuple(0.0, 0.0, 1.0), py::arg("direction") = py::none(),
+      py::arg("anchor_vertices") = py::none(), py::arg("anchor_directions") = py::none(), py::arg("sources") = py::none(),
+      py::arg("sinks") = py::none(), py::arg("normals") = py::none(), py::arg("scale_multiplier") = py::none(),
+      py::arg("allow_oversized") = false,
+      "Jump-map synthesis (Zelinka & Garland 2003) on a Blender-layout mesh. scale = texels per object unit.\n"
+      "Returns dict: base_uv (L, 2), blend_uv (S, L, 2), blend_weights (L, S) float32 (one-hot per corner), "
+      "num_blend_sets S (3 all triangles, 4 otherwise, 1 when blend=False) and stats (faces, vertices, corners, "
+      "components, jumps, fallback_vertices, oversized_faces, max_oversize_ratio, seconds). ValueError on bad input "
+      "and, unless allow_oversized, when faces are larger than the sample at this scale.");
+}

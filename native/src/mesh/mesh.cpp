@@ -1,0 +1,171 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include "texsynth/mesh/mesh.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "texsynth/mesh/vec_math.hpp"
+
+namespace texsynth {
+namespace {
+
+void validate(const PolyMeshInput& in, const float* normals) {
+  if (in.num_vertices < 0 || in.num_corners < 0 || in.num_polys < 0)
+    throw std::invalid_argument("mesh: negative vertex, corner or polygon count");
+  if ((in.num_vertices > 0 && !in.positions) || (in.num_corners > 0 && !in.corner_verts) ||
+      (in.num_polys > 0 && (!in.poly_starts || !in.poly_sizes)))
+    throw std::invalid_argument("mesh: missing positions, corner_verts, poly_starts or poly_sizes data");
+  // Two directed half-edges per corner must fit the int32 CSR offsets.
+  if (in.num_corners > std::numeric_limits<int32_t>::max() / 2)
+    throw std::invalid_argument("mesh: too many corners (" + std::to_string(in.num_corners) + ")");
+  for (int64_t i = 0; i < int64_t(in.num_vertices) * 3; ++i)
+    if (!std::isfinite(in.positions[i]))
+      throw std::invalid_argument("mesh: position of vertex " + std::to_string(i / 3) + " is NaN or infinite");
+  if (normals)
+    for (int64_t i = 0; i < int64_t(in.num_vertices) * 3; ++i)
+      if (!std::isfinite(normals[i]))
+        throw std::invalid_argument("mesh: normal of vertex " + std::to_string(i / 3) + " is NaN or infinite");
+  int64_t expected_start = 0;
+  for (int32_t p = 0; p < in.num_polys; ++p) {
+    if (in.poly_sizes[p] < 3)
+      throw std::invalid_argument("mesh: polygon " + std::to_string(p) + " has " + std::to_string(in.poly_sizes[p]) +
+                                  " corners (need at least 3)");
+    if (in.poly_starts[p] != expected_start)
+      throw std::invalid_argument("mesh: poly_starts[" + std::to_string(p) + "] = " + std::to_string(in.poly_starts[p]) +
+                                  " but polygons must be contiguous (expected " + std::to_string(expected_start) + ")");
+    expected_start += in.poly_sizes[p];
+    if (expected_start > in.num_corners)
+      throw std::invalid_argument("mesh: polygon " + std::to_string(p) + " runs past the last corner (" +
+                                  std::to_string(in.num_corners) + " corners)");
+  }
+  if (expected_start != in.num_corners)
+    throw std::invalid_argument("mesh: polygons cover " + std::to_string(expected_start) + " corners but corner_verts has " +
+                                std::to_string(in.num_corners));
+  for (int32_t c = 0; c < in.num_corners; ++c)
+    if (in.corner_verts[c] < 0 || in.corner_verts[c] >= in.num_vertices)
+      throw std::invalid_argument("mesh: corner " + std::to_string(c) + " references vertex " +
+                                  std::to_string(in.corner_verts[c]) + " (mesh has " + std::to_string(in.num_vertices) +
+                                  " vertices)");
+}
+
+template <class F>
+void for_each_poly_edge(const Mesh& m, F&& f) {
+  for (int32_t p = 0; p < m.num_polys; ++p) {
+    const int32_t* cv = m.corner_verts + m.poly_starts[p];
+    const int32_t n = m.poly_sizes[p];
+    for (int32_t i = 0; i < n; ++i) {
+      int32_t a = cv[i], b = cv[i + 1 == n ? 0 : i + 1];
+      if (a != b) f(a, b);
+    }
+  }
+}
+
+void build_one_rings(Mesh& m) {
+  const int32_t nv = m.num_vertices;
+  // Directed half-edges in both directions, bucketed by source vertex, then deduplicated per vertex.
+  std::vector<int32_t> start(size_t(nv) + 1, 0);
+  for_each_poly_edge(m, [&](int32_t a, int32_t b) { ++start[a + 1], ++start[b + 1]; });
+  for (int32_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<int32_t> ring(start[nv]);
+  {
+    std::vector<int32_t> fill(start.begin(), start.end() - 1);
+    for_each_poly_edge(m, [&](int32_t a, int32_t b) { ring[fill[a]++] = b, ring[fill[b]++] = a; });
+  }
+  std::vector<int32_t> unique_count(nv);
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, nv, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+    for (int32_t v = r.begin(); v < r.end(); ++v) {
+      int32_t* b = ring.data() + start[v];
+      int32_t* e = ring.data() + start[v + 1];
+      std::sort(b, e);
+      unique_count[v] = int32_t(std::unique(b, e) - b);
+    }
+  });
+  m.neighbour_start.assign(size_t(nv) + 1, 0);
+  for (int32_t v = 0; v < nv; ++v) m.neighbour_start[v + 1] = m.neighbour_start[v] + unique_count[v];
+  m.neighbours.resize(m.neighbour_start[nv]);
+  for (int32_t v = 0; v < nv; ++v)
+    std::copy(ring.begin() + start[v], ring.begin() + start[v] + unique_count[v], m.neighbours.begin() + m.neighbour_start[v]);
+}
+
+void build_normals(Mesh& m, const float* given) {
+  const int32_t nv = m.num_vertices;
+  std::vector<double> acc(size_t(nv) * 3, 0.0);
+  for (int32_t p = 0; p < m.num_polys; ++p) {
+    // Newell's vector = 2 × area × unit normal: summing it weights faces by area.
+    const int32_t* cv = m.corner_verts + m.poly_starts[p];
+    const int32_t n = m.poly_sizes[p];
+    const V3 newell = newell_vector(m.positions, cv, n);
+    for (int32_t i = 0; i < n; ++i) {
+      double* a = &acc[3 * size_t(cv[i])];
+      a[0] += newell.x, a[1] += newell.y, a[2] += newell.z;
+    }
+  }
+  m.normals.resize(size_t(nv) * 3);
+  for (int32_t v = 0; v < nv; ++v) {
+    V3 computed = normalized_or(V3{acc[3 * v], acc[3 * v + 1], acc[3 * v + 2]}, V3{0, 0, 1}, 1e-30);
+    V3 nrm = given ? normalized_or(v3(given + 3 * size_t(v)), computed, 1e-30) : computed;
+    store(&m.normals[3 * size_t(v)], nrm);
+  }
+}
+
+void build_components(Mesh& m) {
+  const int32_t nv = m.num_vertices;
+  m.component.assign(nv, -1);
+  std::vector<char> used(nv, 0);
+  for (int32_t c = 0; c < m.num_corners; ++c) used[m.corner_verts[c]] = 1;
+  std::vector<int32_t> stack;
+  int32_t id = 0;
+  for (int32_t s = 0; s < nv; ++s) {
+    if (!used[s] || m.component[s] >= 0) continue;
+    m.component[s] = id;
+    stack.push_back(s);
+    while (!stack.empty()) {
+      int32_t v = stack.back();
+      stack.pop_back();
+      for (int32_t k = m.neighbour_start[v]; k < m.neighbour_start[v + 1]; ++k) {
+        int32_t w = m.neighbours[k];
+        if (m.component[w] < 0) m.component[w] = id, stack.push_back(w);
+      }
+    }
+    ++id;
+  }
+  m.num_components = id;
+}
+
+}  // namespace
+
+bool Mesh::all_triangles() const {
+  for (int32_t p = 0; p < num_polys; ++p)
+    if (poly_sizes[p] != 3) return false;
+  return true;
+}
+
+int32_t Mesh::max_poly_size() const {
+  int32_t best = 0;
+  for (int32_t p = 0; p < num_polys; ++p) best = std::max(best, poly_sizes[p]);
+  return best;
+}
+
+Mesh build_mesh(const PolyMeshInput& in, const float* normals) {
+  validate(in, normals);
+  Mesh m;
+  m.num_vertices = in.num_vertices;
+  m.num_corners = in.num_corners;
+  m.num_polys = in.num_polys;
+  m.positions = in.positions;
+  m.corner_verts = in.corner_verts;
+  m.poly_starts = in.poly_starts;
+  m.poly_sizes = in.poly_sizes;
+  build_one_rings(m);
+  build_normals(m, normals);
+  build_components(m);
+  return m;
+}
+
+}  // namespace texsynth

@@ -1,0 +1,447 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Jump-map synthesis on meshes (Zelinka & Garland §4.2–4.4). See jumpmap_synth.hpp for conventions.
+#include "texsynth/synth/jumpmap_synth.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "texsynth/common/rng.hpp"
+#include "texsynth/mesh/vec_math.hpp"
+
+namespace texsynth {
+namespace {
+
+constexpr double kMaxOffset = 1e9;
+
+struct Box {  // texel-space offsets reachable from a vertex's address through its polygons
+  float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
+};
+
+void validate_preprocessed(const Preprocessed& pre) {
+  if (pre.width <= 0 || pre.height <= 0)
+    throw std::invalid_argument("preprocessed sample has no pixels (" + std::to_string(pre.width) + "x" +
+                                std::to_string(pre.height) + ")");
+  const int64_t pixels = int64_t(pre.width) * pre.height;
+  const int k = pre.jump_map.k;
+  if (pixels > std::numeric_limits<int32_t>::max() || k < 0 || k > 1024)
+    throw std::invalid_argument("preprocessed sample: size or jump count out of range");
+  if (int64_t(pre.jump_map.targets.size()) != pixels * k || int64_t(pre.jump_map.weights.size()) != pixels * k)
+    throw std::invalid_argument("preprocessed jump map has " + std::to_string(pre.jump_map.targets.size()) +
+                                " entries, expected width*height*k = " + std::to_string(pixels * k));
+  for (size_t i = 0; i < pre.jump_map.targets.size(); ++i) {
+    int32_t t = pre.jump_map.targets[i];
+    float w = pre.jump_map.weights[i];
+    if (t < -1 || t >= pixels || !std::isfinite(w) || w < 0.f)
+      throw std::invalid_argument("preprocessed jump map entry " + std::to_string(i) + " is invalid (target " +
+                                  std::to_string(t) + ", weight " + std::to_string(w) + ")");
+  }
+}
+
+void validate_params(const Mesh& m, const float* orientation, const JumpSynthParams& p) {
+  if (!std::isfinite(p.scale) || p.scale <= 0 || p.scale > 1e30)
+    throw std::invalid_argument("scale (texels per object unit) must be finite, > 0 and <= 1e30");
+  if (!(p.jump_rate > 0 && p.jump_rate <= 1e9)) throw std::invalid_argument("jump_rate must be in (0, 1e9]");
+  if (p.max_rejection_draws < 0 || p.max_rejection_draws > 1000)
+    throw std::invalid_argument("max_rejection_draws must be in [0, 1000]");
+  if (!std::isfinite(p.border_ramp)) throw std::invalid_argument("border_ramp must be finite");  // 0 = no ramp
+  if (m.num_vertices > 0 && !orientation) throw std::invalid_argument("orientation field is missing");
+  for (int64_t i = 0; i < int64_t(m.num_vertices) * 3; ++i)
+    if (!std::isfinite(orientation[i]))
+      throw std::invalid_argument("orientation of vertex " + std::to_string(i / 3) + " is NaN or infinite");
+  if (p.scale_multiplier)
+    for (int32_t v = 0; v < m.num_vertices; ++v)
+      if (!std::isfinite(p.scale_multiplier[v]) || p.scale_multiplier[v] <= 0.f)
+        throw std::invalid_argument("scale_multiplier of vertex " + std::to_string(v) + " must be finite and > 0");
+}
+
+class Synthesizer {
+ public:
+  Synthesizer(const Preprocessed& pre, const Mesh& m, const float* orientation, const JumpSynthParams& p)
+      : pre_(pre), m_(m), p_(p), W_(float(pre.width)), H_(float(pre.height)), tileable_(pre.params.tileable) {
+    border_ramp_ = p.border_ramp >= 0 ? float(p.border_ramp) : std::max(1.f, 0.05f * std::min(W_, H_));
+    build_frames(orientation);
+  }
+
+  JumpSynthResult run() {
+    JumpSynthResult r;
+    reach_.assign(m_.num_vertices, Box{});
+    measure_faces(r.stats);
+    if (r.stats.oversized_faces > 0 && !p_.allow_oversized) {
+      std::ostringstream msg;
+      msg << r.stats.oversized_faces << " of " << m_.num_polys << " faces are larger than the " << pre_.width << "x"
+          << pre_.height << " sample at scale " << p_.scale << " texels/unit (worst face " << r.stats.max_oversize_ratio
+          << "x the sample); lower the scale by at least that factor, subdivide those faces, or pass allow_oversized=True";
+      throw std::invalid_argument(msg.str());
+    }
+    VertexOrder order = region_growing_order(m_, p_.seed);
+    walk(order, r.stats);
+    write_corners(r.maps);
+    r.vertex_address.resize(size_t(m_.num_vertices) * 2);
+    for (int32_t v = 0; v < m_.num_vertices; ++v)
+      r.vertex_address[2 * size_t(v)] = state_[v].address[0], r.vertex_address[2 * size_t(v) + 1] = state_[v].address[1];
+    r.stats.faces = m_.num_polys;
+    r.stats.vertices = m_.num_vertices;
+    r.stats.corners = m_.num_corners;
+    r.stats.components = m_.num_components;
+    return r;
+  }
+
+ private:
+  float multiplier(int32_t v) const { return p_.scale_multiplier ? p_.scale_multiplier[v] : 1.f; }
+  V3 pos(int32_t v) const { return v3(m_.positions + 3 * size_t(v)); }
+
+  void build_frames(const float* orientation) {
+    state_.resize(size_t(m_.num_vertices));
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 8192), [&](const tbb::blocked_range<int32_t>& r) {
+      for (int32_t v = r.begin(); v < r.end(); ++v) {
+        V3 n = v3(&m_.normals[3 * size_t(v)]);
+        V3 u = normalized_or(project_to_plane(v3(orientation + 3 * size_t(v)), n), any_perpendicular(n));
+        VertexState& st = state_[v];
+        store(st.up, u);
+        store(st.right, cross(u, n));
+        st.address[0] = st.address[1] = std::numeric_limits<float>::quiet_NaN();
+      }
+    });
+  }
+
+  // Texel offsets of a polygon's corners relative to its corner 0, in the polygon's own frame:
+  // an exact similarity of the polygon's projection onto its plane.
+  void face_offsets(int32_t poly, float* xy) const {
+    const int32_t* cv = m_.corner_verts + m_.poly_starts[poly];
+    const int32_t n = m_.poly_sizes[poly];
+    V3 up_sum;
+    double mult = 0;
+    for (int32_t i = 0; i < n; ++i) {
+      up_sum = up_sum + v3(state_[cv[i]].up);
+      mult += multiplier(cv[i]);
+    }
+    V3 nf = newell_vector(m_.positions, cv, n);
+    const double area2 = norm(nf);
+    if (area2 > 1e-30 && std::isfinite(area2)) {
+      nf = nf * (1.0 / area2);
+    } else {  // zero-area polygon: its vertices' normals, which are always defined
+      V3 normal_sum;
+      for (int32_t i = 0; i < n; ++i) normal_sum = normal_sum + v3(&m_.normals[3 * size_t(cv[i])]);
+      nf = normalized_or(normal_sum, V3{0, 0, 1});
+    }
+    V3 up = normalized_or(project_to_plane(up_sum, nf),
+                          normalized_or(project_to_plane(v3(state_[cv[0]].up), nf), any_perpendicular(nf)));
+    V3 right = cross(up, nf);
+    const double s = p_.scale * mult / n;
+    V3 origin = pos(cv[0]);
+    for (int32_t i = 0; i < n; ++i) {
+      V3 e = pos(cv[i]) - origin;
+      xy[2 * i] = float(dot(e, right) * s);
+      xy[2 * i + 1] = float(-dot(e, up) * s);
+    }
+  }
+
+  // Pass 1: in-face corner offsets (parallel, per polygon), then per-vertex reach boxes
+  // (validity, §4.2.4) and oversized-face statistics.
+  void measure_faces(SynthStats& st) {
+    corner_offset_.resize(size_t(m_.num_corners) * 2);
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+      for (int32_t poly = r.begin(); poly < r.end(); ++poly) face_offsets(poly, &corner_offset_[2 * size_t(m_.poly_starts[poly])]);
+    });
+    const double w = pre_.width, h = pre_.height;
+    for (int32_t poly = 0; poly < m_.num_polys; ++poly) {
+      const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
+      const int32_t n = m_.poly_sizes[poly];
+      double lo_x = 0, hi_x = 0, lo_y = 0, hi_y = 0;
+      for (int32_t i = 0; i < n; ++i) {
+        // Beyond ~1e9 texels float addresses are meaningless; refuse even with allow_oversized.
+        if (!(std::fabs(xy[2 * i]) <= kMaxOffset && std::fabs(xy[2 * i + 1]) <= kMaxOffset))
+          throw std::invalid_argument("scale " + std::to_string(p_.scale) + " makes face " + std::to_string(poly) +
+                                      " span more than 1e9 texels");
+        lo_x = std::min(lo_x, double(xy[2 * i])), hi_x = std::max(hi_x, double(xy[2 * i]));
+        lo_y = std::min(lo_y, double(xy[2 * i + 1])), hi_y = std::max(hi_y, double(xy[2 * i + 1]));
+      }
+      double ratio = std::max((hi_x - lo_x) / w, (hi_y - lo_y) / h);
+      st.max_oversize_ratio = std::max(st.max_oversize_ratio, ratio);
+      if (ratio > 1.0) ++st.oversized_faces;
+      for (int32_t i = 0; i < n; ++i) {
+        Box& b = reach_[m_.corner_verts[m_.poly_starts[poly] + i]];
+        b.min_x = std::min(b.min_x, float(lo_x - xy[2 * i])), b.max_x = std::max(b.max_x, float(hi_x - xy[2 * i]));
+        b.min_y = std::min(b.min_y, float(lo_y - xy[2 * i + 1])), b.max_y = std::max(b.max_y, float(hi_y - xy[2 * i + 1]));
+      }
+    }
+  }
+
+  // Distance (texels) from the reach box placed at (x, y) to the nearest sample border; < 0 = invalid.
+  float border_margin(float x, float y, const Box& b) const {
+    if (tileable_) return std::numeric_limits<float>::infinity();
+    return std::min(std::min(x + b.min_x, W_ - (x + b.max_x)), std::min(y + b.min_y, H_ - (y + b.max_y)));
+  }
+
+  // Texel offset for walking edge a -> b (§4.2.2): the edge projected on the averaged endpoint frames.
+  void edge_offset(int32_t a, int32_t b, float& dx, float& dy) const {
+    const float* pa = m_.positions + 3 * size_t(a);
+    const float* pb = m_.positions + 3 * size_t(b);
+    const float e[3] = {pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]};
+    const float* ua = state_[a].up;
+    const float* ub = state_[b].up;
+    const float* ra = state_[a].right;
+    const float* rb = state_[b].right;
+    float U[3] = {ua[0] + ub[0], ua[1] + ub[1], ua[2] + ub[2]};
+    float R[3] = {ra[0] + rb[0], ra[1] + rb[1], ra[2] + rb[2]};
+    float lu = U[0] * U[0] + U[1] * U[1] + U[2] * U[2];
+    float lr = R[0] * R[0] + R[1] * R[1] + R[2] * R[2];
+    if (!(lu > 1e-6f && lr > 1e-6f)) {  // opposite frames (next to a singularity): use a's frame
+      std::copy(ua, ua + 3, U), std::copy(ra, ra + 3, R);
+      lu = lr = 1.f;
+    }
+    const float s = float(p_.scale) * 0.5f * (multiplier(a) + multiplier(b));
+    dx = (e[0] * R[0] + e[1] * R[1] + e[2] * R[2]) * (s / std::sqrt(lr));
+    dy = -(e[0] * U[0] + e[1] * U[1] + e[2] * U[2]) * (s / std::sqrt(lu));
+  }
+
+  // A uniformly random address whose reach box fits the sample (centred when it cannot fit).
+  void random_address(Rng& rng, const Box& b, float& x, float& y) const {
+    auto pick = [&](float lo, float hi, float size) {
+      float min_pos = -lo, max_pos = size - hi;
+      if (tileable_) return float(rng.uniform() * size);
+      if (max_pos < min_pos) return 0.5f * (min_pos + max_pos);
+      return std::min(max_pos, min_pos + float(rng.uniform()) * (max_pos - min_pos));
+    };
+    x = pick(b.min_x, b.max_x, W_);
+    y = pick(b.min_y, b.max_y, H_);
+  }
+
+  struct Candidate {
+    float x, y, weight;
+    bool jump;
+  };
+
+  // One synthesized neighbour's contribution to a vertex's selection table (§4.2.5): its
+  // continuation and the jump lists of the 4 texels around its address (§4.2.3).
+  struct Source {
+    float cx, cy, continuation;  // continuation address and weight (0 when invalid)
+    int32_t texel[4];            // pixel index, -1 when outside a non-tileable sample
+    float bilinear[4];           // bilinear weight of each texel
+    float texel_weight[4];       // bilinear × the texel's summed jump weights
+  };
+
+  // Pass 2: the walk (§4.2.3–4.2.5). Sequential by nature; one RNG stream, so deterministic.
+  // Drawing from the filtered table is done by rejection: draw among continuations (validated
+  // exactly) and all jump entries, redraw when a drawn jump is invalid. That yields exactly the
+  // filtered distribution without validating every entry; after max_rejection_draws the exact
+  // filtered table is built instead (e.g. next to the border, where most jumps are invalid).
+  void walk(const VertexOrder& order, SynthStats& st) {
+    const int max_draws = p_.max_rejection_draws;
+    const int32_t k = pre_.jump_map.k;
+    const int32_t width = pre_.width, height = pre_.height;
+    const int32_t* targets = pre_.jump_map.targets.data();
+    const float* weights = pre_.jump_map.weights.data();
+    // Summed jump weight per pixel: the draw only looks at entries of the texel it lands in.
+    std::vector<float> pixel_weight(size_t(width) * height, 0.f);
+    for (size_t p = 0; p < pixel_weight.size(); ++p)
+      for (int32_t e = 0; e < k; ++e)
+        if (targets[p * k + e] >= 0) pixel_weight[p] += weights[p * k + e];
+    // Destination of jump entry e of `texel` taken from src: target - source pixel, plus src's address.
+    auto destination = [&](const Source& src, int32_t texel, int32_t e, float& x, float& y) {
+      const int32_t t = targets[size_t(texel) * k + e];
+      x = src.cx + float(t % width - texel % width);
+      y = src.cy + float(t / width - texel / width);
+    };
+    const float rate = float(p_.jump_rate);
+    std::vector<Source> sources;
+    std::vector<Candidate> table;
+    Rng rng(p_.seed, 0x6a756d70);  // "jump"
+    for (int32_t v : order.order) {
+      const Box& box = reach_[v];
+      if (sources.size() < size_t(m_.degree(v))) sources.resize(m_.degree(v));
+      size_t count = 0;
+      double total = 0;
+      for (int32_t kk = m_.neighbour_start[v]; kk < m_.neighbour_start[v + 1]; ++kk) {
+        const int32_t j = m_.neighbours[kk];
+        if (!state_[j].synthesized()) continue;
+        Source& src = sources[count++];
+        float dx, dy;
+        edge_offset(j, v, dx, dy);
+        const float ax = state_[j].address[0], ay = state_[j].address[1];
+        // Continuation ("do not jump"): weight jump_rate / |offset|, ramped down near the border.
+        src.cx = ax + dx, src.cy = ay + dy;
+        const float margin = border_margin(src.cx, src.cy, box);
+        const float len = std::max(std::sqrt(dx * dx + dy * dy), 1e-3f);
+        const float ramp = tileable_ || border_ramp_ <= 0.f ? 1.f : std::min(1.f, margin / border_ramp_);
+        src.continuation = margin >= 0.f ? rate / len * ramp : 0.f;
+        total += src.continuation;
+        // Bilinear floating-point jump look-up at the neighbour's address.
+        const float fx = ax - 0.5f, fy = ay - 0.5f;
+        const float x0 = std::floor(fx), y0 = std::floor(fy);
+        const float tx = fx - x0, ty = fy - y0;
+        for (int corner = 0; corner < 4; ++corner) {
+          int32_t qx = int32_t(x0) + (corner & 1), qy = int32_t(y0) + (corner >> 1);
+          src.bilinear[corner] = ((corner & 1) ? tx : 1.f - tx) * ((corner >> 1) ? ty : 1.f - ty);
+          if (tileable_) {
+            qx = ((qx % width) + width) % width, qy = ((qy % height) + height) % height;
+          } else if (qx < 0 || qy < 0 || qx >= width || qy >= height || k == 0) {
+            src.texel[corner] = -1, src.texel_weight[corner] = 0.f;
+            continue;
+          }
+          src.texel[corner] = qy * width + qx;
+          src.texel_weight[corner] = src.bilinear[corner] * pixel_weight[src.texel[corner]];
+          total += src.texel_weight[corner];
+        }
+      }
+      float x = 0, y = 0;
+      bool chosen = false, jumped = false;
+      for (int draw = 0; draw < max_draws && total > 0 && !chosen; ++draw) {
+        double r = rng.uniform() * total;
+        bool landed = false;  // on a continuation or a jump entry (rounding may leave r past the end)
+        for (size_t i = 0; i < count && !landed; ++i) {
+          const Source& src = sources[i];
+          if (r < src.continuation) {
+            x = src.cx, y = src.cy, chosen = landed = true;
+            break;
+          }
+          r -= src.continuation;
+          for (int corner = 0; corner < 4; ++corner) {
+            if (r >= src.texel_weight[corner]) {
+              r -= src.texel_weight[corner];
+              continue;
+            }
+            const size_t base = size_t(src.texel[corner]) * k;
+            for (int32_t e = 0; e < k; ++e) {
+              const bool used = targets[base + e] >= 0;
+              const double w = used ? double(weights[base + e]) * src.bilinear[corner] : 0.0;
+              if (r < w || e + 1 == k) {
+                chosen = used && w > 0;
+                if (chosen) destination(src, src.texel[corner], e, x, y);
+                chosen = chosen && border_margin(x, y, box) >= 0.f;  // else: rejected, redraw
+                jumped = chosen;
+                landed = true;
+                break;
+              }
+              r -= w;
+            }
+            break;
+          }
+        }
+      }
+      if (!chosen && total > 0) {  // exact filtered table
+        table.clear();
+        double exact_total = 0;
+        auto add = [&](float cx, float cy, float w, bool jump) {
+          if (w > 0.f && border_margin(cx, cy, box) >= 0.f) table.push_back({cx, cy, w, jump}), exact_total += w;
+        };
+        for (size_t i = 0; i < count; ++i) {
+          const Source& src = sources[i];
+          add(src.cx, src.cy, src.continuation, false);
+          for (int corner = 0; corner < 4; ++corner) {
+            if (src.texel_weight[corner] <= 0.f) continue;
+            for (int32_t e = 0; e < k; ++e) {
+              if (targets[size_t(src.texel[corner]) * k + e] < 0) continue;
+              float jx, jy;
+              destination(src, src.texel[corner], e, jx, jy);
+              add(jx, jy, weights[size_t(src.texel[corner]) * k + e] * src.bilinear[corner], true);
+            }
+          }
+        }
+        if (!table.empty()) {
+          double r = rng.uniform() * exact_total;
+          size_t pick = 0;
+          while (pick + 1 < table.size() && r >= table[pick].weight) r -= table[pick++].weight;
+          x = table[pick].x, y = table[pick].y, jumped = table[pick].jump, chosen = true;
+        }
+      }
+      if (!chosen) {
+        random_address(rng, box, x, y);
+        if (count > 0) ++st.fallback_vertices;
+      }
+      if (jumped) ++st.jumps;
+      if (tileable_) {
+        x -= W_ * std::floor(x / W_), y -= H_ * std::floor(y / H_);
+        if (x >= W_) x = 0.f;  // a tiny negative x rounds to exactly W_
+        if (y >= H_) y = 0.f;
+      }
+      state_[v].address[0] = x, state_[v].address[1] = y;
+    }
+  }
+
+  // Pass 3: consistent per-polygon coordinates and blend sets (§4.3–4.4). Each polygon writes only
+  // its own corners, so this is order-independent and runs in parallel.
+  void write_corners(CornerMaps& out) const {
+    const int32_t S = !p_.blend ? 1 : m_.all_triangles() ? 3 : 4;
+    const size_t L = size_t(m_.num_corners);
+    out.num_corners = m_.num_corners;
+    out.num_blend_sets = S;
+    out.base_uv.resize(L * 2);
+    out.blend_uv.resize(size_t(S) * L * 2);
+    out.blend_weights.assign(L * S, 0.f);
+    const uint64_t poly_seed = splitmix64(p_.seed ^ 0x62617365ull);  // "base"
+    const float inv_w = 1.f / W_, inv_h = 1.f / H_;
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 2048), [&](const tbb::blocked_range<int32_t>& range) {
+      for (int32_t poly = range.begin(); poly < range.end(); ++poly) {
+        const int32_t n = m_.poly_sizes[poly];
+        const size_t first = size_t(m_.poly_starts[poly]);
+        const float* xy = &corner_offset_[2 * first];
+        // Writes the polygon's mapping grown from corner `from` into uv (indexed by corner).
+        auto grow = [&](int32_t from, float* uv) {
+          const int32_t v = m_.corner_verts[first + from];
+          const float ax = state_[v].address[0] - xy[2 * from], ay = state_[v].address[1] - xy[2 * from + 1];
+          for (int32_t i = 0; i < n; ++i) {
+            float x = ax + xy[2 * i], y = ay + xy[2 * i + 1];
+            if (!tileable_) x = std::clamp(x, 0.f, W_), y = std::clamp(y, 0.f, H_);
+            uv[2 * (first + i)] = x * inv_w;
+            uv[2 * (first + i) + 1] = 1.f - y * inv_h;
+          }
+        };
+        const int32_t base = int32_t(((splitmix64(poly_seed + uint64_t(poly)) >> 32) * uint64_t(n)) >> 32);
+        grow(base, out.base_uv.data());
+        for (int32_t set = 0; set < S; ++set) {
+          float* uv = out.blend_uv.data() + size_t(set) * L * 2;
+          if (S == 1) {
+            grow(base, uv);
+          } else if (n <= S) {
+            grow(set < n ? set : base, uv);
+          } else {
+            grow(int32_t((int64_t(set) * n + S - 1) / S), uv);
+          }
+        }
+        for (int32_t i = 0; i < n; ++i) {
+          const int32_t set = S == 1 ? 0 : n <= S ? i : int32_t(int64_t(i) * S / n);
+          out.blend_weights[(first + i) * S + set] = 1.f;
+        }
+      }
+    });
+  }
+
+  const Preprocessed& pre_;
+  const Mesh& m_;
+  const JumpSynthParams& p_;
+  const float W_, H_;
+  const bool tileable_;
+  float border_ramp_;
+  // Everything the walk reads per neighbour in one 32-byte record (one cache line, not four).
+  struct VertexState {
+    float up[3], right[3];
+    float address[2];  // texel address; NaN until synthesized
+    bool synthesized() const { return address[0] == address[0]; }
+  };
+  std::vector<VertexState> state_;
+  std::vector<float> corner_offset_;  // per corner: texel offset from its polygon's corner 0 (face frame)
+  std::vector<Box> reach_;
+};
+
+}  // namespace
+
+JumpSynthResult synthesize_jumpmap(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
+                                   const JumpSynthParams& params) {
+  const auto start = std::chrono::steady_clock::now();
+  validate_preprocessed(pre);
+  validate_params(mesh, orientation, params);
+  JumpSynthResult r = Synthesizer(pre, mesh, orientation, params).run();
+  r.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+}  // namespace texsynth
