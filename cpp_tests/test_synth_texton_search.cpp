@@ -45,7 +45,7 @@ TEST(TextonSearch, PlantedNeighbourGivesTheExactContinuingOffset) {
     EXPECT_GE(s.size(), 9u);
     int32_t x = -100, y = -100;
     double err = -1;
-    ASSERT_TRUE(search.search(s, fitting_range(pre, face, 3, phase), 8, 16, 0.05, 1234 + trial, x, y, err));
+    ASSERT_TRUE(search.search(s, fitting_range(pre, face, 3, phase), {}, 1234 + trial, x, y, err));
     EXPECT_EQ(x, int(std::floor(G[0]))) << trial;
     EXPECT_EQ(y, int(std::floor(G[1]))) << trial;
     EXPECT_EQ(err, 0.0);
@@ -106,7 +106,7 @@ void expect_brute_force_minimum(bool tileable) {
     texsynth::TextonSearch search(pre);
     int32_t x, y;
     double err;
-    ASSERT_TRUE(search.search(s, range, 64, 4096, 0.0, trial, x, y, err));
+    ASSERT_TRUE(search.search(s, range, {64, 255, 1 << 20, 0.0}, trial, x, y, err));
     EXPECT_TRUE(x >= range.x0 && x <= range.x1 && y >= range.y0 && y <= range.y1);
     EXPECT_NEAR(err, brute_error(pre, s, x, y), 1e-9);
     if (best < len * double(min_off)) {
@@ -131,7 +131,7 @@ TEST(TextonSearch, NearTiesAreChosenAtRandom) {
   for (uint64_t seed = 0; seed < 40; ++seed) {
     int32_t x, y;
     double err;
-    ASSERT_TRUE(search.search(s, range, 8, 16, 0.05, seed, x, y, err));
+    ASSERT_TRUE(search.search(s, range, {}, seed, x, y, err));
     seen.insert({x, y});
   }
   EXPECT_GT(seen.size(), 30u);
@@ -146,7 +146,7 @@ TEST(TextonSearch, NoVoteInsideTheRangeReturnsFalse) {
   range.x1 = 19, range.y1 = 19;
   int32_t x, y;
   double err;
-  EXPECT_FALSE(search.search(s, range, 8, 16, 0.05, 0, x, y, err));
+  EXPECT_FALSE(search.search(s, range, {}, 0, x, y, err));
 }
 
 }  // namespace

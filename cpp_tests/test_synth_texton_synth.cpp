@@ -138,7 +138,7 @@ TEST(TextonSynth, RandomPlacementHasLargeEdgeErrorSoThePlantedTestCanFail) {
   const auto tm = fixtures::grid(6, 6, 1.0, true);
   texsynth::TextonSynthParams p;
   p.scale = 7.0;
-  p.top_m = 1, p.max_vote_points = 1;
+  p.search.top_m = 1, p.search.max_vote_points = 1;
   const SynthRun r = run(tm, pre, pixels, p);
   double sum = 0;
   for (float e : r.result.edge_error) sum += e;

@@ -38,7 +38,7 @@ void bind_texton(py::module_& m) {
       "synthesize_texton",
       [](const texsynth::Preprocessed& pre, py::object sample_pixels, py::object positions, py::object corner_verts,
          py::object poly_starts, py::object poly_sizes, double scale, uint64_t seed, bool blend, int top_m,
-         int max_vote_points, double tie_tolerance, const std::string& orientation, py::object axis, py::object direction,
+         int max_vote_points, int max_votes, double tie_tolerance, const std::string& orientation, py::object axis, py::object direction,
          py::object anchor_vertices, py::object anchor_directions, py::object sources, py::object sinks,
          py::object normals, py::object scale_multiplier, py::object camera_position, py::object blend_threshold,
          double lambda, bool allow_oversized) {
@@ -57,9 +57,10 @@ void bind_texton(py::module_& m) {
         params.scale = scale;
         params.seed = seed;
         params.blend = blend;
-        params.top_m = top_m;
-        params.max_vote_points = max_vote_points;
-        params.tie_tolerance = tie_tolerance;
+        params.search.top_m = top_m;
+        params.search.max_vote_points = max_vote_points;
+        params.search.max_votes = max_votes;
+        params.search.tie_tolerance = tie_tolerance;
         params.allow_oversized = allow_oversized;
         params.lambda = lambda;
         params.scale_multiplier = scale_multiplier.is_none() ? nullptr : multiplier.data();
@@ -115,7 +116,8 @@ void bind_texton(py::module_& m) {
       },
       py::arg("pre"), py::arg("sample_pixels"), py::arg("positions"), py::arg("corner_verts"), py::arg("poly_starts"),
       py::arg("poly_sizes"), py::kw_only(), py::arg("scale"), py::arg("seed") = 0, py::arg("blend") = true,
-      py::arg("top_m") = 8, py::arg("max_vote_points") = 16, py::arg("tie_tolerance") = 0.05,
+      py::arg("top_m") = 8, py::arg("max_vote_points") = 16, py::arg("max_votes") = 2048,
+      py::arg("tie_tolerance") = 0.05,
       py::arg("orientation") = "axis", py::arg("axis") = py::make_tuple(0.0, 0.0, 1.0), py::arg("direction") = py::none(),
       py::arg("anchor_vertices") = py::none(), py::arg("anchor_directions") = py::none(), py::arg("sources") = py::none(),
       py::arg("sinks") = py::none(), py::arg("normals") = py::none(), py::arg("scale_multiplier") = py::none(),

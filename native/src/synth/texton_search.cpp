@@ -66,50 +66,72 @@ TextonSearch::TextonSearch(const Preprocessed& pre) : pre_(pre) {
   }
 }
 
-bool TextonSearch::search(const TextonString& s, const OriginRange& range, int top_m, int max_vote_points,
-                          double tie_tolerance, uint64_t tie_seed, int32_t& x, int32_t& y, double& error) {
+bool TextonSearch::search(const TextonString& s, const OriginRange& range, const SearchParams& sp, uint64_t tie_seed,
+                          int32_t& x, int32_t& y, double& error) {
   const int32_t W = pre_.width, H = pre_.height;
   const size_t n = s.size();
-  if (n == 0 || top_m < 1 || max_vote_points < 1) return false;
-  // Voting (Fig. 4) over evenly spaced string points; counters indexed by origin.
-  touched_.clear();
-  const size_t voters = std::min(n, size_t(max_vote_points));
+  if (n == 0 || sp.top_m < 1 || sp.max_vote_points < 1 || sp.max_votes < 1) return false;
+  // Voters: the string points with the rarest textons first (smallest buckets: the most telling
+  // and the cheapest), while their buckets fit the vote budget; at least one point, whose bucket
+  // is strided when it alone exceeds the budget. Counters are indexed by origin.
+  auto bucket_size = [&](size_t k) { return size_t(pre_.bucket_start[s.label[k] + 1] - pre_.bucket_start[s.label[k]]); };
+  voters_.resize(n);
+  for (size_t k = 0; k < n; ++k) voters_[k] = uint32_t(k);
+  const size_t max_voters = std::min({n, size_t(sp.max_vote_points), size_t(255)});  // uint8 counters
+  auto rarer = [&](uint32_t a, uint32_t b) {
+    const size_t sa = bucket_size(a), sb = bucket_size(b);
+    return sa != sb ? sa < sb : a < b;
+  };
+  std::partial_sort(voters_.begin(), voters_.begin() + max_voters, voters_.end(), rarer);
+  size_t voters = 0, votes = 0;
+  while (voters < max_voters && (voters == 0 || votes + bucket_size(voters_[voters]) <= size_t(sp.max_votes)))
+    votes += bucket_size(voters_[voters++]);
+  const int32_t step = votes > size_t(sp.max_votes) ? int32_t((votes + sp.max_votes - 1) / sp.max_votes) : 1;
+  if (touched_.size() < votes) touched_.resize(votes);  // every vote may touch a new origin
+  int32_t* touched = touched_.data();
+  size_t nt = 0;
+  const uint32_t span_x = uint32_t(range.x1 - range.x0), span_y = uint32_t(range.y1 - range.y0);
+  const int16_t* bx = bucket_x_.data();
+  const int16_t* by = bucket_y_.data();
   for (size_t j = 0; j < voters; ++j) {
-    const size_t k = voters == n ? j : (2 * j + 1) * n / (2 * voters);
+    const size_t k = voters_[j];
     const int32_t t = s.label[k];
     const int32_t begin = pre_.bucket_start[t], end = pre_.bucket_start[t + 1];
-    const int16_t* bx = bucket_x_.data();
-    const int16_t* by = bucket_y_.data();
     if (range.wrap) {
       const int32_t dx = wrap_index(s.dx[k], W), dy = wrap_index(s.dy[k], H);
-      for (int32_t i = begin; i < end; ++i) {
+      for (int32_t i = begin; i < end; i += step) {
         int32_t ox = bx[i] - dx, oy = by[i] - dy;
         ox += ox < 0 ? W : 0, oy += oy < 0 ? H : 0;
         const int32_t idx = (oy + 1) * stride_ + ox + 1;
-        if (counts_[idx]++ == 0) touched_.push_back(idx);
+        touched[nt] = idx;
+        nt += counts_[idx]++ == 0;
       }
     } else {
       const int32_t dx = s.dx[k], dy = s.dy[k];
-      for (int32_t i = begin; i < end; ++i) {
+      for (int32_t i = begin; i < end; i += step) {
         const int32_t ox = bx[i] - dx, oy = by[i] - dy;
-        if (ox < range.x0 || ox > range.x1 || oy < range.y0 || oy > range.y1) continue;
+        if (uint32_t(ox - range.x0) > span_x || uint32_t(oy - range.y0) > span_y) continue;
         const int32_t idx = (oy + 1) * stride_ + ox + 1;
-        if (counts_[idx]++ == 0) touched_.push_back(idx);
+        touched[nt] = idx;
+        nt += counts_[idx]++ == 0;
       }
     }
   }
-  if (touched_.empty()) return false;
+  if (nt == 0) return false;
   // Top m by (count, seeded hash): the hash spreads count ties over the sample.
   struct Cand {
     uint64_t key;
     int32_t idx;
   };
   Cand best[64];
-  const int m = std::min(top_m, 64);
+  const int m = std::min(sp.top_m, 64);
   int filled = 0;
-  for (int32_t idx : touched_) {
-    const uint64_t key = (uint64_t(counts_[idx]) << 32) | (splitmix64(tie_seed + uint64_t(idx)) >> 32);
+  for (size_t i = 0; i < nt; ++i) {
+    const int32_t idx = touched[i];
+    const uint64_t count = counts_[idx];
     counts_[idx] = 0;
+    if (filled == m && count < (best[m - 1].key >> 32)) continue;  // cheap reject before hashing
+    const uint64_t key = (count << 32) | (splitmix64(tie_seed + uint64_t(idx)) >> 32);
     if (filled == m && key <= best[m - 1].key) continue;
     int pos = filled < m ? filled++ : m - 1;
     while (pos > 0 && best[pos - 1].key < key) best[pos] = best[pos - 1], --pos;
@@ -123,7 +145,7 @@ bool TextonSearch::search(const TextonString& s, const OriginRange& range, int t
     err[i] = string_error(pre_, s, ox, oy, range.wrap);
     min_err = std::min(min_err, err[i]);
   }
-  const double limit = min_err * (1.0 + tie_tolerance);
+  const double limit = min_err * (1.0 + sp.tie_tolerance);
   int ties = 0;
   for (int i = 0; i < filled; ++i) ties += err[i] <= limit;
   int pick = ties > 1 ? int(Rng(tie_seed, 0x74696573).below(uint32_t(ties))) : 0;

@@ -63,9 +63,12 @@ void validate_sample(const Preprocessed& pre, const SampleImage& s) {
 void validate_params(const Mesh& m, const float* orientation, const TextonSynthParams& p) {
   if (!std::isfinite(p.scale) || p.scale <= 0 || p.scale > 1e30)
     throw std::invalid_argument("scale (texels per object unit) must be finite, > 0 and <= 1e30");
-  if (p.top_m < 1 || p.top_m > 64) throw std::invalid_argument("top_m must be in [1, 64]");
-  if (p.max_vote_points < 1 || p.max_vote_points > 4096) throw std::invalid_argument("max_vote_points must be in [1, 4096]");
-  if (!(p.tie_tolerance >= 0 && p.tie_tolerance <= 1e6)) throw std::invalid_argument("tie_tolerance must be in [0, 1e6]");
+  if (p.search.top_m < 1 || p.search.top_m > 64) throw std::invalid_argument("top_m must be in [1, 64]");
+  if (p.search.max_vote_points < 1 || p.search.max_vote_points > 255)
+    throw std::invalid_argument("max_vote_points must be in [1, 255]");
+  if (p.search.max_votes < 1) throw std::invalid_argument("max_votes must be >= 1");
+  if (!(p.search.tie_tolerance >= 0 && p.search.tie_tolerance <= 1e6))
+    throw std::invalid_argument("tie_tolerance must be in [0, 1e6]");
   if (!std::isfinite(p.lambda) || p.lambda < 0) throw std::invalid_argument("lambda_ must be finite and >= 0");
   if (p.has_camera && !(std::isfinite(p.camera[0]) && std::isfinite(p.camera[1]) && std::isfinite(p.camera[2])))
     throw std::invalid_argument("camera_position must be finite");
@@ -366,7 +369,7 @@ class TextonSynthesizer {
     const OriginRange range = origin_range(poly, phase);
     int32_t ox = 0, oy = 0;
     double err = 0;
-    if (predicted && search.search(string, range, p_.top_m, p_.max_vote_points, p_.tie_tolerance, face_seed, ox, oy, err)) {
+    if (predicted && search.search(string, range, p_.search, face_seed, ox, oy, err)) {
       ++st.searched_faces;
     } else if (predicted) {  // nothing voted inside the range: continue the neighbour, clamped into the sample
       ++st.fallback_faces;

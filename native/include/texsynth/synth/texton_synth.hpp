@@ -14,9 +14,11 @@
 // Origins are searched on the integer grid shifted by the fractional part of the origin the first
 // neighbour predicts, so exact continuation is one of the candidates. Offsets are stored as
 // floor(phase + offset), making label look-ups exact integer additions. Voting N[B[S_t[k]] - S_o[k]]
-// over a subsample of at most max_vote_points string points (sparse counters, touched-list reset)
-// gives the top_m origins (count ties broken by a seeded hash); Eq. 2 over the FULL string picks
-// among them, uniformly at random among near-ties (E <= E_min·(1 + tie_tolerance)).
+// (Fig. 4) by at most max_vote_points string points, the rarest textons first (small buckets are
+// the most telling and the cheapest), within a budget of max_votes bucket entries (one point with a
+// strided bucket when even its bucket is larger), into sparse uint8 counters reset through a
+// touched list, gives the top_m origins (count ties broken by a seeded hash); Eq. 2 over the FULL
+// string picks among them, uniformly at random among near-ties (E <= E_min·(1 + tie_tolerance)).
 // Candidates keep the whole polygon inside the sample (wrap when tileable).
 //
 // Blend sets (edge blending, §3.3.1), in the CornerMaps contract (shader: Σ w_s·tex(uv_s) +
@@ -70,15 +72,20 @@ struct SampleImage {
 std::vector<float> edge_continuity_error(const Mesh& mesh, const MeshEdges& edges, const float* base_uv,
                                          const SampleImage& sample, bool tileable);
 
+struct SearchParams {
+  int top_m = 8;             // candidates refined with Eq. 2 (1..64)
+  int max_vote_points = 16;  // string points that vote, rarest textons first (1..255); Eq. 2 uses all
+  int max_votes = 2048;      // vote budget per search (bucket entries visited); >= 1
+  double tie_tolerance = 0.05;  // relative Eq. 2 tolerance for the random near-tie choice (>= 0)
+};
+
 struct TextonSynthParams {
   double scale = 0.0;  // texels per object unit (> 0)
   uint64_t seed = 0;
   bool blend = true;
   const float* scale_multiplier = nullptr;  // optional, num_vertices floats > 0 (borrowed)
   bool allow_oversized = false;
-  int top_m = 8;                 // candidates refined with Eq. 2 (1..4096)
-  int max_vote_points = 16;      // string points that vote (1..4096); Eq. 2 uses all points
-  double tie_tolerance = 0.05;   // relative Eq. 2 tolerance for the random near-tie choice (>= 0)
+  SearchParams search;
   // Blending metric: with has_camera, edge_phi = λ·E_t·d/‖v − m‖; with a finite blend_threshold
   // (needs the camera) only edges with Φ > threshold are blended.
   bool has_camera = false;
@@ -144,14 +151,15 @@ class TextonSearch {
  public:
   explicit TextonSearch(const Preprocessed& pre);
   // Returns false when no string point votes for an origin inside `range`.
-  bool search(const TextonString& s, const OriginRange& range, int top_m, int max_vote_points, double tie_tolerance,
-              uint64_t tie_seed, int32_t& x, int32_t& y, double& error);
+  bool search(const TextonString& s, const OriginRange& range, const SearchParams& params, uint64_t tie_seed,
+              int32_t& x, int32_t& y, double& error);
 
  private:
   const Preprocessed& pre_;
   int32_t stride_ = 0;
-  std::vector<uint16_t> counts_;       // (W+2)*(H+2), origin (x, y) at (y+1)*stride + x+1
+  std::vector<uint8_t> counts_;        // (W+2)*(H+2), origin (x, y) at (y+1)*stride + x+1 (<= 255 voters)
   std::vector<int32_t> touched_;
+  std::vector<uint32_t> voters_;
   std::vector<int16_t> bucket_x_, bucket_y_;  // per bucket_pixels entry
 };
 
