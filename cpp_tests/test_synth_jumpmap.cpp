@@ -203,6 +203,7 @@ TEST(SynthJumpMap, CurvedMeshesAreSimilaritiesWithCorrectScale) {
     expect_inside_sample(r.r);
     expect_blend_sets_consistent(r, pre);
     EXPECT_EQ(r.r.stats.fallback_vertices, 0);
+    EXPECT_EQ(r.r.stats.fallback_faces, 0);
   }
 }
 
@@ -271,6 +272,10 @@ TEST(SynthJumpMap, NoJumpsForcesFallbacksButEverythingStaysInside) {
   auto r = run(grid, pre, p);
   EXPECT_EQ(r.r.stats.jumps, 0);
   EXPECT_GT(r.r.stats.fallback_vertices, 0);
+  // Faces touching a fallback vertex: a triangle holds at most 3 of them, and no vertex of this
+  // grid is on more than 6 triangles.
+  EXPECT_GE(r.r.stats.fallback_faces, r.r.stats.fallback_vertices / 3);
+  EXPECT_LE(r.r.stats.fallback_faces, 6 * r.r.stats.fallback_vertices);
   expect_inside_sample(r.r);
   expect_similarities(r, pre, 1.5, nullptr);
 }

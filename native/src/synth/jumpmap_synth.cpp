@@ -254,6 +254,7 @@ class Synthesizer {
     const float rate = float(p_.jump_rate);
     std::vector<Source> sources;
     std::vector<Candidate> table;
+    std::vector<char> fell_back(m_.num_vertices, 0);
     Rng rng(p_.seed, 0x6a756d70);  // "jump"
     for (int32_t v : order.order) {
       const Box& box = reach_[v];
@@ -355,7 +356,7 @@ class Synthesizer {
       }
       if (!chosen) {
         random_address(rng, box, x, y);
-        if (count > 0) ++st.fallback_vertices;
+        if (count > 0) ++st.fallback_vertices, fell_back[v] = 1;
       }
       if (jumped) ++st.jumps;
       if (tileable_) {
@@ -365,6 +366,13 @@ class Synthesizer {
       }
       state_[v].address[0] = x, state_[v].address[1] = y;
     }
+    if (st.fallback_vertices > 0)
+      for (int32_t poly = 0; poly < m_.num_polys; ++poly)
+        for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i)
+          if (fell_back[m_.corner_verts[m_.poly_starts[poly] + i]]) {
+            ++st.fallback_faces;
+            break;
+          }
   }
 
   // Pass 3: consistent per-polygon coordinates and blend sets (§4.3–4.4). Each polygon writes only
