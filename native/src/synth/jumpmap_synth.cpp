@@ -103,7 +103,9 @@ class Synthesizer {
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 8192), [&](const tbb::blocked_range<int32_t>& r) {
       for (int32_t v = r.begin(); v < r.end(); ++v) {
         V3 n = v3(&m_.normals[3 * size_t(v)]);
-        V3 u = normalized_or(project_to_plane(v3(orientation + 3 * size_t(v)), n), any_perpendicular(n));
+        V3 u = project_to_plane(v3(orientation + 3 * size_t(v)), n);
+        const double len = norm(u);
+        u = len > 1e-12 && std::isfinite(len) ? u * (1.0 / len) : any_perpendicular(n);
         VertexState& st = state_[v];
         store(st.up, u);
         store(st.right, cross(u, n));
@@ -132,8 +134,13 @@ class Synthesizer {
       for (int32_t i = 0; i < n; ++i) normal_sum = normal_sum + v3(&m_.normals[3 * size_t(cv[i])]);
       nf = normalized_or(normal_sum, V3{0, 0, 1});
     }
-    V3 up = normalized_or(project_to_plane(up_sum, nf),
-                          normalized_or(project_to_plane(v3(state_[cv[0]].up), nf), any_perpendicular(nf)));
+    V3 up = project_to_plane(up_sum, nf);
+    const double up_len = norm(up);
+    if (up_len > 1e-12 && std::isfinite(up_len)) {
+      up = up * (1.0 / up_len);
+    } else {  // vertex directions cancel out (next to a singularity): corner 0's, else any
+      up = normalized_or(project_to_plane(v3(state_[cv[0]].up), nf), any_perpendicular(nf));
+    }
     V3 right = cross(up, nf);
     const double s = p_.scale * mult / n;
     V3 origin = pos(cv[0]);
