@@ -15,7 +15,6 @@
 
 #include "texsynth/common/rng.hpp"
 #include "texsynth/mesh/vec_math.hpp"
-#include "texsynth/synth/face_frame.hpp"
 
 namespace texsynth {
 namespace {
@@ -104,7 +103,9 @@ class Synthesizer {
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 8192), [&](const tbb::blocked_range<int32_t>& r) {
       for (int32_t v = r.begin(); v < r.end(); ++v) {
         V3 n = v3(&m_.normals[3 * size_t(v)]);
-        V3 u = normalized_or(project_to_plane(v3(orientation + 3 * size_t(v)), n), any_perpendicular(n));
+        V3 u = project_to_plane(v3(orientation + 3 * size_t(v)), n);
+        const double len = norm(u);
+        u = len > 1e-12 && std::isfinite(len) ? u * (1.0 / len) : any_perpendicular(n);
         VertexState& st = state_[v];
         store(st.up, u);
         store(st.right, cross(u, n));
@@ -116,7 +117,38 @@ class Synthesizer {
   // Texel offsets of a polygon's corners relative to its corner 0, in the polygon's own frame:
   // an exact similarity of the polygon's projection onto its plane.
   void face_offsets(int32_t poly, float* xy) const {
-    face_texel_offsets(m_, poly, [&](int32_t v) { return v3(state_[v].up); }, p_.scale, p_.scale_multiplier, xy);
+    const int32_t* cv = m_.corner_verts + m_.poly_starts[poly];
+    const int32_t n = m_.poly_sizes[poly];
+    V3 up_sum;
+    double mult = 0;
+    for (int32_t i = 0; i < n; ++i) {
+      up_sum = up_sum + v3(state_[cv[i]].up);
+      mult += multiplier(cv[i]);
+    }
+    V3 nf = newell_vector(m_.positions, cv, n);
+    const double area2 = norm(nf);
+    if (area2 > 1e-30 && std::isfinite(area2)) {
+      nf = nf * (1.0 / area2);
+    } else {  // zero-area polygon: its vertices' normals, which are always defined
+      V3 normal_sum;
+      for (int32_t i = 0; i < n; ++i) normal_sum = normal_sum + v3(&m_.normals[3 * size_t(cv[i])]);
+      nf = normalized_or(normal_sum, V3{0, 0, 1});
+    }
+    V3 up = project_to_plane(up_sum, nf);
+    const double up_len = norm(up);
+    if (up_len > 1e-12 && std::isfinite(up_len)) {
+      up = up * (1.0 / up_len);
+    } else {  // vertex directions cancel out (next to a singularity): corner 0's, else any
+      up = normalized_or(project_to_plane(v3(state_[cv[0]].up), nf), any_perpendicular(nf));
+    }
+    V3 right = cross(up, nf);
+    const double s = p_.scale * mult / n;
+    V3 origin = pos(cv[0]);
+    for (int32_t i = 0; i < n; ++i) {
+      V3 e = pos(cv[i]) - origin;
+      xy[2 * i] = float(dot(e, right) * s);
+      xy[2 * i + 1] = float(-dot(e, up) * s);
+    }
   }
 
   // Pass 1: in-face corner offsets (parallel, per polygon), then per-vertex reach boxes
@@ -229,6 +261,7 @@ class Synthesizer {
     const float rate = float(p_.jump_rate);
     std::vector<Source> sources;
     std::vector<Candidate> table;
+    std::vector<char> fell_back(m_.num_vertices, 0);
     Rng rng(p_.seed, 0x6a756d70);  // "jump"
     for (int32_t v : order.order) {
       const Box& box = reach_[v];
@@ -330,7 +363,7 @@ class Synthesizer {
       }
       if (!chosen) {
         random_address(rng, box, x, y);
-        if (count > 0) ++st.fallback_vertices;
+        if (count > 0) ++st.fallback_vertices, fell_back[v] = 1;
       }
       if (jumped) ++st.jumps;
       if (tileable_) {
@@ -340,6 +373,13 @@ class Synthesizer {
       }
       state_[v].address[0] = x, state_[v].address[1] = y;
     }
+    if (st.fallback_vertices > 0)
+      for (int32_t poly = 0; poly < m_.num_polys; ++poly)
+        for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i)
+          if (fell_back[m_.corner_verts[m_.poly_starts[poly] + i]]) {
+            ++st.fallback_faces;
+            break;
+          }
   }
 
   // Pass 3: consistent per-polygon coordinates and blend sets (§4.3–4.4). Each polygon writes only

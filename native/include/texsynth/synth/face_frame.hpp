@@ -4,7 +4,8 @@
 // from its corner 0, an exact similarity of the polygon's projection onto its plane.
 // Rotation: the averaged vertex "up" vectors projected on the polygon plane (Magda & Kriegman
 // §3.2.1); right = up × n (unmirrored, see jumpmap_synth.hpp); scale = scale × mean multiplier.
-// Texel y points down, so an offset e maps to (e·right, -e·up) × scale.
+// Texel y points down, so an offset e maps to (e·right, -e·up) × scale. Same computation as
+// Synthesizer::face_offsets in jumpmap_synth.cpp (which can call this instead).
 #include <cstdint>
 
 #include "texsynth/mesh/mesh.hpp"
@@ -32,8 +33,13 @@ void face_texel_offsets(const Mesh& m, int32_t poly, UpOf&& up_of, double scale,
     for (int32_t i = 0; i < n; ++i) normal_sum = normal_sum + v3(&m.normals[3 * size_t(cv[i])]);
     nf = normalized_or(normal_sum, V3{0, 0, 1});
   }
-  V3 up = normalized_or(project_to_plane(up_sum, nf),
-                        normalized_or(project_to_plane(up_of(cv[0]), nf), any_perpendicular(nf)));
+  V3 up = project_to_plane(up_sum, nf);
+  const double up_len = norm(up);
+  if (up_len > 1e-12 && std::isfinite(up_len)) {
+    up = up * (1.0 / up_len);
+  } else {  // vertex directions cancel out (next to a singularity): corner 0's, else any
+    up = normalized_or(project_to_plane(up_of(cv[0]), nf), any_perpendicular(nf));
+  }
   V3 right = cross(up, nf);
   const double s = scale * mult / n;
   V3 origin = v3(m.positions + 3 * size_t(cv[0]));
