@@ -75,17 +75,21 @@ def _uv_data(layer, num_corners):
     return values
 
 
+def _attribute_snapshot(attribute):
+    is_color = attribute.data_type in ("FLOAT_COLOR", "BYTE_COLOR")
+    values = np.empty(len(attribute.data) * (4 if is_color else 1), dtype=np.float32)
+    key = "color" if is_color else "value"
+    attribute.data.foreach_get(key, values)
+    return (attribute.data_type, attribute.domain, key, values)
+
+
 def _snapshot(mesh):
     """Everything write_result/clear may change, to restore it exactly."""
     num_corners = len(mesh.loops)
-    weights = mesh.attributes.get(pipeline.WEIGHTS_NAME)
-    weights_snapshot = None
-    if weights is not None:
-        values = np.empty(len(weights.data) * (4 if weights.data_type in ("FLOAT_COLOR", "BYTE_COLOR") else 1),
-                          dtype=np.float32)
-        key = "color" if weights.data_type in ("FLOAT_COLOR", "BYTE_COLOR") else "value"
-        weights.data.foreach_get(key, values)
-        weights_snapshot = (weights.data_type, weights.domain, key, values)
+    attributes = {}
+    for name in pipeline.ATTRIBUTE_NAMES:
+        attribute = mesh.attributes.get(name)
+        attributes[name] = _attribute_snapshot(attribute) if attribute is not None else None
     active_color = getattr(mesh.attributes, "active_color", None)
     return {
         "uv_order": [layer.name for layer in mesh.uv_layers],
@@ -93,7 +97,7 @@ def _snapshot(mesh):
                if pipeline.is_texsynth_uv_name(layer.name)},
         "active_uv": mesh.uv_layers.active_index,
         "render_uv": next((i for i, layer in enumerate(mesh.uv_layers) if layer.active_render), -1),
-        "weights": weights_snapshot,
+        "attributes": attributes,
         "active_color": active_color.name if active_color is not None else None,
     }
 
@@ -107,16 +111,17 @@ def _restore(mesh, snapshot):
         layer = mesh.uv_layers.get(name) or mesh.uv_layers.new(name=name, do_init=False)
         layer.data.foreach_set("uv", values)
     _restore_uv_order_flags(mesh, snapshot)
-    weights = mesh.attributes.get(pipeline.WEIGHTS_NAME)
-    if weights is not None and snapshot["weights"] is None:
-        mesh.attributes.remove(weights)
-    elif snapshot["weights"] is not None:
-        data_type, domain, key, values = snapshot["weights"]
-        if weights is None or weights.data_type != data_type or weights.domain != domain:
-            if weights is not None:
-                mesh.attributes.remove(weights)
-            weights = mesh.attributes.new(pipeline.WEIGHTS_NAME, data_type, domain)
-        weights.data.foreach_set(key, values)
+    for name, saved in snapshot["attributes"].items():
+        attribute = mesh.attributes.get(name)
+        if attribute is not None and saved is None:
+            mesh.attributes.remove(attribute)
+        elif saved is not None:
+            data_type, domain, key, values = saved
+            if attribute is None or attribute.data_type != data_type or attribute.domain != domain:
+                if attribute is not None:
+                    mesh.attributes.remove(attribute)
+                attribute = mesh.attributes.new(name, data_type, domain)
+            attribute.data.foreach_set(key, values)
     if snapshot["active_color"] is not None and hasattr(mesh.attributes, "active_color"):
         attribute = mesh.attributes.get(snapshot["active_color"])
         if attribute is not None:
@@ -140,6 +145,7 @@ def write_result(mesh, result):
     """
     num_corners = len(mesh.loops)
     base = pipeline.check_result(result, num_corners)
+    extras = pipeline.corner_attributes(result, num_corners)
     sets = int(result["num_blend_sets"])
     check_capacity(mesh, sets)
     names = pipeline.uv_layer_names(sets)
@@ -166,6 +172,17 @@ def write_result(mesh, result):
             if attribute is None:
                 attribute = mesh.attributes.new(pipeline.WEIGHTS_NAME, "FLOAT_COLOR", "CORNER")
             attribute.data.foreach_set("color", weights)
+        # Per-corner FLOAT attributes of the method (texton: blended edges, E_t); stale ones go.
+        for name in pipeline.EXTRA_ATTRIBUTE_NAMES:
+            attribute = mesh.attributes.get(name)
+            if attribute is not None and (name not in extras or attribute.data_type != "FLOAT"
+                                          or attribute.domain != "CORNER"):
+                mesh.attributes.remove(attribute)
+                attribute = None
+            if name in extras:
+                if attribute is None:
+                    attribute = mesh.attributes.new(name, "FLOAT", "CORNER")
+                attribute.data.foreach_set("value", extras[name])
         # Last: removed layers would come back in another order if a later step failed.
         _remove_uv_layers(mesh, [n for n in texsynth_uv_names(mesh) if n not in names])
         if had_uv:
@@ -194,10 +211,11 @@ def clear(mesh):
     active_name = mesh.uv_layers.active.name if mesh.uv_layers.active else None
     _remove_uv_layers(mesh, names)
     removed = len(names)
-    attribute = mesh.attributes.get(pipeline.WEIGHTS_NAME)
-    if attribute is not None:
-        mesh.attributes.remove(attribute)
-        removed += 1
+    for name in pipeline.ATTRIBUTE_NAMES:
+        attribute = mesh.attributes.get(name)
+        if attribute is not None:
+            mesh.attributes.remove(attribute)
+            removed += 1
     if active_name is not None and mesh.uv_layers.get(active_name) is not None:
         mesh.uv_layers.active_index = list(mesh.uv_layers.keys()).index(active_name)
     if removed:

@@ -98,7 +98,7 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
             sample = sample_from_settings(props)
             with _Progress(context) as progress:
                 report = synthesis.synthesize(objects, sample, props.to_settings(), properties.cache_dir(context),
-                                              props.material_mode, progress)
+                                              props.material_mode, progress, context.scene)
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}

@@ -19,7 +19,8 @@ class TexSynthSettings(bpy.types.PropertyGroup):
     method: bpy.props.EnumProperty(
         name="Method",
         items=(("JUMPMAP", "Jump Map", "Jump-map vertex walk (Zelinka & Garland)"),
-               ("TEXTON", "Texton Strings (not yet)", "Texton-string patch matching: not implemented yet")),
+               ("TEXTON", "Texton Strings", "Texton-string patch matching per face (Magda & Kriegman); "
+                                            "better on structured samples")),
         default="JUMPMAP")
     scale: bpy.props.FloatProperty(name="Scale", subtype="DISTANCE", default=1.0, min=1e-4, soft_max=100.0,
                                    description="World size of the sample's width: one sample spans this many "
@@ -39,6 +40,10 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                                   description="Vertex FLOAT_VECTOR attribute name")
     blend: bpy.props.BoolProperty(name="Blending", default=True,
                                   description="Write blend UV sets and weights that hide patch seams")
+    blend_threshold: bpy.props.FloatProperty(
+        name="Blend Threshold", default=0.0, min=0.0, soft_max=50.0,
+        description="Texton method: blend only edges whose seam, seen from the scene camera, exceeds this "
+                    "(colour error × edge length in pixels); 0 blends every edge")
     allow_oversized: bpy.props.BoolProperty(
         name="Allow Oversized Faces", default=False,
         description="Also map faces larger than the sample at this scale (otherwise they are refused: "
@@ -55,7 +60,8 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                  jump_rate=float(self.jump_rate), blend=bool(self.blend),
                                  orientation=self.orientation, axis=tuple(self.axis),
                                  direction_attribute=self.direction_attribute,
-                                 allow_oversized=bool(self.allow_oversized))
+                                 allow_oversized=bool(self.allow_oversized),
+                                 blend_threshold=float(self.blend_threshold))
 
 
 class TexSynthPreferences(bpy.types.AddonPreferences):

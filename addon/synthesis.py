@@ -79,7 +79,19 @@ def mesh_objects(objects):
     return meshes, skipped
 
 
-def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None):
+def camera_view(scene):
+    """The scene camera as a pipeline.View (world position, λ = render width / field of view), or None."""
+    camera = scene.camera if scene is not None else None
+    if camera is None or camera.type != "CAMERA":
+        return None
+    angle = float(camera.data.angle)  # horizontal field of view for the default sensor fit
+    width = scene.render.resolution_x * scene.render.resolution_percentage / 100.0
+    if not (angle > 0.0) or width <= 0:
+        return None
+    return pipeline.View(position=tuple(camera.matrix_world.translation), pixels_per_radian=width / angle)
+
+
+def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None, scene=None):
     """Synthesizes on every mesh object; returns a pipeline.Report. Raises SettingsError /
     NativeUnavailable / ValueError for problems that concern the whole run (nothing is changed then)."""
     settings.validate()
@@ -95,6 +107,12 @@ def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", p
     report.cache_status = str(getattr(preprocessed, "cache_status", ""))
     image = sample.shader_image()
     scale = pipeline.texels_per_unit(int(preprocessed.width), settings.sample_world_size)
+    pixels = view = None
+    if settings.method == "TEXTON":
+        pixels = pipeline.sample_pixels(sample.native_input())
+        view = camera_view(scene or bpy.context.scene)
+        if settings.blend_threshold > 0.0 and view is None:
+            raise pipeline.SettingsError("a blend threshold needs a scene camera (the blending metric is view-dependent)")
     for index, obj in enumerate(meshes):
         progress((index + 0.1) / len(meshes), "TexSynth: %s (%d/%d)" % (obj.name, index + 1, len(meshes)))
         try:
@@ -105,7 +123,7 @@ def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", p
             bridge.check_capacity(obj.data, pipeline.needed_blend_sets(arrays, settings.blend))
             with timings.phase("synthesis"):
                 result = pipeline.synthesize(preprocessed, arrays, settings,
-                                             pipeline.object_seed(settings.seed, obj.name), scale)
+                                             pipeline.object_seed(settings.seed, obj.name), scale, pixels, view)
             with timings.phase("write"):
                 bridge.write_result(obj.data, result)
             with timings.phase("material"):

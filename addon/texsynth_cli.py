@@ -2,8 +2,8 @@
 """Headless TexSynth for pipelines:
 
   blender -b [scene.blend] --python-exit-code 1 --python addon/texsynth_cli.py -- \\
-      --sample IMAGE (--object NAME | --mesh FILE.obj|.ply|.stl) [--method jumpmap] [--scale S]
-      [--seed N] [--no-blend] [--save OUT.blend] [--render OUT.png] [--resolution W H] [--stats OUT.json]
+      --sample IMAGE (--object NAME | --mesh FILE.obj|.ply|.stl) [--method jumpmap|texton] [--scale S]
+      [--seed N] [--no-blend] [--blend-threshold PHI] [--save OUT.blend] [--render OUT.png] [--resolution W H] [--stats OUT.json]
 
 Exit 0 on success; bad arguments or inputs print one line "texsynth_cli: error: ..." and exit 2
 (arguments) or 1 (inputs, synthesis failures).
@@ -49,6 +49,9 @@ def parse_args(argv):
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--jump-rate", type=float, default=20.0)
     parser.add_argument("--no-blend", action="store_true", help="only the base UV layer, no blend sets")
+    parser.add_argument("--blend-threshold", type=float, default=0.0,
+                        help="texton method: blend only edges whose blending metric from the scene camera "
+                             "exceeds this (0 = every edge)")
     parser.add_argument("--allow-oversized", action="store_true",
                         help="map faces larger than the sample at this scale instead of refusing them")
     parser.add_argument("--material", default="new", choices=["new", "insert", "none"])
@@ -161,7 +164,7 @@ def main(argv):
     objects = find_objects(args, compat)
     settings = pipeline.Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
                                  jump_rate=args.jump_rate, blend=not args.no_blend,
-                                 allow_oversized=args.allow_oversized)
+                                 allow_oversized=args.allow_oversized, blend_threshold=args.blend_threshold)
     try:
         settings.validate()
         report = synthesis.synthesize(objects, synthesis.Sample(path=os.path.abspath(args.sample)), settings,

@@ -34,22 +34,25 @@ class TEXSYNTH_PT_main(bpy.types.Panel):
         layout.label(text="Cache: %s" % operators.cache_status_by_sample.get(key, "unknown"))
 
         layout.prop(props, "method")
-        if props.method != "JUMPMAP":
-            layout.label(text="Texton strings are not implemented yet", icon="ERROR")
         layout.prop(props, "scale")
         layout.prop(props, "seed")
-        layout.prop(props, "jump_rate")
+        if props.method == "JUMPMAP":
+            layout.prop(props, "jump_rate")
         layout.prop(props, "orientation")
         if props.orientation == "AXIS":
             layout.prop(props, "axis")
         else:
             layout.prop(props, "direction_attribute")
         layout.prop(props, "blend")
+        if props.method == "TEXTON" and props.blend:
+            layout.prop(props, "blend_threshold")
+            if props.blend_threshold > 0.0 and context.scene.camera is None:
+                layout.label(text="Blend threshold needs a scene camera", icon="ERROR")
         layout.prop(props, "allow_oversized")
         layout.prop(props, "material_mode")
 
         column = layout.column()
-        column.enabled = not native.reason() and props.method == "JUMPMAP"
+        column.enabled = not native.reason()
         column.scale_y = 1.4
         column.operator("texsynth.synthesize", icon="TEXTURE")
         layout.operator("texsynth.clear", icon="X")
