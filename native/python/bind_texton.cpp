@@ -116,7 +116,7 @@ void bind_texton(py::module_& m) {
       },
       py::arg("pre"), py::arg("sample_pixels"), py::arg("positions"), py::arg("corner_verts"), py::arg("poly_starts"),
       py::arg("poly_sizes"), py::kw_only(), py::arg("scale"), py::arg("seed") = 0, py::arg("blend") = true,
-      py::arg("top_m") = 8, py::arg("max_vote_points") = 16, py::arg("max_votes") = 2048,
+      py::arg("top_m") = 16, py::arg("max_vote_points") = 16, py::arg("max_votes") = 1024,
       py::arg("tie_tolerance") = 0.05,
       py::arg("orientation") = "axis", py::arg("axis") = py::make_tuple(0.0, 0.0, 1.0), py::arg("direction") = py::none(),
       py::arg("anchor_vertices") = py::none(), py::arg("anchor_directions") = py::none(), py::arg("sources") = py::none(),

@@ -41,16 +41,26 @@ void append_edge_string(const Preprocessed& pre, const float o_a[2], const float
   }
 }
 
-double string_error(const Preprocessed& pre, const TextonString& s, int32_t x, int32_t y, bool wrap) {
+namespace {
+
+// Eq. 2, stopping as soon as the sum exceeds `bound` (the caller then only needs "> bound").
+double bounded_string_error(const Preprocessed& pre, const TextonString& s, int32_t x, int32_t y, bool wrap,
+                            double bound) {
   const int32_t W = pre.width, H = pre.height, K = pre.num_textons;
   const float* dist = pre.texton_distances.data();
   double e = 0;
-  for (size_t k = 0; k < s.size(); ++k) {
+  for (size_t k = 0; k < s.size() && e <= bound; ++k) {
     const int32_t px = wrap ? wrap_index(x + s.dx[k], W) : clamp_index(x + s.dx[k], W);
     const int32_t py = wrap ? wrap_index(y + s.dy[k], H) : clamp_index(y + s.dy[k], H);
     e += dist[size_t(pre.texton_map[size_t(py) * W + px]) * K + s.label[k]];
   }
   return e;
+}
+
+}  // namespace
+
+double string_error(const Preprocessed& pre, const TextonString& s, int32_t x, int32_t y, bool wrap) {
+  return bounded_string_error(pre, s, x, y, wrap, std::numeric_limits<double>::infinity());
 }
 
 TextonSearch::TextonSearch(const Preprocessed& pre) : pre_(pre) {
@@ -93,6 +103,9 @@ bool TextonSearch::search(const TextonString& s, const OriginRange& range, const
   const uint32_t span_x = uint32_t(range.x1 - range.x0), span_y = uint32_t(range.y1 - range.y0);
   const int16_t* bx = bucket_x_.data();
   const int16_t* by = bucket_y_.data();
+  // Locals: counters are uint8 (char aliases everything), members would be reloaded every vote.
+  uint8_t* const counts = counts_.data();
+  const int32_t stride = stride_;
   for (size_t j = 0; j < voters; ++j) {
     const size_t k = voters_[j];
     const int32_t t = s.label[k];
@@ -102,18 +115,18 @@ bool TextonSearch::search(const TextonString& s, const OriginRange& range, const
       for (int32_t i = begin; i < end; i += step) {
         int32_t ox = bx[i] - dx, oy = by[i] - dy;
         ox += ox < 0 ? W : 0, oy += oy < 0 ? H : 0;
-        const int32_t idx = (oy + 1) * stride_ + ox + 1;
+        const int32_t idx = (oy + 1) * stride + ox + 1;
         touched[nt] = idx;
-        nt += counts_[idx]++ == 0;
+        nt += counts[idx]++ == 0;
       }
     } else {
       const int32_t dx = s.dx[k], dy = s.dy[k];
       for (int32_t i = begin; i < end; i += step) {
         const int32_t ox = bx[i] - dx, oy = by[i] - dy;
         if (uint32_t(ox - range.x0) > span_x || uint32_t(oy - range.y0) > span_y) continue;
-        const int32_t idx = (oy + 1) * stride_ + ox + 1;
+        const int32_t idx = (oy + 1) * stride + ox + 1;
         touched[nt] = idx;
-        nt += counts_[idx]++ == 0;
+        nt += counts[idx]++ == 0;
       }
     }
   }
@@ -142,7 +155,8 @@ bool TextonSearch::search(const TextonString& s, const OriginRange& range, const
   double min_err = std::numeric_limits<double>::infinity();
   for (int i = 0; i < filled; ++i) {
     const int32_t ox = best[i].idx % stride_ - 1, oy = best[i].idx / stride_ - 1;
-    err[i] = string_error(pre_, s, ox, oy, range.wrap);
+    // Candidates beyond min·(1 + tolerance) can be neither the minimum nor a near-tie: stop early.
+    err[i] = bounded_string_error(pre_, s, ox, oy, range.wrap, min_err * (1.0 + sp.tie_tolerance));
     min_err = std::min(min_err, err[i]);
   }
   const double limit = min_err * (1.0 + sp.tie_tolerance);

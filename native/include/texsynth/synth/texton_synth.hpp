@@ -73,9 +73,9 @@ std::vector<float> edge_continuity_error(const Mesh& mesh, const MeshEdges& edge
                                          const SampleImage& sample, bool tileable);
 
 struct SearchParams {
-  int top_m = 8;             // candidates refined with Eq. 2 (1..64)
+  int top_m = 16;            // candidates refined with Eq. 2 (1..64)
   int max_vote_points = 16;  // string points that vote, rarest textons first (1..255); Eq. 2 uses all
-  int max_votes = 2048;      // vote budget per search (bucket entries visited); >= 1
+  int max_votes = 1024;      // vote budget per search (bucket entries visited); >= 1
   double tie_tolerance = 0.05;  // relative Eq. 2 tolerance for the random near-tie choice (>= 0)
 };
 
