@@ -263,8 +263,30 @@ TEST(TextonSynth, BadInputThrowsAndNamesTheProblem) {
     if (broken.texton_map[px] != 0) broken.bucket_pixels[0] = px;
   EXPECT_NE(message(broken, s, p, up.data()).find("bucket"), std::string::npos);
   broken = pre;
+  broken.texton_map[3] = 99;
+  EXPECT_NE(message(broken, s, p, up.data()).find("texton map"), std::string::npos);
+  broken = pre;
   broken.texton_distances[1] = NAN;
   EXPECT_NE(message(broken, s, p, up.data()).find("distance"), std::string::npos);
+}
+
+// Faces many times the sample with allow_oversized: centred origins far outside the sample never
+// index the vote counters out of bounds, and every UV stays finite and inside [0, 1].
+TEST(TextonSynth, OversizedFacesAreMappedSafely) {
+  for (bool tileable : {false, true}) {
+    const auto pre = fixtures::label_sample(32, 24, 6, tileable);
+    const auto pixels = fixtures::label_colours(pre);
+    fixtures::TestMesh tm;  // a long thin strip of triangles, each ~10x the sample along x
+    for (int i = 0; i <= 6; ++i) tm.add_vertex(10.0 * i, 0, 0), tm.add_vertex(10.0 * i, 0.3, 0);
+    for (int i = 0; i < 6; ++i) tm.add_poly({2 * i, 2 * i + 2, 2 * i + 3}), tm.add_poly({2 * i, 2 * i + 3, 2 * i + 1});
+    texsynth::TextonSynthParams p;
+    p.scale = 30.0;
+    p.allow_oversized = true;
+    const SynthRun r = run(tm, pre, pixels, p);
+    EXPECT_EQ(r.result.stats.oversized_faces, 12);
+    for (float u : r.result.maps.base_uv) EXPECT_TRUE(std::isfinite(u) && (tileable || (u >= 0.f && u <= 1.f)));
+    for (float u : r.result.maps.blend_uv) EXPECT_TRUE(std::isfinite(u));
+  }
 }
 
 }  // namespace

@@ -81,6 +81,12 @@ bool TextonSearch::search(const TextonString& s, const OriginRange& range, const
   const int32_t W = pre_.width, H = pre_.height;
   const size_t n = s.size();
   if (n == 0 || sp.top_m < 1 || sp.max_vote_points < 1 || sp.max_votes < 1) return false;
+  // Counters cover origins [-1, W] x [-1, H] (a face inside the sample has its origin there); an
+  // oversized face's centred range may lie outside: nothing to count then.
+  const OriginRange r = range.wrap ? OriginRange{0, W - 1, 0, H - 1, true}
+                                   : OriginRange{std::max(range.x0, -1), std::min(range.x1, W),
+                                                 std::max(range.y0, -1), std::min(range.y1, H), false};
+  if (r.x1 < r.x0 || r.y1 < r.y0) return false;
   // Voters: the string points with the rarest textons first (smallest buckets: the most telling
   // and the cheapest), while their buckets fit the vote budget; at least one point, whose bucket
   // is strided when it alone exceeds the budget. Counters are indexed by origin.
@@ -100,7 +106,7 @@ bool TextonSearch::search(const TextonString& s, const OriginRange& range, const
   if (touched_.size() < votes) touched_.resize(votes);  // every vote may touch a new origin
   int32_t* touched = touched_.data();
   size_t nt = 0;
-  const uint32_t span_x = uint32_t(range.x1 - range.x0), span_y = uint32_t(range.y1 - range.y0);
+  const uint32_t span_x = uint32_t(r.x1 - r.x0), span_y = uint32_t(r.y1 - r.y0);
   const int16_t* bx = bucket_x_.data();
   const int16_t* by = bucket_y_.data();
   // Locals: counters are uint8 (char aliases everything), members would be reloaded every vote.
@@ -110,7 +116,7 @@ bool TextonSearch::search(const TextonString& s, const OriginRange& range, const
     const size_t k = voters_[j];
     const int32_t t = s.label[k];
     const int32_t begin = pre_.bucket_start[t], end = pre_.bucket_start[t + 1];
-    if (range.wrap) {
+    if (r.wrap) {
       const int32_t dx = wrap_index(s.dx[k], W), dy = wrap_index(s.dy[k], H);
       for (int32_t i = begin; i < end; i += step) {
         int32_t ox = bx[i] - dx, oy = by[i] - dy;
@@ -123,7 +129,8 @@ bool TextonSearch::search(const TextonString& s, const OriginRange& range, const
       const int32_t dx = s.dx[k], dy = s.dy[k];
       for (int32_t i = begin; i < end; i += step) {
         const int32_t ox = bx[i] - dx, oy = by[i] - dy;
-        if (uint32_t(ox - range.x0) > span_x || uint32_t(oy - range.y0) > span_y) continue;
+        // Unsigned differences: no signed overflow even for offsets near the 1e9 limit.
+        if (uint32_t(ox) - uint32_t(r.x0) > span_x || uint32_t(oy) - uint32_t(r.y0) > span_y) continue;
         const int32_t idx = (oy + 1) * stride + ox + 1;
         touched[nt] = idx;
         nt += counts[idx]++ == 0;

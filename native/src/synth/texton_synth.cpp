@@ -37,8 +37,13 @@ void validate_textons(const Preprocessed& pre) {
     if (!std::isfinite(d) || d < 0.f) throw std::invalid_argument("preprocessed texton distance table has a negative or non-finite entry");
   if (pre.bucket_start[0] != 0 || pre.bucket_start[K] != pixels)
     throw std::invalid_argument("preprocessed bucket array does not cover every pixel");
-  for (int64_t t = 0; t < K; ++t) {
+  for (int64_t t = 0; t < K; ++t)
     if (pre.bucket_start[t + 1] < pre.bucket_start[t]) throw std::invalid_argument("preprocessed bucket starts decrease");
+  for (int64_t p = 0; p < pixels; ++p)
+    if (pre.texton_map[p] < 0 || pre.texton_map[p] >= K)
+      throw std::invalid_argument("preprocessed texton map has label " + std::to_string(pre.texton_map[p]) +
+                                  " at pixel " + std::to_string(p) + ", outside [0, " + std::to_string(K) + ")");
+  for (int64_t t = 0; t < K; ++t) {
     for (int32_t i = pre.bucket_start[t]; i < pre.bucket_start[t + 1]; ++i) {
       const int32_t p = pre.bucket_pixels[i];
       if (p < 0 || p >= pixels || pre.texton_map[p] != t)
