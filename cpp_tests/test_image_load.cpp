@@ -108,6 +108,19 @@ TEST(ImageLoad, RejectsBadFilesWithClearMessages) {
   EXPECT_THROW(texsynth::load_image(dir.file("cut.png")), std::invalid_argument);
 }
 
+TEST(ImageLoad, DecodesExtraChannelsButSamplesNeedOneToFour) {
+  texsynth_test::TempDir dir;
+  write_file(dir.file("five.exr"), 12, 12, 5, OIIO::TypeDesc::HALF);
+  const Image image = texsynth::load_image(dir.file("five.exr"));
+  EXPECT_EQ(image.channels, 5);
+  try {
+    texsynth::validate_image(image);
+    FAIL() << "5-channel sample accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("5 channels"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ImageLoad, RejectsNonFinitePixelsInFiles) {
   texsynth_test::TempDir dir;
   std::vector<float> pixels(16 * 16 * 3, 0.5f);

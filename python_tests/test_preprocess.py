@@ -202,3 +202,17 @@ def test_save_and_load_preprocessed(result, tmp_path):
         ts.load_preprocessed(path)
     with pytest.raises(ts.CacheError):
         ts.load_preprocessed(tmp_path / "missing.tscache")
+
+
+def test_color_space_override(sample):
+    # Blender hands over float pixels that may still be sRGB-encoded: color_space="srgb" must make them
+    # identical to the 8-bit sample; "auto" treats float as linear, which changes the result.
+    as_float = sample.astype(np.float32) * np.float32(1 / 255)  # same rounding as the native uint8 path
+    ref = ts.preprocess(sample, num_textons=12)
+    same = ts.preprocess(as_float, num_textons=12, color_space="srgb")
+    linear = ts.preprocess(as_float, num_textons=12)
+    assert same.sample_hash == ref.sample_hash
+    assert np.array_equal(same.texton_map, ref.texton_map)
+    assert linear.sample_hash != ref.sample_hash
+    with pytest.raises(ValueError, match="color_space"):
+        ts.preprocess(sample, color_space="rec2020")

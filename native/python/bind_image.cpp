@@ -21,7 +21,9 @@ std::optional<std::string> as_path(py::handle object) {
   return std::nullopt;
 }
 
-texsynth::Image image_from_python(py::handle object) {
+namespace {
+
+texsynth::Image decode(py::handle object) {
   if (auto path = as_path(object)) {
     py::gil_scoped_release release;
     return texsynth::load_image(*path);
@@ -56,6 +58,17 @@ texsynth::Image image_from_python(py::handle object) {
   const void* data = contiguous.data();
   py::gil_scoped_release release;
   return texsynth::image_from_pixels(data, type, int(width), int(height), int(channels));
+}
+
+}  // namespace
+
+texsynth::Image image_from_python(py::handle object, const std::string& color_space) {
+  if (color_space != "auto" && color_space != "srgb" && color_space != "linear")
+    throw std::invalid_argument("color_space must be \"auto\", \"srgb\" or \"linear\", got \"" + color_space + "\"");
+  texsynth::Image image = decode(object);
+  if (color_space == "srgb") image.encoding = texsynth::ColorEncoding::kSrgb;
+  if (color_space == "linear") image.encoding = texsynth::ColorEncoding::kLinear;
+  return image;
 }
 
 }  // namespace texsynth_python

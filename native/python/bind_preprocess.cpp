@@ -59,7 +59,7 @@ py::dict params_dict(const PreprocessParams& p) {
 
 #define TEXSYNTH_PARAM_ARGS                                                                                  \
   py::kw_only(), py::arg("neighbourhood") = 11, py::arg("num_textons") = 0, py::arg("jump_candidates") = 4, \
-      py::arg("feature_dims") = 16, py::arg("tileable") = false, py::arg("seed") = 0
+      py::arg("feature_dims") = 16, py::arg("tileable") = false, py::arg("seed") = 0, py::arg("color_space") = "auto"
 
 }  // namespace
 
@@ -127,10 +127,10 @@ void bind_preprocess(py::module_& m) {
   m.def(
       "preprocess",
       [](py::object image_arg, int neighbourhood, int num_textons, int jump_candidates, int feature_dims, bool tileable,
-         uint64_t seed, py::object cache_dir) {
+         uint64_t seed, const std::string& color_space, py::object cache_dir) {
         const PreprocessParams params =
             make_params(neighbourhood, num_textons, jump_candidates, feature_dims, tileable, seed);
-        texsynth::Image image = texsynth_python::image_from_python(image_arg);
+        texsynth::Image image = texsynth_python::image_from_python(image_arg, color_space);
         std::optional<std::string> dir;
         if (!cache_dir.is_none()) dir = cache_dir_string(cache_dir);
         py::gil_scoped_release release;
@@ -145,23 +145,23 @@ void bind_preprocess(py::module_& m) {
   m.def(
       "cache_file_path",
       [](py::object image_arg, py::object cache_dir, int neighbourhood, int num_textons, int jump_candidates,
-         int feature_dims, bool tileable, uint64_t seed) {
+         int feature_dims, bool tileable, uint64_t seed, const std::string& color_space) {
         const PreprocessParams params =
             make_params(neighbourhood, num_textons, jump_candidates, feature_dims, tileable, seed);
-        const texsynth::Image image = texsynth_python::image_from_python(image_arg);
+        const texsynth::Image image = texsynth_python::image_from_python(image_arg, color_space);
         return texsynth::cache_file_path(cache_dir_string(cache_dir), texsynth::image_hash(image), params);
       },
       py::arg("image"), py::kw_only(), py::arg("cache_dir"), py::arg("neighbourhood") = 11, py::arg("num_textons") = 0,
       py::arg("jump_candidates") = 4, py::arg("feature_dims") = 16, py::arg("tileable") = false, py::arg("seed") = 0,
-      "Where preprocess(image, cache_dir=..., **params) keeps its cache.");
+      py::arg("color_space") = "auto", "Where preprocess(image, cache_dir=..., **params) keeps its cache.");
 
   m.def(
       "cache_status",
       [](py::object image_arg, py::object cache_dir, int neighbourhood, int num_textons, int jump_candidates,
-         int feature_dims, bool tileable, uint64_t seed) {
+         int feature_dims, bool tileable, uint64_t seed, const std::string& color_space) {
         const PreprocessParams params =
             make_params(neighbourhood, num_textons, jump_candidates, feature_dims, tileable, seed);
-        const texsynth::Image image = texsynth_python::image_from_python(image_arg);
+        const texsynth::Image image = texsynth_python::image_from_python(image_arg, color_space);
         const uint64_t hash = texsynth::image_hash(image);
         const std::string path = texsynth::cache_file_path(cache_dir_string(cache_dir), hash, params);
         py::gil_scoped_release release;
@@ -173,7 +173,7 @@ void bind_preprocess(py::module_& m) {
       },
       py::arg("image"), py::kw_only(), py::arg("cache_dir"), py::arg("neighbourhood") = 11, py::arg("num_textons") = 0,
       py::arg("jump_candidates") = 4, py::arg("feature_dims") = 16, py::arg("tileable") = false, py::arg("seed") = 0,
-      "\"fresh\" | \"missing\" | \"stale\" for the cache preprocess() would use (computes no textons).");
+      py::arg("color_space") = "auto", "\"fresh\" | \"missing\" | \"stale\" for the cache preprocess() would use (computes no textons).");
 
   m.def(
       "load_preprocessed",

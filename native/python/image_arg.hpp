@@ -14,7 +14,8 @@ namespace texsynth_python {
 std::optional<std::string> as_path(pybind11::handle object);
 
 // Path -> decoded file; ndarray (H×W or H×W×C, uint8/uint16/float16/float32) -> pixels.
-// Throws std::invalid_argument (ValueError) naming the problem.
-texsynth::Image image_from_python(pybind11::handle object);
+// color_space: "auto" (integer data sRGB, float data linear), "srgb" or "linear" (e.g. Blender's float
+// pixels of an 8-bit sRGB image are still sRGB-encoded). Throws std::invalid_argument (ValueError).
+texsynth::Image image_from_python(pybind11::handle object, const std::string& color_space = "auto");
 
 }  // namespace texsynth_python

@@ -48,7 +48,9 @@ std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   return input;
 }
 
-void check_dims(int width, int height, int channels, const std::string& where) {
+constexpr int kMaxFileChannels = 64;
+
+void check_dims(int width, int height, int channels, const std::string& where, int max_channels = 4) {
   if (width <= 0 || height <= 0)
     throw std::invalid_argument(where + ": image has no pixels (" + std::to_string(width) + "x" +
                                 std::to_string(height) + ")");
@@ -56,9 +58,9 @@ void check_dims(int width, int height, int channels, const std::string& where) {
     throw std::invalid_argument(where + ": image " + std::to_string(width) + "x" + std::to_string(height) +
                                 " exceeds the limit of " + std::to_string(kMaxImagePixels) +
                                 " pixels (4096x4096); downscale the sample");
-  if (channels < 1 || channels > 4)
+  if (channels < 1 || channels > max_channels)
     throw std::invalid_argument(where + ": image has " + std::to_string(channels) +
-                                " channels; expected 1 (gray), 2 (gray+alpha), 3 (RGB) or 4 (RGBA)");
+                                " channels; samples need 1 (gray), 2 (gray+alpha), 3 (RGB) or 4 (RGBA)");
 }
 
 void check_finite(const std::vector<float>& pixels, int width, int channels, const std::string& where) {
@@ -143,7 +145,8 @@ ImageInfo read_image_info(const std::string& path) {
 Image load_image(const std::string& path) {
   auto input = open_input(path);
   const OIIO::ImageSpec spec = input->spec();
-  check_dims(spec.width, spec.height, spec.nchannels, "image '" + path + "'");
+  // Any channel count decodes; preprocessing (validate_image) then insists on 1-4.
+  check_dims(spec.width, spec.height, spec.nchannels, "image '" + path + "'", kMaxFileChannels);
   if (spec.depth > 1) fail(path, "volume images are not supported");
   Image image;
   image.width = spec.width;
@@ -172,13 +175,13 @@ Image image_from_pixels(const void* data, PixelType type, int width, int height,
   switch (type) {
     case PixelType::kUint8: {
       const auto* src = static_cast<const uint8_t*>(data);
-      for (size_t i = 0; i < count; ++i) image.pixels[i] = src[i] * (1.0f / 255.0f);
+      for (size_t i = 0; i < count; ++i) image.pixels[i] = float(src[i]) * (1.0f / 255.0f);  // same rounding as OpenImageIO
       image.encoding = ColorEncoding::kSrgb;
       break;
     }
     case PixelType::kUint16: {
       const auto* src = static_cast<const uint16_t*>(data);
-      for (size_t i = 0; i < count; ++i) image.pixels[i] = src[i] * (1.0f / 65535.0f);
+      for (size_t i = 0; i < count; ++i) image.pixels[i] = float(src[i]) * (1.0f / 65535.0f);
       image.encoding = ColorEncoding::kSrgb;
       break;
     }

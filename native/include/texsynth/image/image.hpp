@@ -43,7 +43,8 @@ struct ImageInfo {
 // Reads header only. Throws std::invalid_argument naming the path and problem.
 ImageInfo read_image_info(const std::string& path);
 
-// Decodes the first subimage of any OpenImageIO-readable file.
+// Decodes the first subimage of any OpenImageIO-readable file, with all its channels (up to 64;
+// preprocessing accepts 1-4).
 // Throws std::invalid_argument for missing/unreadable/zero-byte/corrupt files, directories,
 // images over the size limit and NaN/Inf pixels.
 Image load_image(const std::string& path);

@@ -1,0 +1,37 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""TexSynth: texture synthesis on meshes without UVs (jump maps), with seam-hiding blend layers.
+
+Light entry point: registration only. The native module is imported lazily (native.py) so enabling
+the add-on never fails because of it; the panel shows why it is unavailable.
+"""
+bl_info = {
+    "name": "TexSynth",
+    "author": "TexSynth contributors",
+    "version": (0, 1, 0),
+    "blender": (3, 4, 0),
+    "location": "3D Viewport > Sidebar > TexSynth",
+    "description": "Synthesize a sample texture over meshes without UVs (per-corner UVs + blend layers)",
+    "category": "Material",
+    "doc_url": "",
+}
+
+import bpy  # noqa: E402
+
+from . import operators, properties, ui  # noqa: E402
+
+classes = properties.classes + operators.classes + ui.classes
+
+
+def register():
+    unregister()  # twice-safe: a half-registered previous run is cleaned first
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.Scene.texsynth = bpy.props.PointerProperty(type=properties.TexSynthSettings)
+
+
+def unregister():
+    if hasattr(bpy.types.Scene, "texsynth"):
+        del bpy.types.Scene.texsynth
+    for cls in reversed(classes):
+        if getattr(cls, "is_registered", False):
+            bpy.utils.unregister_class(cls)

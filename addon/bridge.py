@@ -1,0 +1,216 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""ALL bpy mesh I/O of the add-on: foreach_get/foreach_set on contiguous numpy arrays of matching
+dtypes, no per-element Python loops.
+
+Reads the object's BASE mesh (modifiers are not applied) and sends world-space positions, so the
+native `scale` is texels per world unit and several objects match. Writes the UV layers and the
+weight attribute on the base mesh too: corner UV layers flow through modifiers such as Subdivision,
+Mirror or Array, so the modified result is textured consistently.
+
+Writes are atomic: everything is computed and validated first; if a write still fails, every layer
+created is removed and every layer overwritten is restored, leaving the mesh byte-identical.
+"""
+import numpy as np
+
+from . import pipeline
+
+
+class MeshWriteError(RuntimeError):
+    """Writing failed; the mesh has been restored."""
+
+
+def read_mesh(obj, direction_attribute=""):
+    """MeshArrays of obj's base mesh in world space (positions transformed by matrix_world)."""
+    mesh = obj.data
+    num_vertices, num_corners, num_polys = len(mesh.vertices), len(mesh.loops), len(mesh.polygons)
+    local = np.empty(num_vertices * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", local)
+    corner_verts = np.empty(num_corners, dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", corner_verts)
+    poly_starts = np.empty(num_polys, dtype=np.int32)
+    mesh.polygons.foreach_get("loop_start", poly_starts)
+    poly_sizes = np.empty(num_polys, dtype=np.int32)
+    mesh.polygons.foreach_get("loop_total", poly_sizes)
+
+    matrix = np.array(obj.matrix_world, dtype=np.float64)
+    positions = local.reshape(-1, 3)
+    if not np.array_equal(matrix, np.eye(4)):
+        positions = (positions @ matrix[:3, :3].T.astype(np.float32)) + matrix[:3, 3].astype(np.float32)
+    arrays = pipeline.MeshArrays(np.ascontiguousarray(positions, dtype=np.float32), corner_verts,
+                                 poly_starts, poly_sizes)
+    if direction_attribute:
+        arrays.direction = read_direction(obj, direction_attribute, matrix)
+    return arrays
+
+
+def read_direction(obj, name, matrix=None):
+    """A per-vertex FLOAT_VECTOR attribute rotated to world space, or None if the mesh lacks it."""
+    attribute = obj.data.attributes.get(name)
+    if attribute is None:
+        return None
+    if attribute.domain != "POINT" or attribute.data_type != "FLOAT_VECTOR":
+        raise pipeline.SettingsError("attribute %r must be a vertex (point) vector attribute, it is %s on %s"
+                                     % (name, attribute.data_type, attribute.domain))
+    vectors = np.empty(len(obj.data.vertices) * 3, dtype=np.float32)
+    attribute.data.foreach_get("vector", vectors)
+    vectors = vectors.reshape(-1, 3)
+    if not np.all(np.isfinite(vectors)):
+        raise pipeline.SettingsError("attribute %r contains NaN or infinite vectors" % name)
+    if matrix is None:
+        matrix = np.array(obj.matrix_world, dtype=np.float64)
+    return np.ascontiguousarray(vectors @ matrix[:3, :3].T.astype(np.float32), dtype=np.float32)
+
+
+def texsynth_uv_names(mesh):
+    return [layer.name for layer in mesh.uv_layers if pipeline.is_texsynth_uv_name(layer.name)]
+
+
+def check_capacity(mesh, num_blend_sets):
+    pipeline.check_uv_capacity([layer.name for layer in mesh.uv_layers], num_blend_sets)
+
+
+def _uv_data(layer, num_corners):
+    values = np.empty(num_corners * 2, dtype=np.float32)
+    layer.data.foreach_get("uv", values)
+    return values
+
+
+def _snapshot(mesh):
+    """Everything write_result/clear may change, to restore it exactly."""
+    num_corners = len(mesh.loops)
+    weights = mesh.attributes.get(pipeline.WEIGHTS_NAME)
+    weights_snapshot = None
+    if weights is not None:
+        values = np.empty(len(weights.data) * (4 if weights.data_type in ("FLOAT_COLOR", "BYTE_COLOR") else 1),
+                          dtype=np.float32)
+        key = "color" if weights.data_type in ("FLOAT_COLOR", "BYTE_COLOR") else "value"
+        weights.data.foreach_get(key, values)
+        weights_snapshot = (weights.data_type, weights.domain, key, values)
+    active_color = getattr(mesh.attributes, "active_color", None)
+    return {
+        "uv_order": [layer.name for layer in mesh.uv_layers],
+        "uv": {layer.name: _uv_data(layer, num_corners) for layer in mesh.uv_layers
+               if pipeline.is_texsynth_uv_name(layer.name)},
+        "active_uv": mesh.uv_layers.active_index,
+        "render_uv": next((i for i, layer in enumerate(mesh.uv_layers) if layer.active_render), -1),
+        "weights": weights_snapshot,
+        "active_color": active_color.name if active_color is not None else None,
+    }
+
+
+def _restore(mesh, snapshot):
+    """Puts back TexSynth's layers exactly as in snapshot (foreign layers are never touched)."""
+    for layer in list(mesh.uv_layers):
+        if pipeline.is_texsynth_uv_name(layer.name) and layer.name not in snapshot["uv"]:
+            mesh.uv_layers.remove(layer)
+    for name, values in snapshot["uv"].items():
+        layer = mesh.uv_layers.get(name) or mesh.uv_layers.new(name=name, do_init=False)
+        layer.data.foreach_set("uv", values)
+    _restore_uv_order_flags(mesh, snapshot)
+    weights = mesh.attributes.get(pipeline.WEIGHTS_NAME)
+    if weights is not None and snapshot["weights"] is None:
+        mesh.attributes.remove(weights)
+    elif snapshot["weights"] is not None:
+        data_type, domain, key, values = snapshot["weights"]
+        if weights is None or weights.data_type != data_type or weights.domain != domain:
+            if weights is not None:
+                mesh.attributes.remove(weights)
+            weights = mesh.attributes.new(pipeline.WEIGHTS_NAME, data_type, domain)
+        weights.data.foreach_set(key, values)
+    if snapshot["active_color"] is not None and hasattr(mesh.attributes, "active_color"):
+        attribute = mesh.attributes.get(snapshot["active_color"])
+        if attribute is not None:
+            mesh.attributes.active_color = attribute
+    mesh.update()
+
+
+def _restore_uv_order_flags(mesh, snapshot):
+    if 0 <= snapshot["active_uv"] < len(mesh.uv_layers):
+        mesh.uv_layers.active_index = snapshot["active_uv"]
+    if 0 <= snapshot["render_uv"] < len(mesh.uv_layers):
+        mesh.uv_layers[snapshot["render_uv"]].active_render = True
+
+
+def write_result(mesh, result):
+    """Writes base + blend UV layers and the weight attribute; replaces TexSynth's previous ones.
+
+    Foreign UV maps keep their data and flags; the active/render UV map is not changed unless the
+    mesh had none. Raises SettingsError (too many UV maps) or MeshWriteError (restored) and then
+    leaves the mesh as it was.
+    """
+    num_corners = len(mesh.loops)
+    base = pipeline.check_result(result, num_corners)
+    sets = int(result["num_blend_sets"])
+    check_capacity(mesh, sets)
+    names = pipeline.uv_layer_names(sets)
+    data = [np.ascontiguousarray(base, dtype=np.float32).ravel()]
+    if sets:
+        blend_uv = np.ascontiguousarray(result["blend_uv"], dtype=np.float32)
+        data += [blend_uv[k].ravel() for k in range(sets)]
+    weights = pipeline.weights_rgba(result, num_corners) if sets else None
+
+    snapshot = _snapshot(mesh)
+    had_uv = len(mesh.uv_layers) > 0
+    try:
+        for name, values in zip(names, data):
+            layer = mesh.uv_layers.get(name) or mesh.uv_layers.new(name=name, do_init=False)
+            if layer is None:
+                raise MeshWriteError("Blender refused to create UV map %r" % name)
+            layer.data.foreach_set("uv", values)
+        attribute = mesh.attributes.get(pipeline.WEIGHTS_NAME)
+        if attribute is not None and (weights is None or attribute.data_type != "FLOAT_COLOR"
+                                      or attribute.domain != "CORNER"):
+            mesh.attributes.remove(attribute)
+            attribute = None
+        if weights is not None:
+            if attribute is None:
+                attribute = mesh.attributes.new(pipeline.WEIGHTS_NAME, "FLOAT_COLOR", "CORNER")
+            attribute.data.foreach_set("color", weights)
+        # Last: removed layers would come back in another order if a later step failed.
+        _remove_uv_layers(mesh, [n for n in texsynth_uv_names(mesh) if n not in names])
+        if had_uv:
+            _restore_uv_order_flags(mesh, snapshot)
+        else:
+            mesh.uv_layers.active_index = 0
+            mesh.uv_layers[0].active_render = True
+        mesh.update()
+    except Exception as error:
+        _restore(mesh, snapshot)
+        if isinstance(error, (pipeline.SettingsError, MeshWriteError)):
+            raise
+        raise MeshWriteError("writing TexSynth layers failed (mesh restored): %s" % error) from error
+
+
+def _remove_uv_layers(mesh, names):
+    for name in names:
+        layer = mesh.uv_layers.get(name)
+        if layer is not None:
+            mesh.uv_layers.remove(layer)
+
+
+def clear(mesh):
+    """Removes every TexSynth UV layer and the weight attribute (and nothing else); returns the count."""
+    names = texsynth_uv_names(mesh)
+    active_name = mesh.uv_layers.active.name if mesh.uv_layers.active else None
+    _remove_uv_layers(mesh, names)
+    removed = len(names)
+    attribute = mesh.attributes.get(pipeline.WEIGHTS_NAME)
+    if attribute is not None:
+        mesh.attributes.remove(attribute)
+        removed += 1
+    if active_name is not None and mesh.uv_layers.get(active_name) is not None:
+        mesh.uv_layers.active_index = list(mesh.uv_layers.keys()).index(active_name)
+    if removed:
+        mesh.update()
+    return removed
+
+
+def read_image_pixels(image):
+    """A bpy image (file, generated or packed) as float32 H x W x C, row 0 = top."""
+    width, height = int(image.size[0]), int(image.size[1])  # reading the size loads file/packed buffers
+    if width == 0 or height == 0 or not image.has_data:
+        raise pipeline.SettingsError("image %r could not be loaded (missing or unreadable file?)" % image.name)
+    channels = int(image.channels)
+    pixels = np.empty(width * height * channels, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    return pipeline.blender_pixels_to_image(pixels, width, height, channels)

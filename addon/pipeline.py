@@ -1,0 +1,340 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""bpy-free core of the add-on: settings validation, world scale -> texels, caching policy,
+timings and reports, and the calls into texsynth_native on numpy arrays.
+
+The bpy layer (operators, CLI) converts Blender data to the plain types here and back (bridge.py).
+"""
+import dataclasses
+import math
+import os
+import time
+import zlib
+
+import numpy as np
+
+from . import native
+
+METHODS = ("JUMPMAP", "TEXTON")
+IMPLEMENTED_METHODS = ("JUMPMAP",)
+ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
+MAX_UV_LAYERS = 8  # Blender's hard limit per mesh
+
+BASE_UV_NAME = "TexSynth"
+BLEND_UV_PREFIX = "TexSynth_B"
+WEIGHTS_NAME = "TexSynth_Weights"
+MAX_BLEND_SETS = 4  # the weight attribute is RGBA
+
+
+class SettingsError(ValueError):
+    """A setting or input is unusable; the message names it."""
+
+
+@dataclasses.dataclass
+class Settings:
+    """Everything one Synthesize run needs, independent of where it came from (panel or CLI)."""
+    method: str = "JUMPMAP"
+    sample_world_size: float = 1.0   # world units covered by the sample's width
+    seed: int = 0
+    jump_rate: float = 20.0
+    blend: bool = True
+    orientation: str = "AXIS"
+    axis: tuple = (0.0, 0.0, 1.0)
+    direction_attribute: str = ""    # FIELD: per-vertex vectors; ANCHORS: non-zero vectors mark anchors
+    allow_oversized: bool = False    # map faces larger than the sample anyway (visible stretching/repeats)
+    neighbourhood: int = 11
+    tileable: bool = False
+
+    def validate(self):
+        """Raises SettingsError naming the first bad setting; returns self."""
+        if self.method not in METHODS:
+            raise SettingsError("unknown method %r (choose one of %s)" % (self.method, ", ".join(METHODS)))
+        if self.method not in IMPLEMENTED_METHODS:
+            raise SettingsError("method %r is not implemented yet; use JUMPMAP" % self.method)
+        if not _finite_positive(self.sample_world_size):
+            raise SettingsError("scale must be a positive world size of the sample, got %r" % (self.sample_world_size,))
+        if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0 or self.seed >= 2 ** 63:
+            raise SettingsError("seed must be an integer in [0, 2^63), got %r" % (self.seed,))
+        if not (_finite(self.jump_rate) and self.jump_rate >= 0.0):
+            raise SettingsError("jump rate must be a finite number >= 0, got %r" % (self.jump_rate,))
+        if self.orientation not in ORIENTATIONS:
+            raise SettingsError("unknown orientation %r (choose one of %s)" % (self.orientation, ", ".join(ORIENTATIONS)))
+        if self.orientation == "AXIS":
+            axis = np.asarray(self.axis, dtype=np.float64)
+            if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) < 1e-12:
+                raise SettingsError("orientation axis must be a finite non-zero 3D vector, got %r" % (tuple(self.axis),))
+        elif not self.direction_attribute:
+            raise SettingsError("orientation %s needs the name of a vector attribute on the mesh" % self.orientation)
+        if not isinstance(self.neighbourhood, int) or self.neighbourhood < 3 or self.neighbourhood % 2 == 0:
+            raise SettingsError("neighbourhood must be an odd integer >= 3, got %r" % (self.neighbourhood,))
+        return self
+
+    def preprocess_params(self):
+        """Keyword arguments of texsynth_native.preprocess / cache_status that key the cache."""
+        return {"neighbourhood": self.neighbourhood, "tileable": bool(self.tileable), "seed": 0}
+
+
+def _finite(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _finite_positive(value):
+    return _finite(value) and value > 0.0
+
+
+def texels_per_unit(sample_width, sample_world_size):
+    """Native `scale` (texels per world unit) for a sample whose width spans sample_world_size units."""
+    if not (isinstance(sample_width, (int, np.integer)) and sample_width > 0):
+        raise SettingsError("sample width must be a positive integer, got %r" % (sample_width,))
+    if not _finite_positive(float(sample_world_size)):
+        raise SettingsError("scale must be a positive world size of the sample, got %r" % (sample_world_size,))
+    return float(sample_width) / float(sample_world_size)
+
+
+def object_seed(seed, object_name):
+    """Per-object seed from (seed, name): stable whatever the selection order, distinct per object."""
+    return (int(seed) * 0x9E3779B1 + zlib.crc32(object_name.encode("utf-8"))) % (2 ** 63)
+
+
+def default_cache_dir(base):
+    """Cache folder under a Blender user resource folder (or any base folder)."""
+    return os.path.join(base, "texsynth")
+
+
+def blender_pixels_to_image(flat_pixels, width, height, channels):
+    """Blender's bottom-up float RGBA(...) pixel buffer -> contiguous float32 H x W x C, row 0 = top."""
+    pixels = np.asarray(flat_pixels, dtype=np.float32)
+    if width <= 0 or height <= 0 or channels <= 0 or pixels.size != width * height * channels:
+        raise SettingsError("image buffer has %d values, expected %d x %d x %d"
+                            % (pixels.size, width, height, channels))
+    if not np.all(np.isfinite(pixels)):
+        raise SettingsError("image contains NaN or infinite pixel values")
+    return np.ascontiguousarray(pixels.reshape(height, width, channels)[::-1])
+
+
+# ---------------------------------------------------------------------------------------------
+# Timings and reports
+
+
+class Timings:
+    """Accumulates wall-clock seconds per phase: `with timings.phase("synthesis"): ...`.
+    transfer = read + write (bpy mesh I/O)."""
+    PHASES = ("preprocess", "read", "synthesis", "write", "material")
+
+    def __init__(self):
+        self.seconds = {name: 0.0 for name in self.PHASES}
+        self._start = time.perf_counter()
+
+    def phase(self, name):
+        timings = self
+
+        class _Phase:
+            def __enter__(self):
+                self.start = time.perf_counter()
+
+            def __exit__(self, *exc):
+                timings.seconds[name] = timings.seconds.get(name, 0.0) + time.perf_counter() - self.start
+                return False
+        return _Phase()
+
+    def as_dict(self):
+        result = dict(self.seconds)
+        result["transfer"] = result["read"] + result["write"]
+        result["total"] = time.perf_counter() - self._start
+        return result
+
+
+@dataclasses.dataclass
+class Report:
+    """What one run did and could not do (shown by the operator, written by the CLI)."""
+    objects: list = dataclasses.field(default_factory=list)     # names written
+    failures: list = dataclasses.field(default_factory=list)    # (name, message)
+    faces: int = 0
+    vertices: int = 0
+    corners: int = 0
+    cache_hit: bool = False
+    cache_status: str = ""
+    native_stats: dict = dataclasses.field(default_factory=dict)  # per object name
+    seconds: dict = dataclasses.field(default_factory=dict)
+
+    def add_object(self, name, mesh_arrays, stats):
+        self.objects.append(name)
+        self.faces += mesh_arrays.num_faces
+        self.vertices += mesh_arrays.num_vertices
+        self.corners += mesh_arrays.num_corners
+        self.native_stats[name] = dict(stats or {})
+
+    def summary(self):
+        if not self.objects and self.failures:
+            return "TexSynth: nothing written; " + "; ".join("%s: %s" % f for f in self.failures)
+        total = self.seconds.get("total", 0.0)
+        text = "TexSynth: %d object(s), %d faces in %.2f s (cache %s)" % (
+            len(self.objects), self.faces, total, "hit" if self.cache_hit else "miss")
+        if self.failures:
+            text += "; %d failed: %s" % (len(self.failures), "; ".join("%s: %s" % f for f in self.failures))
+        return text
+
+    def as_json(self):
+        return {
+            "objects": list(self.objects),
+            "failures": [{"object": name, "error": message} for name, message in self.failures],
+            "faces": self.faces, "vertices": self.vertices, "corners": self.corners,
+            "cache_hit": bool(self.cache_hit), "cache_status": self.cache_status,
+            "seconds": dict(self.seconds), "native": self.native_stats,
+        }
+
+
+# ---------------------------------------------------------------------------------------------
+# Mesh arrays and layer planning
+
+
+@dataclasses.dataclass
+class MeshArrays:
+    """A mesh in Blender's layout, world space, ready for the native module."""
+    positions: np.ndarray          # (N,3) float32
+    corner_verts: np.ndarray       # (L,) int32
+    poly_starts: np.ndarray        # (P,) int32
+    poly_sizes: np.ndarray         # (P,) int32
+    direction: np.ndarray = None   # (N,3) float32, world space (FIELD / ANCHORS)
+
+    @property
+    def num_vertices(self):
+        return int(self.positions.shape[0])
+
+    @property
+    def num_corners(self):
+        return int(self.corner_verts.shape[0])
+
+    @property
+    def num_faces(self):
+        return int(self.poly_starts.shape[0])
+
+
+def uv_layer_names(num_blend_sets):
+    """TexSynth's UV layer names for a result with num_blend_sets blend sets (base first)."""
+    return [BASE_UV_NAME] + ["%s%d" % (BLEND_UV_PREFIX, k) for k in range(num_blend_sets)]
+
+
+def is_texsynth_uv_name(name):
+    if name == BASE_UV_NAME:
+        return True
+    suffix = name[len(BLEND_UV_PREFIX):]
+    return name.startswith(BLEND_UV_PREFIX) and suffix.isdigit()
+
+
+def check_uv_capacity(existing_names, num_blend_sets):
+    """Raises SettingsError when the foreign UV maps plus TexSynth's would exceed Blender's limit."""
+    foreign = [name for name in existing_names if not is_texsynth_uv_name(name)]
+    needed = len(uv_layer_names(num_blend_sets))
+    if len(foreign) + needed > MAX_UV_LAYERS:
+        raise SettingsError(
+            "mesh has %d other UV map(s) (%s); TexSynth needs %d more and Blender allows at most %d: "
+            "remove %d UV map(s) or disable blending"
+            % (len(foreign), ", ".join(foreign), needed, MAX_UV_LAYERS, len(foreign) + needed - MAX_UV_LAYERS))
+
+
+def needed_blend_sets(mesh_arrays, blend):
+    """Blend sets the native module will return: 0 without blending, 3 all-triangle, else 4."""
+    if not blend:
+        return 0
+    return 3 if mesh_arrays.num_faces and bool(np.all(mesh_arrays.poly_sizes == 3)) else 4
+
+
+# ---------------------------------------------------------------------------------------------
+# Native calls
+
+
+def load_sample(sample):
+    """A file path (str) or an H x W x C image array (row 0 = top); returns what preprocess accepts."""
+    if isinstance(sample, str):
+        if not sample:
+            raise SettingsError("no sample image given")
+        if not os.path.isfile(sample):
+            raise SettingsError("sample image not found: %s" % sample)
+        return sample
+    array = np.asarray(sample)
+    if array.ndim != 3 or array.shape[0] < 1 or array.shape[1] < 1 or array.shape[2] not in (1, 2, 3, 4):
+        raise SettingsError("sample image array must be H x W x C with C in 1..4, got shape %s" % (array.shape,))
+    return np.ascontiguousarray(array, dtype=np.float32) if array.dtype != np.uint8 else np.ascontiguousarray(array)
+
+
+def cache_status(sample, settings, cache_dir):
+    """'fresh' | 'missing' | 'stale' for the sample's cached preprocessing."""
+    module = native.require()
+    return module.cache_status(load_sample(sample), cache_dir=cache_dir, **settings.preprocess_params())
+
+
+def preprocess(sample, settings, cache_dir):
+    """Preprocessed sample (from the cache when fresh). Errors: SettingsError/ValueError with a message."""
+    module = native.require()
+    if cache_dir:
+        os.makedirs(cache_dir, exist_ok=True)
+    return module.preprocess(load_sample(sample), cache_dir=cache_dir or None, **settings.preprocess_params())
+
+
+def synthesize(preprocessed, mesh_arrays, settings, seed, scale):
+    """Runs the native synthesizer on one mesh; returns its dict after checking every shape."""
+    module = native.require()
+    if mesh_arrays.num_faces == 0:
+        raise SettingsError("mesh has no faces")
+    kwargs = dict(scale=float(scale), jump_rate=float(settings.jump_rate), seed=int(seed),
+                  blend=bool(settings.blend), allow_oversized=bool(settings.allow_oversized))
+    if settings.orientation == "AXIS":
+        kwargs.update(orientation="axis", axis=tuple(float(c) for c in settings.axis))
+    elif settings.orientation == "FIELD":
+        kwargs.update(orientation="field", direction=_require_direction(mesh_arrays, settings))
+    else:
+        direction = _require_direction(mesh_arrays, settings)
+        anchors = np.flatnonzero(np.linalg.norm(direction, axis=1) > 1e-12).astype(np.int32)
+        if anchors.size == 0:
+            raise SettingsError("attribute %r has no non-zero vectors: no anchors" % settings.direction_attribute)
+        kwargs.update(orientation="anchors", anchor_vertices=anchors,
+                      anchor_directions=np.ascontiguousarray(direction[anchors]))
+    result = dict(module.synthesize_jumpmap(preprocessed, mesh_arrays.positions, mesh_arrays.corner_verts,
+                                            mesh_arrays.poly_starts, mesh_arrays.poly_sizes, **kwargs))
+    if not settings.blend:
+        # Without blending the native single set is the base mapping with weight 1: write the base only.
+        result.update(num_blend_sets=0, blend_uv=None, blend_weights=None)
+    return result  # validated by bridge.write_result before anything is written
+
+
+def _require_direction(mesh_arrays, settings):
+    if mesh_arrays.direction is None:
+        raise SettingsError("mesh has no vector attribute %r for the orientation" % settings.direction_attribute)
+    return mesh_arrays.direction
+
+
+def check_result(result, num_corners):
+    """Validates a synthesizer result before anything is written (so a bad one changes nothing)."""
+    base = result["base_uv"]
+    sets = int(result["num_blend_sets"])
+    if not (0 <= sets <= MAX_BLEND_SETS):
+        raise SettingsError("native result has %d blend sets (at most %d supported)" % (sets, MAX_BLEND_SETS))
+    expected = {"base_uv": (num_corners, 2)}
+    if sets:
+        expected.update(blend_uv=(sets, num_corners, 2), blend_weights=(num_corners, sets))
+    for key, shape in expected.items():
+        array = result[key]
+        if array.shape != shape or array.dtype != np.float32:
+            raise SettingsError("native result %s has shape %s %s, expected %s float32"
+                                % (key, array.shape, array.dtype, shape))
+        if not np.all(np.isfinite(array)):
+            raise SettingsError("native result %s contains NaN or infinite values" % key)
+    return base
+
+
+def weights_rgba(result, num_corners):
+    """The blend weights as a flat float32 RGBA corner buffer: R, G, B = w0, w1, w2 and A = 1 - w3.
+
+    Alpha holds 1 - w3 (not w3) because shaders read a missing attribute as (0, 0, 0, 1): a mesh
+    without weights then gets all-zero weights and the node group falls back to the base mapping.
+    Unused channels are 0 (alpha 1)."""
+    sets = int(result["num_blend_sets"])
+    if sets == 4:  # the common case: one contiguous copy, then flip the alpha column
+        rgba = np.array(result["blend_weights"], dtype=np.float32, order="C", copy=True)
+        np.subtract(1.0, rgba[:, 3], out=rgba[:, 3])
+        return rgba.ravel()
+    rgba = np.zeros((num_corners, 4), dtype=np.float32)
+    rgba[:, 3] = 1.0
+    if sets:
+        rgba[:, :sets] = result["blend_weights"]
+    return rgba.ravel()

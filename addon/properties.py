@@ -1,0 +1,83 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Scene settings (persist in the .blend) and add-on preferences."""
+import bpy
+
+from . import pipeline
+
+ADDON_ID = __package__
+
+
+class TexSynthSettings(bpy.types.PropertyGroup):
+    sample_source: bpy.props.EnumProperty(
+        name="Sample", items=(("FILE", "File", "An image file on disk"),
+                              ("IMAGE", "Image", "An image in this .blend (packed images too)")),
+        default="FILE")
+    sample_path: bpy.props.StringProperty(name="Sample File", subtype="FILE_PATH",
+                                          description="Sample texture image file")
+    sample_image: bpy.props.PointerProperty(name="Sample Image", type=bpy.types.Image,
+                                            description="Sample texture image in this .blend")
+    method: bpy.props.EnumProperty(
+        name="Method",
+        items=(("JUMPMAP", "Jump Map", "Jump-map vertex walk (Zelinka & Garland)"),
+               ("TEXTON", "Texton Strings (not yet)", "Texton-string patch matching: not implemented yet")),
+        default="JUMPMAP")
+    scale: bpy.props.FloatProperty(name="Scale", subtype="DISTANCE", default=1.0, min=1e-4, soft_max=100.0,
+                                   description="World size of the sample's width: one sample spans this many "
+                                               "world units on every selected object")
+    seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
+    jump_rate: bpy.props.FloatProperty(name="Jump Rate", default=20.0, min=0.0, soft_max=100.0,
+                                       description="How often the walk jumps to a similar sample location")
+    orientation: bpy.props.EnumProperty(
+        name="Orientation",
+        items=(("AXIS", "Global Axis", "Texture 'up' follows a global axis projected onto the surface"),
+               ("FIELD", "Direction Attribute", "A vertex vector attribute gives the direction everywhere"),
+               ("ANCHORS", "Anchors", "Vertices with a non-zero vector in the attribute are anchors; "
+                                      "the direction is interpolated between them")),
+        default="AXIS")
+    axis: bpy.props.FloatVectorProperty(name="Axis", size=3, default=(0.0, 0.0, 1.0), subtype="XYZ")
+    direction_attribute: bpy.props.StringProperty(name="Attribute", default="",
+                                                  description="Vertex FLOAT_VECTOR attribute name")
+    blend: bpy.props.BoolProperty(name="Blending", default=True,
+                                  description="Write blend UV sets and weights that hide patch seams")
+    allow_oversized: bpy.props.BoolProperty(
+        name="Allow Oversized Faces", default=False,
+        description="Also map faces larger than the sample at this scale (otherwise they are refused: "
+                    "subdivide them or raise the scale)")
+    material_mode: bpy.props.EnumProperty(
+        name="Material",
+        items=(("NEW", "New Material", "Assign a ready material using the TexSynth blend group"),
+               ("INSERT", "Insert in Material", "Feed the object's existing materials' Base Color"),
+               ("NONE", "Layers Only", "Only write UV layers and weights")),
+        default="NEW")
+
+    def to_settings(self):
+        return pipeline.Settings(method=self.method, sample_world_size=float(self.scale), seed=int(self.seed),
+                                 jump_rate=float(self.jump_rate), blend=bool(self.blend),
+                                 orientation=self.orientation, axis=tuple(self.axis),
+                                 direction_attribute=self.direction_attribute,
+                                 allow_oversized=bool(self.allow_oversized))
+
+
+class TexSynthPreferences(bpy.types.AddonPreferences):
+    bl_idname = ADDON_ID
+
+    cache_dir: bpy.props.StringProperty(name="Cache Folder", subtype="DIR_PATH", default="",
+                                        description="Where preprocessed samples are cached (empty: default)")
+
+    def draw(self, context):
+        from . import native, synthesis
+        self.layout.prop(self, "cache_dir")
+        self.layout.label(text="Default: " + synthesis.default_cache_dir())
+        if native.reason():
+            self.layout.label(text=native.reason(), icon="ERROR")
+
+
+def cache_dir(context):
+    """The preference's cache folder ('' when unset or when not installed as an add-on)."""
+    addon = context.preferences.addons.get(ADDON_ID)
+    if addon is None or addon.preferences is None:
+        return ""
+    return bpy.path.abspath(addon.preferences.cache_dir) if addon.preferences.cache_dir else ""
+
+
+classes = (TexSynthSettings, TexSynthPreferences)

@@ -1,0 +1,198 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Headless TexSynth for pipelines:
+
+  blender -b [scene.blend] --python-exit-code 1 --python addon/texsynth_cli.py -- \\
+      --sample IMAGE (--object NAME | --mesh FILE.obj|.ply|.stl) [--method jumpmap] [--scale S]
+      [--seed N] [--no-blend] [--save OUT.blend] [--render OUT.png] [--resolution W H] [--stats OUT.json]
+
+Exit 0 on success; bad arguments or inputs print one line "texsynth_cli: error: ..." and exit 2
+(arguments) or 1 (inputs, synthesis failures).
+"""
+import argparse
+import importlib.util
+import json
+import math
+import os
+import sys
+import time
+
+import bpy
+
+PROG = "texsynth_cli"
+
+
+class CliError(Exception):
+    """Bad input or a failed run: exit code 1."""
+    exit_code = 1
+
+
+class UsageError(CliError):
+    """Bad command-line arguments: exit code 2."""
+    exit_code = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):
+        raise UsageError(message)
+
+
+def parse_args(argv):
+    parser = _Parser(prog=PROG, description="TexSynth: synthesize a sample texture on a mesh, headless.")
+    parser.add_argument("--sample", required=True, help="sample texture image file")
+    target = parser.add_mutually_exclusive_group(required=True)
+    target.add_argument("--object", action="append", metavar="NAME",
+                        help="mesh object in the opened scene (repeatable)")
+    target.add_argument("--mesh", metavar="FILE", help=".obj, .ply or .stl file to import")
+    parser.add_argument("--method", default="jumpmap", choices=["jumpmap", "texton"])
+    parser.add_argument("--scale", type=float, default=1.0,
+                        help="world size of the sample's width, in world units (default 1)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--jump-rate", type=float, default=20.0)
+    parser.add_argument("--no-blend", action="store_true", help="only the base UV layer, no blend sets")
+    parser.add_argument("--allow-oversized", action="store_true",
+                        help="map faces larger than the sample at this scale instead of refusing them")
+    parser.add_argument("--material", default="new", choices=["new", "insert", "none"])
+    parser.add_argument("--cache-dir", default="", help="preprocessing cache folder (default: Blender's)")
+    parser.add_argument("--save", metavar="OUT.blend")
+    parser.add_argument("--render", metavar="OUT.png", help="render the scene with Eevee")
+    parser.add_argument("--resolution", type=int, nargs=2, metavar=("W", "H"))
+    parser.add_argument("--stats", metavar="OUT.json")
+    args = parser.parse_args(argv)
+    if not math.isfinite(args.scale) or args.scale <= 0:
+        raise UsageError("--scale must be a positive number of world units, got %s" % args.scale)
+    if args.resolution and not all(4 <= v <= 16384 for v in args.resolution):
+        raise UsageError("--resolution must be two integers in [4, 16384], got %s" % args.resolution)
+    for option in ("save", "render", "stats"):
+        path = getattr(args, option)
+        if path is not None:
+            folder = os.path.dirname(os.path.abspath(path))
+            if not os.path.isdir(folder):
+                raise UsageError("--%s folder does not exist: %s" % (option, folder))
+    return args
+
+
+def load_addon():
+    """The add-on package this script belongs to, imported as `texsynth` (not registered)."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    module = sys.modules.get("texsynth")
+    if module is not None and os.path.dirname(os.path.abspath(module.__file__)) == here:
+        return module
+    spec = importlib.util.spec_from_file_location("texsynth", os.path.join(here, "__init__.py"),
+                                                  submodule_search_locations=[here])
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["texsynth"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def find_objects(args, compat):
+    if args.mesh:
+        if not os.path.isfile(args.mesh):
+            raise CliError("mesh file not found: %s" % args.mesh)
+        try:
+            objects = compat.import_mesh_file(os.path.abspath(args.mesh))
+        except (RuntimeError, ValueError) as error:
+            raise CliError("could not import %s: %s" % (args.mesh, str(error).strip().splitlines()[-1]))
+        if not objects:
+            raise CliError("no mesh found in %s" % args.mesh)
+        return objects
+    objects = []
+    for name in args.object:
+        obj = bpy.data.objects.get(name)
+        if obj is None:
+            meshes = ", ".join(o.name for o in bpy.data.objects if o.type == "MESH") or "none"
+            raise CliError("no object named %r (mesh objects: %s)" % (name, meshes))
+        if obj.type != "MESH":
+            raise CliError("object %r is a %s, not a mesh" % (name, obj.type.lower()))
+        objects.append(obj)
+    return objects
+
+
+def frame_scene(scene, objects):
+    """Adds a camera framing the objects and a sun when the scene has none."""
+    from mathutils import Vector
+    corners = [obj.matrix_world @ Vector(c) for obj in objects for c in obj.bound_box]
+    low = Vector(tuple(min(c[i] for c in corners) for i in range(3)))
+    high = Vector(tuple(max(c[i] for c in corners) for i in range(3)))
+    center, radius = (low + high) / 2, max((high - low).length / 2, 1e-3)
+    if scene.camera is None:
+        data = bpy.data.cameras.new("TexSynth Camera")
+        camera = bpy.data.objects.new("TexSynth Camera", data)
+        scene.collection.objects.link(camera)
+        direction = Vector((1.0, -1.4, 0.9)).normalized()
+        distance = radius / math.sin(min(data.angle_x, data.angle_y) / 2) * 1.05
+        camera.location = center + direction * distance
+        camera.rotation_euler = (-direction).to_track_quat("-Z", "Y").to_euler()
+        data.clip_end = max(data.clip_end, distance * 4)
+        scene.camera = camera
+    if not any(obj.type == "LIGHT" for obj in scene.objects):
+        sun = bpy.data.objects.new("TexSynth Sun", bpy.data.lights.new("TexSynth Sun", "SUN"))
+        sun.data.energy = 3.0
+        sun.rotation_euler = (0.7, 0.2, 0.8)
+        scene.collection.objects.link(sun)
+    if scene.world is None:
+        scene.world = bpy.data.worlds.new("TexSynth World")
+        scene.world.color = (0.3, 0.33, 0.38)
+
+
+def render(scene, objects, path, resolution):
+    from texsynth import compat
+    frame_scene(scene, objects)
+    compat.use_eevee(scene)
+    if resolution:
+        scene.render.resolution_x, scene.render.resolution_y = resolution
+        scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.filepath = os.path.abspath(path)
+    bpy.ops.render.render(write_still=True)
+    if not os.path.isfile(scene.render.filepath):
+        raise CliError("render did not write %s" % path)
+
+
+def main(argv):
+    started = time.perf_counter()
+    args = parse_args(argv)
+    addon = load_addon()
+    from texsynth import compat, native, pipeline, synthesis  # noqa: F401  (registered by load_addon)
+    if native.get() is None:
+        raise CliError(native.reason())
+    if not os.path.isfile(args.sample):
+        raise CliError("sample image not found: %s" % args.sample)
+    objects = find_objects(args, compat)
+    settings = pipeline.Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
+                                 jump_rate=args.jump_rate, blend=not args.no_blend,
+                                 allow_oversized=args.allow_oversized)
+    try:
+        settings.validate()
+        report = synthesis.synthesize(objects, synthesis.Sample(path=os.path.abspath(args.sample)), settings,
+                                      args.cache_dir or None, args.material.upper())
+    except (ValueError, RuntimeError) as error:
+        raise CliError(str(error))
+    if report.failures:
+        raise CliError(report.summary())
+    stats = report.as_json()
+    if args.save:
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.save), copy=True)
+    if args.render:
+        render_start = time.perf_counter()
+        render(bpy.context.scene, objects, args.render, args.resolution)
+        stats["seconds"]["render"] = time.perf_counter() - render_start
+    stats["seconds"]["cli_total"] = time.perf_counter() - started
+    if args.stats:
+        with open(args.stats, "w") as handle:
+            json.dump(stats, handle, indent=2, sort_keys=True)
+    print("%s: %s" % (PROG, report.summary()))
+    del addon
+
+
+def run():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    try:
+        main(argv)
+    except CliError as error:
+        print("%s: error: %s" % (PROG, " ".join(str(error).split())), file=sys.stderr, flush=True)
+        sys.exit(error.exit_code)
+
+
+if __name__ == "__main__":
+    run()

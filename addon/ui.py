@@ -1,0 +1,69 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""3D Viewport sidebar tab "TexSynth"."""
+import bpy
+
+from . import native, operators
+
+
+class TEXSYNTH_PT_main(bpy.types.Panel):
+    bl_label = "TexSynth"
+    bl_idname = "TEXSYNTH_PT_main"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "TexSynth"
+
+    def draw(self, context):
+        layout = self.layout
+        props = context.scene.texsynth
+        if native.reason():
+            box = layout.box()
+            box.label(text="Native module unavailable:", icon="ERROR")
+            for line in _wrap(native.reason(), 40):
+                box.label(text=line)
+
+        layout.prop(props, "sample_source", expand=True)
+        if props.sample_source == "FILE":
+            layout.prop(props, "sample_path", text="")
+            key = props.sample_path or "<none>"
+        else:
+            layout.template_ID(props, "sample_image", open="image.open")
+            key = props.sample_image.name if props.sample_image else "<none>"
+        row = layout.row(align=True)
+        row.operator("texsynth.preprocess")
+        row.operator("texsynth.check_cache", text="", icon="FILE_REFRESH")
+        layout.label(text="Cache: %s" % operators.cache_status_by_sample.get(key, "unknown"))
+
+        layout.prop(props, "method")
+        if props.method != "JUMPMAP":
+            layout.label(text="Texton strings are not implemented yet", icon="ERROR")
+        layout.prop(props, "scale")
+        layout.prop(props, "seed")
+        layout.prop(props, "jump_rate")
+        layout.prop(props, "orientation")
+        if props.orientation == "AXIS":
+            layout.prop(props, "axis")
+        else:
+            layout.prop(props, "direction_attribute")
+        layout.prop(props, "blend")
+        layout.prop(props, "allow_oversized")
+        layout.prop(props, "material_mode")
+
+        column = layout.column()
+        column.enabled = not native.reason() and props.method == "JUMPMAP"
+        column.scale_y = 1.4
+        column.operator("texsynth.synthesize", icon="TEXTURE")
+        layout.operator("texsynth.clear", icon="X")
+
+
+def _wrap(text, width):
+    words, lines, line = text.split(), [], ""
+    for word in words:
+        if line and len(line) + 1 + len(word) > width:
+            lines.append(line)
+            line = word
+        else:
+            line = (line + " " + word).strip()
+    return lines + ([line] if line else [])
+
+
+classes = (TEXSYNTH_PT_main,)

@@ -1,0 +1,549 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Add-on tests inside Blender. Run: blender -b --factory-startup --python-exit-code 1 --python <this> [-- names]
+
+Uses the real texsynth_native when it provides synthesize_jumpmap, otherwise (or with
+TEXSYNTH_FAKE_NATIVE=1) the contract double fake_native.py; prints which one ("NATIVE real|fake").
+"""
+import os
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+import harness  # noqa: E402
+
+texsynth = harness.load_addon()
+from texsynth import bridge, native, pipeline, shading, synthesis  # noqa: E402
+
+_real = native.get()
+USE_FAKE = os.environ.get("TEXSYNTH_FAKE_NATIVE") == "1" or _real is None or not hasattr(_real, "synthesize_jumpmap")
+if USE_FAKE:
+    import fake_native
+    native._module, native._reason, native._tried = fake_native, None, True
+print("NATIVE", "fake" if USE_FAKE else "real", flush=True)
+
+BRICKS = os.path.join(harness.SAMPLES_DIR, "bricks.png")
+texsynth.register()
+
+
+def clean():
+    for collection in (bpy.data.objects, bpy.data.meshes, bpy.data.materials, bpy.data.node_groups,
+                       bpy.data.images):
+        for item in list(collection):
+            collection.remove(item)
+
+
+def configure(**overrides):
+    props = bpy.context.scene.texsynth
+    values = dict(sample_source="FILE", sample_path=BRICKS, method="JUMPMAP", scale=4.0, seed=7, jump_rate=20.0,
+                  orientation="AXIS", axis=(0.0, 0.0, 1.0), direction_attribute="", blend=True,
+                  allow_oversized=False, material_mode="NEW")
+    values.update(overrides)
+    for key, value in values.items():
+        setattr(props, key, value)
+    return props
+
+
+def run_operator(name="synthesize"):
+    return getattr(bpy.ops.texsynth, name)()
+
+
+def expect_error(function, *fragments):
+    try:
+        function()
+    except (RuntimeError, ValueError) as error:
+        message = str(error)
+        for fragment in fragments:
+            assert fragment.lower() in message.lower(), "%r not in %r" % (fragment, message)
+        return message
+    raise AssertionError("expected an error mentioning %s" % (fragments,))
+
+
+def uv_values(mesh, name):
+    values = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    mesh.uv_layers[name].data.foreach_get("uv", values)
+    return values.reshape(-1, 2)
+
+
+def expected_result(obj, props):
+    """What the native module returns for obj (same arrays and options), computed outside the add-on."""
+    settings = props.to_settings()
+    pre = native.get().preprocess(BRICKS, cache_dir=synthesis.default_cache_dir(), **settings.preprocess_params())
+    arrays = bridge.read_mesh(obj)
+    return native.get().synthesize_jumpmap(
+        pre, arrays.positions, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes,
+        scale=pre.width / props.scale, jump_rate=props.jump_rate, seed=pipeline.object_seed(props.seed, obj.name),
+        blend=props.blend, orientation="axis", axis=tuple(props.axis), allow_oversized=props.allow_oversized)
+
+
+def check_written(obj, props, foreign=("UVMap",)):
+    mesh = obj.data
+    expected = expected_result(obj, props)
+    sets = int(expected["num_blend_sets"]) if props.blend else 0  # no blending: base layer only
+    names = ["TexSynth"] + ["TexSynth_B%d" % k for k in range(sets)]
+    present_foreign = [name for name in foreign if name in mesh.uv_layers]
+    assert [layer.name for layer in mesh.uv_layers] == present_foreign + names, [l.name for l in mesh.uv_layers]
+    assert np.array_equal(uv_values(mesh, "TexSynth"), expected["base_uv"])
+    for k in range(sets):
+        assert np.array_equal(uv_values(mesh, names[k + 1]), expected["blend_uv"][k])
+    weights = mesh.attributes.get("TexSynth_Weights")
+    if sets:
+        assert weights.domain == "CORNER" and weights.data_type == "FLOAT_COLOR"
+        rgba = np.empty(len(mesh.loops) * 4, np.float32)
+        weights.data.foreach_get("color", rgba)
+        rgba = rgba.reshape(-1, 4)
+        # R, G, B = w0, w1, w2; A = 1 - w3 (so a missing attribute, read as (0,0,0,1), means no weights).
+        weights_read = np.concatenate([rgba[:, :3], 1.0 - rgba[:, 3:]], axis=1)
+        assert np.array_equal(weights_read[:, :sets], expected["blend_weights"])
+        assert np.all(weights_read[:, sets:] == 0)
+        assert np.all(weights_read.sum(axis=1) == 1.0), "weights must be one-hot per corner"
+    else:
+        assert weights is None
+    assert np.all(np.isfinite(uv_values(mesh, "TexSynth")))
+    return expected
+
+
+def synthesize_one(obj, **overrides):
+    props = configure(**overrides)
+    harness.select_only([obj])
+    assert run_operator() == {"FINISHED"}
+    return props
+
+
+# -------------------------------------------------------------------------------- tests
+
+def test_register_unregister_twice():
+    texsynth.register()
+    texsynth.register()
+    assert hasattr(bpy.types.Scene, "texsynth") and hasattr(bpy.ops.texsynth, "synthesize")
+    texsynth.unregister()
+    texsynth.unregister()
+    assert not hasattr(bpy.types.Scene, "texsynth")
+    assert "TEXSYNTH_PT_main" not in dir(bpy.types)
+    texsynth.register()
+    assert bpy.types.TEXSYNTH_PT_main.is_registered
+
+
+def test_read_mesh_is_world_space():
+    clean()
+    obj = harness.add_primitive("monkey", "Moved", location=(1.0, -2.0, 0.5), rotation=(0.3, 0.2, 1.1))
+    obj.scale = (2.0, 0.5, 1.5)
+    bpy.context.view_layer.update()
+    arrays = bridge.read_mesh(obj)
+    world = np.array([tuple(obj.matrix_world @ v.co) for v in obj.data.vertices], np.float32)
+    assert arrays.positions.dtype == np.float32 and arrays.positions.flags.c_contiguous
+    assert np.allclose(arrays.positions, world, atol=1e-5)
+    assert np.array_equal(arrays.corner_verts, [l.vertex_index for l in obj.data.loops])
+    assert np.array_equal(arrays.poly_starts, [p.loop_start for p in obj.data.polygons])
+    assert np.array_equal(arrays.poly_sizes, [p.loop_total for p in obj.data.polygons])
+
+
+def test_synthesize_cube():
+    clean()
+    obj = harness.add_primitive("cube", "Cube")
+    check_written(obj, synthesize_one(obj))
+
+
+def test_synthesize_uv_sphere():
+    clean()
+    obj = harness.add_primitive("uv_sphere", "Sphere", segments=24, ring_count=12)
+    check_written(obj, synthesize_one(obj))
+
+
+def test_synthesize_suzanne():
+    clean()
+    obj = harness.add_primitive("monkey", "Suzanne")
+    check_written(obj, synthesize_one(obj))
+
+
+def test_synthesize_mixed_tris_quads_ngons():
+    clean()
+    obj = harness.mixed_grid()
+    assert sorted({p.loop_total for p in obj.data.polygons}) == [3, 4, 5]
+    check_written(obj, synthesize_one(obj, scale=2.0))
+
+
+def test_synthesize_all_triangles_uses_three_sets():
+    clean()
+    obj = harness.add_primitive("ico_sphere", "Ico", subdivisions=2)
+    expected = check_written(obj, synthesize_one(obj))
+    assert expected["num_blend_sets"] == 3 and "TexSynth_B3" not in obj.data.uv_layers
+
+
+def test_synthesize_mesh_with_modifiers():
+    clean()
+    obj = harness.add_primitive("monkey", "Modified")
+    subsurf = obj.modifiers.new("Subdivision", "SUBSURF")
+    subsurf.levels = 1
+    obj.modifiers.new("Mirror", "MIRROR")
+    props = synthesize_one(obj)
+    check_written(obj, props)
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
+    try:
+        assert len(evaluated.polygons) > len(obj.data.polygons)
+        for name in ("TexSynth", "TexSynth_B0", "TexSynth_B3"):
+            assert name in evaluated.uv_layers, "UV layer %s must flow through the modifiers" % name
+        assert "TexSynth_Weights" in evaluated.attributes
+    finally:
+        obj.to_mesh_clear()
+
+
+def test_several_objects_in_one_go():
+    clean()
+    objects = [harness.add_primitive("cube", "A", location=(0, 0, 0)),
+               harness.add_primitive("uv_sphere", "B", location=(3, 0, 0)),
+               harness.mixed_grid("C")]
+    objects[2].location = (0, 3, 0)
+    bpy.ops.object.camera_add()  # a non-mesh in the selection is reported, not fatal
+    camera = bpy.context.active_object
+    props = configure()
+    harness.select_only(objects + [camera])
+    report = synthesis.synthesize(bpy.context.selected_objects, synthesis.Sample(path=BRICKS), props.to_settings())
+    assert sorted(report.objects) == ["A", "B", "C"], report.objects
+    assert report.faces == sum(len(o.data.polygons) for o in objects)
+    assert report.corners == sum(len(o.data.loops) for o in objects)
+    assert [name for name, _ in report.failures] == [camera.name]
+    assert set(report.seconds) >= {"preprocess", "synthesis", "transfer", "total"}
+    for obj in objects:
+        check_written(obj, props)
+    harness.select_only(objects)
+    assert run_operator() == {"FINISHED"}
+
+
+def test_rerun_replaces_layers_and_keeps_foreign_ones():
+    clean()
+    obj = harness.add_primitive("cube", "Cube")
+    foreign_before = uv_values(obj.data, "UVMap").copy()
+    check_written(obj, synthesize_one(obj, blend=True))
+    check_written(obj, synthesize_one(obj, blend=False))
+    assert [l.name for l in obj.data.uv_layers] == ["UVMap", "TexSynth"]
+    check_written(obj, synthesize_one(obj, blend=True, seed=3))
+    assert np.array_equal(uv_values(obj.data, "UVMap"), foreign_before)
+    assert obj.data.uv_layers.active.name == "UVMap"
+
+
+def test_clear_removes_exactly_what_texsynth_wrote():
+    clean()
+    obj = harness.add_primitive("cube", "Cube")
+    before = harness.mesh_hash(obj.data)
+    synthesize_one(obj)
+    assert harness.mesh_hash(obj.data) != before
+    assert run_operator("clear") == {"FINISHED"}
+    assert harness.mesh_hash(obj.data) == before
+
+
+def test_undo_restores_mesh_exactly():
+    clean()
+    obj = harness.add_primitive("monkey", "Undo")
+    before = harness.mesh_hash(obj.data)
+    bpy.ops.ed.undo_push(message="before TexSynth")
+    configure()
+    harness.select_only([obj])
+    # 'EXEC_DEFAULT', True: push an undo step as when the button is pressed in the UI.
+    assert bpy.ops.texsynth.synthesize("EXEC_DEFAULT", True) == {"FINISHED"}
+    assert "TexSynth" in bpy.data.objects["Undo"].data.uv_layers
+    bpy.ops.ed.undo()
+    assert harness.mesh_hash(bpy.data.objects["Undo"].data) == before
+
+
+def test_no_sample_reports_and_changes_nothing():
+    clean()
+    obj = harness.add_primitive("cube", "Cube")
+    before = harness.mesh_hash(obj.data)
+    configure(sample_path="")
+    harness.select_only([obj])
+    expect_error(run_operator, "no sample")
+    configure(sample_source="IMAGE", sample_image=None)
+    expect_error(run_operator, "no sample")
+    assert harness.mesh_hash(obj.data) == before and len(obj.material_slots) == 0
+
+
+def test_unreadable_image_reports_and_changes_nothing():
+    clean()
+    obj = harness.add_primitive("cube", "Cube")
+    before = harness.mesh_hash(obj.data)
+    broken = os.path.join(tempfile.mkdtemp(), "broken.png")
+    with open(broken, "wb") as handle:
+        handle.write(b"this is not a png")
+    configure(sample_path=broken)
+    harness.select_only([obj])
+    expect_error(run_operator)
+    configure(sample_path=broken + ".missing")
+    expect_error(run_operator, "not found")
+    assert harness.mesh_hash(obj.data) == before and len(obj.material_slots) == 0
+
+
+def test_empty_mesh_is_reported_others_still_done():
+    clean()
+    empty = bpy.data.objects.new("Empty", bpy.data.meshes.new("Empty"))
+    bpy.context.scene.collection.objects.link(empty)
+    configure()
+    harness.select_only([empty])
+    expect_error(run_operator, "no faces")
+    cube = harness.add_primitive("cube", "Cube")
+    props = configure()
+    harness.select_only([empty, cube])
+    report = synthesis.synthesize([empty, cube], synthesis.Sample(path=BRICKS), props.to_settings())
+    assert report.objects == ["Cube"] and report.failures[0][0] == "Empty"
+    assert len(empty.data.uv_layers) == 0 and len(empty.data.attributes) == 0
+    check_written(cube, props)
+
+
+def test_eight_uv_maps_refused_and_unchanged():
+    clean()
+    obj = harness.add_primitive("cube", "Full")
+    for k in range(7):
+        obj.data.uv_layers.new(name="Extra%d" % k)
+    assert len(obj.data.uv_layers) == 8
+    before = harness.mesh_hash(obj.data)
+    configure()
+    harness.select_only([obj])
+    expect_error(run_operator, "UV map", "at most 8")
+    configure(blend=False)
+    expect_error(run_operator, "UV map")
+    assert harness.mesh_hash(obj.data) == before
+    # 4 foreign maps: blending (5 layers) is refused, the base layer alone fits.
+    for k in range(4):
+        obj.data.uv_layers.remove(obj.data.uv_layers["Extra%d" % k])
+    before = harness.mesh_hash(obj.data)
+    configure(blend=True)
+    expect_error(run_operator, "disable blending")
+    assert harness.mesh_hash(obj.data) == before
+    configure(blend=False)
+    assert run_operator() == {"FINISHED"}
+    assert obj.data.uv_layers[-1].name == "TexSynth" and len(obj.data.uv_layers) == 5
+
+
+def test_failed_write_restores_mesh_byte_identical():
+    clean()
+    obj = harness.add_primitive("uv_sphere", "Atomic", segments=16, ring_count=8)
+    synthesize_one(obj, blend=True)
+    before = harness.mesh_hash(obj.data)
+    original = bridge._remove_uv_layers
+
+    def failing(mesh, names):
+        raise RuntimeError("injected failure after all layers were written")
+    bridge._remove_uv_layers = failing
+    try:
+        configure(seed=99, blend=False)  # changes every value and needs removing B0..B3: fails at the end
+        harness.select_only([obj])
+        message = expect_error(run_operator, "restored", "injected")
+    finally:
+        bridge._remove_uv_layers = original
+    assert harness.mesh_hash(obj.data) == before, message
+
+
+def test_direction_attribute_missing_is_reported():
+    clean()
+    obj = harness.add_primitive("cube", "Cube")
+    before = harness.mesh_hash(obj.data)
+    configure(orientation="FIELD", direction_attribute="flow")
+    harness.select_only([obj])
+    expect_error(run_operator, "flow")
+    configure(orientation="FIELD", direction_attribute="")
+    expect_error(run_operator, "attribute")
+    assert harness.mesh_hash(obj.data) == before
+
+
+def test_direction_attribute_is_read_in_world_space():
+    clean()
+    obj = harness.add_primitive("cube", "Flow", rotation=(0.0, 0.0, np.pi / 2))
+    bpy.context.view_layer.update()
+    attribute = obj.data.attributes.new("flow", "FLOAT_VECTOR", "POINT")
+    attribute.data.foreach_set("vector", np.tile([1.0, 0.0, 0.0], len(obj.data.vertices)).astype(np.float32))
+    arrays = bridge.read_mesh(obj, "flow")
+    assert np.allclose(arrays.direction, np.tile([0.0, 1.0, 0.0], (len(obj.data.vertices), 1)), atol=1e-6)
+    props = synthesize_one(obj, orientation="FIELD", direction_attribute="flow")
+    assert "TexSynth" in obj.data.uv_layers and props.orientation == "FIELD"
+    synthesize_one(obj, orientation="ANCHORS", direction_attribute="flow")
+
+
+def test_oversized_faces_refused_unless_allowed():
+    if USE_FAKE:
+        print("SKIP the contract double does not model face sizes")
+        return
+    clean()
+    obj = harness.add_primitive("cube", "Big")  # 2-unit faces; at scale 1.0 the 192-texel sample spans 1 unit
+    before = harness.mesh_hash(obj.data)
+    configure(scale=1.0)
+    harness.select_only([obj])
+    expect_error(run_operator, "larger than")
+    assert harness.mesh_hash(obj.data) == before
+    check_written(obj, synthesize_one(obj, scale=1.0, allow_oversized=True))
+
+
+def test_texton_method_is_refused():
+    clean()
+    obj = harness.add_primitive("cube", "Cube")
+    before = harness.mesh_hash(obj.data)
+    configure(method="TEXTON")
+    harness.select_only([obj])
+    expect_error(run_operator, "not implemented")
+    assert harness.mesh_hash(obj.data) == before
+
+
+def test_material_group_created_idempotently():
+    clean()
+    obj = harness.add_primitive("cube", "Cube")
+    synthesize_one(obj)
+    synthesize_one(obj)
+    groups = [g for g in bpy.data.node_groups if g.name.startswith("TexSynth Blend: ")]
+    assert [g.name for g in groups] == ["TexSynth Blend: bricks.png"]
+    group = groups[0]
+    outputs = [n for n in group.nodes if n.type == "GROUP_OUTPUT"][0]
+    assert [s.name for s in outputs.inputs if s.is_linked] == ["Color", "Alpha"]
+    uv_maps = sorted(n.uv_map for n in group.nodes if n.type == "UVMAP")
+    assert uv_maps == ["TexSynth", "TexSynth_B0", "TexSynth_B1", "TexSynth_B2", "TexSynth_B3"]
+    assert [n.attribute_name for n in group.nodes if n.type == "ATTRIBUTE"] == ["TexSynth_Weights"]
+    materials = [m for m in bpy.data.materials if m.name.startswith("TexSynth: ")]
+    assert len(materials) == 1 and obj.material_slots[0].material == materials[0]
+    principled = next(n for n in materials[0].node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    link = principled.inputs["Base Color"].links[0]
+    assert link.from_node.node_tree == group and link.from_socket.name == "Color"
+    node_count = len(group.nodes)
+    shading.ensure_blend_group(bpy.data.images["bricks.png"])
+    assert len(group.nodes) == node_count and len(bpy.data.node_groups) == 1
+
+
+def test_insert_into_existing_material_and_extra_maps():
+    clean()
+    obj = harness.add_primitive("cube", "Cube")
+    mine = bpy.data.materials.new("Mine")
+    mine.use_nodes = True
+    obj.data.materials.append(mine)
+    synthesize_one(obj, material_mode="INSERT")
+    assert obj.material_slots[0].material == mine
+    assert not any(m.name.startswith("TexSynth: ") for m in bpy.data.materials)
+    principled = next(n for n in mine.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    assert principled.inputs["Base Color"].links[0].from_node.node_tree.name == "TexSynth Blend: bricks.png"
+    moss = bpy.data.images.load(os.path.join(harness.SAMPLES_DIR, "moss.png"))
+    shading.insert_into_material(mine, moss, "Roughness")
+    shading.insert_into_material(mine, moss, "Normal")
+    assert principled.inputs["Roughness"].links[0].from_node.node_tree.name == "TexSynth Blend: moss.png"
+    assert principled.inputs["Normal"].links[0].from_node.type == "NORMAL_MAP"
+    synthesize_one(obj, material_mode="NONE")
+    assert obj.material_slots[0].material == mine
+
+
+def test_packed_and_generated_image_samples():
+    clean()
+    obj = harness.add_primitive("cube", "Cube")
+    packed = bpy.data.images.load(BRICKS)
+    packed.pack()
+    packed.filepath = "//does/not/exist.png"  # only the packed data is left
+    props = synthesize_one(obj, sample_source="IMAGE", sample_image=packed)
+    assert "TexSynth" in obj.data.uv_layers
+    generated = bpy.data.images.new("Generated", 64, 48)
+    pixels = bridge.read_image_pixels(generated)
+    assert pixels.shape == (48, 64, 4) and pixels.dtype == np.float32
+    synthesize_one(obj, sample_source="IMAGE", sample_image=generated)
+    assert props.sample_image == generated
+
+
+def test_image_pixels_are_flipped_to_top_row_first():
+    clean()
+    image = bpy.data.images.new("Rows", 2, 3)
+    rows_bottom_up = np.repeat(np.arange(3, dtype=np.float32), 2 * 4) / 10.0
+    image.pixels.foreach_set(rows_bottom_up)
+    pixels = bridge.read_image_pixels(image)
+    assert np.allclose(pixels[:, 0, 0], [0.2, 0.1, 0.0], atol=0.01)  # Blender's last row is the top
+
+
+def test_preprocess_and_cache_check_operators():
+    clean()
+    configure()
+    assert bpy.ops.texsynth.preprocess() == {"FINISHED"}
+    assert bpy.ops.texsynth.check_cache() == {"FINISHED"}
+    configure(sample_path="")
+    expect_error(bpy.ops.texsynth.preprocess, "no sample")
+
+
+def test_panel_draws_without_native_module():
+    saved = (native._module, native._reason, native._tried)
+    try:
+        native._module, native._tried = None, True
+        native._reason = "native module missing: test"
+        assert native.reason().startswith("native module missing")
+        expect_error(native.require, "missing")
+        clean()
+        obj = harness.add_primitive("cube", "Cube")
+        before = harness.mesh_hash(obj.data)
+        configure()
+        harness.select_only([obj])
+        expect_error(run_operator, "missing")
+        assert harness.mesh_hash(obj.data) == before
+    finally:
+        native._module, native._reason, native._tried = saved
+
+
+def test_settings_persist_in_the_blend_file():
+    clean()
+    image = bpy.data.images.load(BRICKS)
+    configure(sample_source="IMAGE", sample_image=image, scale=2.5, seed=42, jump_rate=7.5, orientation="ANCHORS",
+              direction_attribute="flow", blend=False, allow_oversized=True, material_mode="INSERT")
+    path = os.path.join(tempfile.mkdtemp(), "settings.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    assert bpy.context.scene.texsynth.seed == 0
+    bpy.ops.wm.open_mainfile(filepath=path)
+    props = bpy.context.scene.texsynth
+    assert (props.sample_source, props.sample_image.name, props.scale, props.seed, props.jump_rate) == \
+        ("IMAGE", "bricks.png", 2.5, 42, 7.5)
+    assert (props.orientation, props.direction_attribute, props.blend, props.allow_oversized,
+            props.material_mode) == ("ANCHORS", "flow", False, True, "INSERT")
+
+
+class RecordingLayout:
+    """Stands in for a UILayout (none exists in background mode): records what draw() shows."""
+
+    def __init__(self, log):
+        self.log = log
+
+    def _record(self, kind, *args, **kwargs):
+        self.log.append((kind, args, kwargs))
+        return self
+
+    def __getattr__(self, name):
+        if name in ("row", "column", "box"):
+            return lambda *a, **k: self
+        if name in ("prop", "label", "operator", "template_ID", "separator"):
+            return lambda *a, **k: self._record(name, *a, **k)
+        raise AttributeError(name)
+
+
+def draw_panel(panel_class):
+    log = []
+    panel = type("PanelStandIn", (), {"layout": RecordingLayout(log)})()
+    panel_class.draw(panel, bpy.context)
+    return log
+
+
+def test_panel_draws_every_setting_and_the_native_reason():
+    configure()
+    log = draw_panel(texsynth.ui.TEXSYNTH_PT_main)
+    props_shown = {args[1] for kind, args, _ in log if kind == "prop"}
+    assert props_shown >= {"sample_source", "sample_path", "method", "scale", "seed", "jump_rate", "orientation",
+                           "axis", "blend", "allow_oversized", "material_mode"}, props_shown
+    operators_shown = {args[0] for kind, args, _ in log if kind == "operator"}
+    assert operators_shown == {"texsynth.preprocess", "texsynth.check_cache", "texsynth.synthesize", "texsynth.clear"}
+    assert any(kind == "label" and kw.get("text", "").startswith("Cache:") for kind, _, kw in log)
+    configure(sample_source="IMAGE", orientation="FIELD", method="TEXTON")
+    log = draw_panel(texsynth.ui.TEXSYNTH_PT_main)
+    assert any(kind == "template_ID" for kind, _, _ in log)
+    assert "direction_attribute" in {args[1] for kind, args, _ in log if kind == "prop"}
+    assert any("not implemented" in kw.get("text", "") for kind, _, kw in log if kind == "label")
+    saved = (native._module, native._reason, native._tried)
+    try:
+        native._module, native._reason, native._tried = None, "native module missing: no texsynth_native", True
+        labels = " ".join(kw.get("text", "") for kind, _, kw in draw_panel(texsynth.ui.TEXSYNTH_PT_main)
+                          if kind == "label")
+        assert "Native module unavailable" in labels and "no texsynth_native" in labels
+    finally:
+        native._module, native._reason, native._tried = saved
+
+
+if __name__ == "__main__":
+    harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")],
+                         only=harness.script_args())

@@ -1,0 +1,163 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""bpy-free core of the add-on (addon/pipeline.py, addon/native.py), under plain pytest."""
+
+import numpy as np
+import pytest
+
+import addon_package
+
+pipeline = addon_package.load("pipeline")
+native = addon_package.load("native")
+
+
+def test_valid_settings_pass_and_each_bad_setting_is_named():
+    assert pipeline.Settings().validate() is not None
+    bad = {"method": ("NOPE", "method"), "sample_world_size": (0.0, "scale"), "seed": (-1, "seed"),
+           "jump_rate": (float("nan"), "jump rate"), "orientation": ("UP", "orientation"),
+           "axis": ((0.0, 0.0, 0.0), "axis"), "neighbourhood": (4, "neighbourhood")}
+    for field, (value, word) in bad.items():
+        with pytest.raises(pipeline.SettingsError, match=word):
+            pipeline.Settings(**{field: value}).validate()
+    with pytest.raises(pipeline.SettingsError, match="not implemented"):
+        pipeline.Settings(method="TEXTON").validate()
+    with pytest.raises(pipeline.SettingsError, match="attribute"):
+        pipeline.Settings(orientation="FIELD").validate()
+    for inf in (float("inf"), -1.0, True):
+        with pytest.raises(pipeline.SettingsError):
+            pipeline.Settings(sample_world_size=inf).validate()
+
+
+def test_texels_per_unit_is_width_over_world_size():
+    # A 256-texel sample spanning 2 world units puts 128 texels on each unit.
+    assert pipeline.texels_per_unit(256, 2.0) == 128.0
+    assert pipeline.texels_per_unit(100, 0.5) == 200.0
+    for width, size in ((0, 1.0), (256, 0.0), (256, float("inf")), (256, -3.0)):
+        with pytest.raises(pipeline.SettingsError):
+            pipeline.texels_per_unit(width, size)
+
+
+def test_object_seed_is_stable_distinct_and_in_range():
+    assert pipeline.object_seed(5, "Cube") == pipeline.object_seed(5, "Cube")
+    seeds = {pipeline.object_seed(s, n) for s in range(4) for n in ("Cube", "Sphere", "Suzanne")}
+    assert len(seeds) == 12
+    assert all(0 <= s < 2 ** 63 for s in seeds)
+
+
+def test_uv_layer_names_and_capacity():
+    assert pipeline.uv_layer_names(0) == ["TexSynth"]
+    assert pipeline.uv_layer_names(4) == ["TexSynth", "TexSynth_B0", "TexSynth_B1", "TexSynth_B2", "TexSynth_B3"]
+    assert pipeline.is_texsynth_uv_name("TexSynth_B2")
+    assert not pipeline.is_texsynth_uv_name("TexSynth_Bx") and not pipeline.is_texsynth_uv_name("UVMap")
+    pipeline.check_uv_capacity(["UVMap", "A", "B", "TexSynth", "TexSynth_B0"], 4)  # 3 foreign + 5 = 8
+    with pytest.raises(pipeline.SettingsError, match="remove 1 UV map"):
+        pipeline.check_uv_capacity(["UVMap", "A", "B", "C"], 4)
+    pipeline.check_uv_capacity(["U%d" % k for k in range(7)], 0)
+    with pytest.raises(pipeline.SettingsError, match="at most 8"):
+        pipeline.check_uv_capacity(["U%d" % k for k in range(8)], 0)
+
+
+def test_needed_blend_sets_matches_the_native_contract():
+    tris = pipeline.MeshArrays(np.zeros((3, 3), np.float32), np.arange(3, dtype=np.int32),
+                               np.array([0], np.int32), np.array([3], np.int32))
+    mixed = pipeline.MeshArrays(np.zeros((5, 3), np.float32), np.arange(7, dtype=np.int32) % 5,
+                                np.array([0, 3], np.int32), np.array([3, 4], np.int32))
+    assert pipeline.needed_blend_sets(tris, True) == 3
+    assert pipeline.needed_blend_sets(mixed, True) == 4
+    assert pipeline.needed_blend_sets(mixed, False) == 0
+
+
+def test_blender_pixels_are_flipped_top_row_first():
+    width, height = 3, 2
+    bottom_up = np.arange(width * height * 4, dtype=np.float32)
+    image = pipeline.blender_pixels_to_image(bottom_up, width, height, 4)
+    assert image.shape == (2, 3, 4) and image.flags.c_contiguous and image.dtype == np.float32
+    # Blender's first row is the bottom one, so it becomes the last row.
+    assert np.array_equal(image[1, 0], [0, 1, 2, 3]) and np.array_equal(image[0, 2], [20, 21, 22, 23])
+    with pytest.raises(pipeline.SettingsError, match="expected"):
+        pipeline.blender_pixels_to_image(bottom_up[:-1], width, height, 4)
+    bad = bottom_up.copy()
+    bad[5] = np.nan
+    with pytest.raises(pipeline.SettingsError, match="NaN"):
+        pipeline.blender_pixels_to_image(bad, width, height, 4)
+
+
+def _result(corners, sets):
+    return {"base_uv": np.zeros((corners, 2), np.float32), "num_blend_sets": sets,
+            "blend_uv": np.zeros((sets, corners, 2), np.float32),
+            "blend_weights": np.eye(max(sets, 1), dtype=np.float32)[np.arange(corners) % max(sets, 1)][:, :sets]}
+
+
+def test_check_result_rejects_wrong_shapes_types_and_nan():
+    pipeline.check_result(_result(6, 4), 6)
+    pipeline.check_result(_result(6, 0), 6)
+    with pytest.raises(pipeline.SettingsError, match="base_uv"):
+        pipeline.check_result(_result(6, 4), 7)
+    wrong_dtype = _result(6, 3)
+    wrong_dtype["blend_uv"] = wrong_dtype["blend_uv"].astype(np.float64)
+    with pytest.raises(pipeline.SettingsError, match="blend_uv"):
+        pipeline.check_result(wrong_dtype, 6)
+    with_nan = _result(6, 3)
+    with_nan["blend_weights"][2, 1] = np.nan
+    with pytest.raises(pipeline.SettingsError, match="NaN"):
+        pipeline.check_result(with_nan, 6)
+    with pytest.raises(pipeline.SettingsError, match="blend sets"):
+        pipeline.check_result(_result(6, 5), 6)
+
+
+def test_weights_rgba_stores_w0_w1_w2_and_one_minus_w3():
+    three = _result(5, 3)
+    rgba = pipeline.weights_rgba(three, 5).reshape(5, 4)
+    assert np.array_equal(rgba[:, :3], three["blend_weights"]) and np.all(rgba[:, 3] == 1)
+    four = _result(6, 4)  # corners 3 of each 4 carry w3 = 1
+    rgba = pipeline.weights_rgba(four, 6).reshape(6, 4)
+    assert np.array_equal(rgba[:, :3], four["blend_weights"][:, :3])
+    assert np.array_equal(rgba[:, 3], [1, 1, 1, 0, 1, 1])
+    # Without weights the buffer reads like a missing attribute: (0, 0, 0, 1).
+    assert np.array_equal(pipeline.weights_rgba(_result(5, 0), 5).reshape(5, 4), np.tile([0, 0, 0, 1], (5, 1)))
+
+
+def test_load_sample_checks_paths_and_arrays(tmp_path):
+    with pytest.raises(pipeline.SettingsError, match="no sample"):
+        pipeline.load_sample("")
+    with pytest.raises(pipeline.SettingsError, match="not found"):
+        pipeline.load_sample(str(tmp_path / "missing.png"))
+    with pytest.raises(pipeline.SettingsError, match="H x W x C"):
+        pipeline.load_sample(np.zeros((4, 4), np.float32))
+    assert pipeline.load_sample(np.zeros((4, 4, 3), np.float64)).dtype == np.float32
+    assert pipeline.load_sample(np.zeros((4, 4, 3), np.uint8)).dtype == np.uint8
+
+
+def test_report_summary_and_json():
+    report = pipeline.Report()
+    arrays = pipeline.MeshArrays(np.zeros((4, 3), np.float32), np.zeros(8, np.int32),
+                                 np.array([0, 4], np.int32), np.array([4, 4], np.int32))
+    report.add_object("A", arrays, {"jumps": 3})
+    report.failures.append(("B", "mesh has no faces"))
+    report.seconds = {"preprocess": 0.5, "synthesis": 1.0, "transfer": 0.25, "total": 2.0}
+    data = report.as_json()
+    assert (data["faces"], data["vertices"], data["corners"]) == (2, 4, 8)
+    assert data["failures"] == [{"object": "B", "error": "mesh has no faces"}]
+    assert "1 object(s), 2 faces in 2.00 s" in report.summary() and "B: mesh has no faces" in report.summary()
+    empty = pipeline.Report(failures=[("C", "bad")])
+    assert empty.summary() == "TexSynth: nothing written; C: bad"
+
+
+def test_timings_accumulate_per_phase():
+    timings = pipeline.Timings()
+    for phase in ("read", "write", "write"):
+        with timings.phase(phase):
+            sum(range(1000))
+    seconds = timings.as_dict()
+    assert seconds["read"] > 0 and seconds["write"] > 0 and seconds["synthesis"] == 0.0
+    assert seconds["transfer"] == seconds["read"] + seconds["write"]
+    assert seconds["total"] >= seconds["transfer"]
+
+
+def test_native_diagnosis_names_the_problem(tmp_path):
+    suffix = ".cpython-311-x86_64-linux-gnu.so"
+    assert "missing" in native.diagnose(str(tmp_path), suffix, (3, 11))
+    (tmp_path / "texsynth_native.cpython-310-x86_64-linux-gnu.so").write_bytes(b"")
+    message = native.diagnose(str(tmp_path), suffix, (3, 11))
+    assert "another Python" in message and "cpython-310" in message and "3.11" in message
+    (tmp_path / ("texsynth_native" + suffix)).write_bytes(b"")
+    assert native.diagnose(str(tmp_path), suffix, (3, 11)) is None

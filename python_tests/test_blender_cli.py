@@ -1,0 +1,128 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The headless CLI (addon/texsynth_cli.py): exit codes, one-line errors, stats JSON, --mesh, --save."""
+import json
+import os
+
+import pytest
+
+import addon_package
+import blender_run
+
+SCENE = os.path.join(blender_run.SAMPLES, "scene.blend")
+BRICKS = os.path.join(blender_run.SAMPLES, "bricks.png")
+
+# Suzanne in blend_samples/scene.blend is Blender's monkey primitive: 507 vertices, 500 faces, 1968 corners.
+SUZANNE = {"vertices": 507, "faces": 500, "corners": 1968}
+
+
+def run_failing(*args, code, fragment, blend_file=None):
+    process = blender_run.cli(*args, blend_file=blend_file)
+    lines = blender_run.error_lines(process)
+    assert process.returncode == code, process.stdout[-2000:] + process.stderr[-2000:]
+    assert len(lines) == 1 and fragment.lower() in lines[0].lower(), lines
+
+
+@pytest.mark.parametrize("args, fragment", [
+    ((), "required"),
+    (("--sample", BRICKS), "--object"),
+    (("--sample", BRICKS, "--object", "Suzanne", "--mesh", "x.obj"), "not allowed"),
+    (("--sample", BRICKS, "--object", "Suzanne", "--scale", "-1"), "--scale"),
+    (("--sample", BRICKS, "--object", "Suzanne", "--seed", "abc"), "--seed"),
+    (("--sample", BRICKS, "--object", "Suzanne", "--render", "/no/such/dir/x.png"), "does not exist"),
+])
+def test_bad_arguments_exit_2_with_one_line(args, fragment):
+    run_failing(*args, code=2, fragment=fragment, blend_file=SCENE)
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (("--sample", "/no/such/sample.png", "--object", "Suzanne"), "not found"),
+    (("--sample", BRICKS, "--object", "Nobody"), "no object named 'Nobody'"),
+    (("--sample", BRICKS, "--object", "Camera"), "not a mesh"),
+    (("--sample", BRICKS, "--mesh", "/no/such/mesh.obj"), "not found"),
+    (("--sample", BRICKS, "--object", "Suzanne", "--method", "texton"), "not implemented"),
+])
+def test_bad_inputs_exit_1_with_one_line(args, fragment):
+    run_failing(*args, code=1, fragment=fragment, blend_file=SCENE)
+
+
+def test_stats_json_on_the_sample_scene(tmp_path):
+    stats_path, cache = tmp_path / "stats.json", tmp_path / "cache"
+    args = ("--sample", BRICKS, "--object", "Suzanne", "--scale", "0.8", "--seed", "3",
+            "--cache-dir", str(cache), "--stats", str(stats_path), "--save", str(tmp_path / "out.blend"))
+    process = blender_run.cli(*args, blend_file=SCENE)
+    assert process.returncode == 0, process.stdout[-2000:] + process.stderr[-2000:]
+    stats = json.loads(stats_path.read_text())
+    assert {k: stats[k] for k in SUZANNE} == SUZANNE
+    assert set(stats["seconds"]) >= {"preprocess", "synthesis", "transfer", "total"}
+    assert all(v >= 0 for v in stats["seconds"].values())
+    assert stats["seconds"]["total"] >= stats["seconds"]["synthesis"] + stats["seconds"]["transfer"]
+    assert stats["cache_hit"] is False
+    check = ("import bpy\nm = bpy.data.objects['Suzanne'].data\n"
+             "names = [l.name for l in m.uv_layers]\nprint('LAYERS', names)\n"
+             "assert names[-5:] == ['TexSynth'] + ['TexSynth_B%d' % k for k in range(4)], names\n"
+             "assert 'TexSynth_Weights' in m.attributes\n"
+             "assert bpy.data.objects['Suzanne'].material_slots[0].material.name == 'TexSynth: bricks.png'\n")
+    reopened = blender_run.blender("--python-expr", check, blend_file=str(tmp_path / "out.blend"))
+    assert reopened.returncode == 0, reopened.stdout[-2000:] + reopened.stderr[-2000:]
+    if addon_package.real_synthesizer_available():
+        again = blender_run.cli(*args, blend_file=SCENE)
+        assert again.returncode == 0
+        assert json.loads(stats_path.read_text())["cache_hit"] is True
+
+
+def test_mesh_file_import_no_blend_and_render(tmp_path):
+    obj = tmp_path / "mixed.obj"
+    # Three quads and a triangle: 8 vertices, 4 faces, 4 + 4 + 3 + 4 = 15 corners.
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nv 1 1 0\nv 2 1 0\nv 3 0.5 0\nv 1 2 0\n"
+                   "f 1 2 5 4\nf 2 3 6 5\nf 3 7 6\nf 4 5 6 8\n")
+    stats_path, render = tmp_path / "stats.json", tmp_path / "mesh.png"
+    process = blender_run.cli("--sample", BRICKS, "--mesh", str(obj), "--scale", "4", "--no-blend",
+                              "--stats", str(stats_path),
+                              "--render", str(render), "--resolution", "64", "48")
+    assert process.returncode == 0, process.stdout[-2000:] + process.stderr[-2000:]
+    stats = json.loads(stats_path.read_text())
+    assert (stats["vertices"], stats["faces"], stats["corners"]) == (8, 4, 15)
+    assert render.is_file() and render.stat().st_size > 0
+    assert "render" in stats["seconds"]
+
+
+def test_oversized_faces_and_unknown_mesh_type_exit_1(tmp_path):
+    big = tmp_path / "big.obj"
+    big.write_text("v 0 0 0\nv 10 0 0\nv 10 10 0\nv 0 10 0\nf 1 2 3 4\n")  # a 10-unit quad, 1-unit sample
+    run_failing("--sample", BRICKS, "--mesh", str(big), code=1, fragment="larger than")
+    odd = tmp_path / "mesh.xyz"
+    odd.write_text("0 0 0\n")
+    run_failing("--sample", BRICKS, "--mesh", str(odd), code=1, fragment="unsupported mesh file type")
+
+
+TETRA_VERTS = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)]
+TETRA_FACES = [(0, 2, 1), (0, 1, 3), (1, 2, 3), (0, 3, 2)]
+
+
+def write_tetrahedron(path):
+    """The same 4-triangle tetrahedron as .obj, ASCII .ply or ASCII .stl."""
+    if path.suffix == ".obj":
+        lines = ["v %g %g %g" % v for v in TETRA_VERTS] + ["f %d %d %d" % tuple(i + 1 for i in f) for f in TETRA_FACES]
+    elif path.suffix == ".ply":
+        lines = ["ply", "format ascii 1.0", "element vertex 4", "property float x", "property float y",
+                 "property float z", "element face 4", "property list uchar int vertex_indices", "end_header"]
+        lines += ["%g %g %g" % v for v in TETRA_VERTS] + ["3 %d %d %d" % f for f in TETRA_FACES]
+    else:
+        lines = ["solid tetra"]
+        for face in TETRA_FACES:
+            lines += ["facet normal 0 0 0", "outer loop"] + ["vertex %g %g %g" % TETRA_VERTS[i] for i in face] + \
+                     ["endloop", "endfacet"]
+        lines.append("endsolid tetra")
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.mark.parametrize("suffix", [".obj", ".ply", ".stl"])
+def test_mesh_importers(tmp_path, suffix):
+    mesh = tmp_path / ("tetra" + suffix)
+    write_tetrahedron(mesh)
+    stats_path = tmp_path / "stats.json"
+    process = blender_run.cli("--sample", BRICKS, "--mesh", str(mesh), "--scale", "4", "--stats", str(stats_path))
+    assert process.returncode == 0, process.stdout[-2000:] + process.stderr[-2000:]
+    stats = json.loads(stats_path.read_text())
+    assert stats["faces"] == 4 and stats["corners"] == 12
+    assert stats["vertices"] in (4, 12)  # STL stores unshared triangle corners
