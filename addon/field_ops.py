@@ -1,0 +1,302 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Field authoring operators: Comb (modal), Source/Sink, Presets, Field from Strokes.
+
+Each edit: bridge.read_field_state -> fields.* (native ray casts and relaxation) ->
+bridge.write_field_state -> overlay refresh -> optional live re-synthesis.
+"""
+import time
+
+import bpy
+import numpy as np
+
+from . import bridge, fields, operators, overlay, pipeline, properties, synthesis
+
+# Ray casters per object name, rebuilt when the mesh changes (fields.mesh_key).
+_casters = {}
+# Preprocessed samples kept in memory for live updates: key -> Preprocessed.
+_live_samples = {}
+# Figures of the last edit / live update, shown by the panel and read by tests and benchmarks.
+last_timings = {}
+
+
+def caster_for(obj, arrays):
+    key = fields.mesh_key(arrays)
+    cached = _casters.get(obj.name)
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    caster = fields.ray_caster(arrays)
+    _casters[obj.name] = (key, caster)
+    return caster
+
+
+def _active_mesh(context):
+    obj = context.active_object
+    if obj is None or obj.type != "MESH":
+        raise pipeline.SettingsError("select a mesh object first")
+    if obj.data.library is not None:
+        raise pipeline.SettingsError("mesh %r is linked from a library and cannot be edited" % obj.data.name)
+    return obj
+
+
+def field_state(context, obj):
+    return bridge.read_field_state(obj, tuple(context.scene.texsynth.axis))
+
+
+def commit_edit(context, obj, state):
+    """Writes the edited field, refreshes the overlay and re-synthesizes when Live Update is on."""
+    bridge.write_field_state(obj, state)
+    overlay.invalidate(obj.name)
+    if context.scene.texsynth.field_live_update:
+        live_update(context, obj)
+    for area in getattr(context.screen, "areas", None) or ():
+        if area.type == "VIEW_3D":
+            area.tag_redraw()
+
+
+def live_update(context, obj):
+    """Re-synthesizes obj with the sample kept in memory, reading the field just written.
+    Only rewrites the UV layers and weights (materials are left as they are)."""
+    props = context.scene.texsynth
+    settings = props.to_settings()
+    if settings.orientation == "AXIS":
+        settings.orientation, settings.direction_attribute = "FIELD", fields.DIRECTION_NAME
+    settings.validate()
+    sample = operators.sample_from_settings(props)
+    cache_dir = properties.cache_dir(context)
+    key = (sample.describe(), repr(sorted(settings.preprocess_params().items())), cache_dir)
+    pre = _live_samples.get(key)
+    if pre is None:
+        pre = synthesis.preprocess(sample, settings, cache_dir)
+        _live_samples.clear()
+        _live_samples[key] = pre
+    start = time.perf_counter()
+    report = synthesis.synthesize([obj], sample, settings, cache_dir, "NONE", preprocessed=pre)
+    last_timings["live_update"] = time.perf_counter() - start
+    last_timings["live_native"] = report.native_stats.get(obj.name, {}).get("seconds", 0.0)
+    if report.failures:
+        raise pipeline.SettingsError(report.summary())
+    return report
+
+
+def _ray_from_event(context, event):
+    from bpy_extras import view3d_utils
+    region, rv3d = context.region, context.region_data
+    coord = (event.mouse_region_x, event.mouse_region_y)
+    origin = view3d_utils.region_2d_to_origin_3d(region, rv3d, coord)
+    direction = view3d_utils.region_2d_to_vector_3d(region, rv3d, coord)
+    return np.array(origin, np.float64), np.array(direction, np.float64)
+
+
+class TEXSYNTH_OT_comb(bpy.types.Operator):
+    """Comb the direction field: drag over the surface (Ctrl-drag or Erase removes anchors; [ ] radius;
+    Esc / right click to finish)"""
+    bl_idname = "texsynth.comb"
+    bl_label = "Comb Field"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return (context.mode == "OBJECT" and context.area is not None and context.area.type == "VIEW_3D"
+                and context.active_object is not None and context.active_object.type == "MESH")
+
+    def invoke(self, context, event):
+        try:
+            self.obj = _active_mesh(context)
+            self.state = field_state(context, self.obj)
+            props = context.scene.texsynth
+            self.brush = fields.CombBrush(self.state, caster_for(self.obj, self.state.arrays),
+                                          props.field_brush_radius, props.field_brush_strength)
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        self.dragging = False
+        bridge.write_field_state(self.obj, self.state)  # the overlay needs the direction attribute
+        overlay.active_editors.add(self.obj.name)
+        overlay.invalidate(self.obj.name)
+        context.window_manager.modal_handler_add(self)
+        context.area.header_text_set("Comb: drag to paint, Ctrl-drag to erase, [ ] radius, Esc/RMB to finish")
+        context.area.tag_redraw()
+        return {"RUNNING_MODAL"}
+
+    def _finish(self, context):
+        overlay.active_editors.discard(self.obj.name)
+        context.area.header_text_set(None)
+        context.area.tag_redraw()
+
+    def _end_stroke(self, context):
+        self.dragging = False
+        start = time.perf_counter()
+        if self.brush.end_stroke():
+            try:
+                commit_edit(context, self.obj, self.state)
+            except (ValueError, RuntimeError) as error:
+                self.report({"WARNING"}, str(error))
+        last_timings.update(stroke_hit_testing=self.brush.seconds["hit_testing"],
+                            stroke_relax=self.brush.seconds["relax"], stroke_commit=time.perf_counter() - start)
+        self.brush.seconds = {"hit_testing": 0.0, "relax": 0.0}
+
+    def modal(self, context, event):
+        props = context.scene.texsynth
+        if event.type in {"ESC", "RIGHTMOUSE"} and event.value == "PRESS":
+            if self.dragging:
+                self._end_stroke(context)
+            self._finish(context)
+            return {"FINISHED"}
+        if event.type in {"LEFT_BRACKET", "RIGHT_BRACKET"} and event.value == "PRESS":
+            props.field_brush_radius *= 0.8 if event.type == "LEFT_BRACKET" else 1.25
+            self.brush.radius = props.field_brush_radius
+            return {"RUNNING_MODAL"}
+        if event.type == "LEFTMOUSE":
+            if event.value == "PRESS":
+                self.dragging = True
+                self.brush.radius, self.brush.strength = props.field_brush_radius, props.field_brush_strength
+                origin, direction = _ray_from_event(context, event)
+                self.brush.dab(origin, direction, erase_mode=event.ctrl or props.field_erase)
+                return {"RUNNING_MODAL"}
+            if event.value == "RELEASE" and self.dragging:
+                self._end_stroke(context)
+                return {"RUNNING_MODAL"}
+        if event.type in {"MOUSEMOVE", "INBETWEEN_MOUSEMOVE"} and self.dragging:
+            origin, direction = _ray_from_event(context, event)
+            self.brush.dab(origin, direction, erase_mode=event.ctrl or props.field_erase)
+            return {"RUNNING_MODAL"}
+        return {"PASS_THROUGH"}  # navigation keeps working
+
+
+class TEXSYNTH_OT_singularity(bpy.types.Operator):
+    """Place or remove a source (field points away) or sink (field points toward) at the clicked
+    vertex; the field is relaxed around it"""
+    bl_idname = "texsynth.singularity"
+    bl_label = "Source / Sink"
+    bl_options = {"REGISTER", "UNDO"}
+
+    mode: bpy.props.EnumProperty(name="Mode", items=(("SOURCE", "Source", "Field points away from here"),
+                                                      ("SINK", "Sink", "Field points toward here"),
+                                                      ("REMOVE", "Remove", "Remove a source or sink")),
+                                 default="SOURCE")
+    vertex: bpy.props.IntProperty(name="Vertex", default=-1, min=-1,
+                                  description="Vertex index (-1: the vertex under the mouse when invoked)")
+
+    @classmethod
+    def poll(cls, context):
+        return context.mode == "OBJECT" and context.active_object is not None and context.active_object.type == "MESH"
+
+    def invoke(self, context, event):
+        if context.area is None or context.area.type != "VIEW_3D":
+            return self.execute(context)
+        try:
+            obj = _active_mesh(context)
+            arrays = bridge.read_mesh(obj)
+            origin, direction = _ray_from_event(context, event)
+            vertex = fields.nearest_vertex(caster_for(obj, arrays), arrays.positions, origin, direction)
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        if vertex < 0:
+            self.report({"WARNING"}, "TexSynth: click on the object's surface")
+            return {"CANCELLED"}
+        self.vertex = vertex
+        return self.execute(context)
+
+    def execute(self, context):
+        kind = {"SOURCE": fields.SOURCE, "SINK": fields.SINK, "REMOVE": 0}[self.mode]
+        try:
+            obj = _active_mesh(context)
+            state = field_state(context, obj)
+            fields.set_singularity(state, self.vertex, kind)
+            commit_edit(context, obj, state)
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        self.report({"INFO"}, "TexSynth: %s at vertex %d" % (self.mode.lower(), self.vertex))
+        return {"FINISHED"}
+
+
+class TEXSYNTH_OT_field_preset(bpy.types.Operator):
+    """Set the direction field from a preset"""
+    bl_idname = "texsynth.field_preset"
+    bl_label = "Field Preset"
+    bl_options = {"REGISTER", "UNDO"}
+
+    preset: bpy.props.EnumProperty(
+        name="Preset",
+        items=(("AXIS", "Global Axis", "The panel's axis projected on the surface (clears combed anchors)"),
+               ("CURVATURE", "Curvature", "Along the direction of least curvature (e.g. along tubes)"),
+               ("SMOOTH", "Smooth", "Relax the current field")),
+        default="AXIS")
+    iterations: bpy.props.IntProperty(name="Iterations", default=10, min=1, max=1000)
+
+    @classmethod
+    def poll(cls, context):
+        return context.mode == "OBJECT" and context.active_object is not None and context.active_object.type == "MESH"
+
+    def execute(self, context):
+        try:
+            obj = _active_mesh(context)
+            state = field_state(context, obj)
+            if self.preset == "AXIS":
+                fields.preset_axis(state, tuple(context.scene.texsynth.axis))
+            elif self.preset == "CURVATURE":
+                fields.preset_curvature(state)
+            else:
+                fields.preset_smooth(state, self.iterations)
+            commit_edit(context, obj, state)
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        return {"FINISHED"}
+
+
+def guide_strokes(context):
+    """World-space polylines of the scene's annotation strokes and of selected Grease Pencil objects."""
+    strokes = []
+    annotation = getattr(context, "annotation_data", None) or context.scene.grease_pencil
+    datas = [(annotation, None)] if annotation is not None else []
+    datas += [(obj.data, np.array(obj.matrix_world, np.float64)) for obj in context.selected_objects
+              if obj.type == "GPENCIL"]
+    for data, matrix in datas:
+        for layer in data.layers:
+            frame = getattr(layer, "active_frame", None)
+            if frame is None or getattr(layer, "hide", False):
+                continue
+            for stroke in frame.strokes:
+                points = np.empty(len(stroke.points) * 3, np.float32)
+                stroke.points.foreach_get("co", points)
+                points = points.reshape(-1, 3).astype(np.float64)
+                if matrix is not None:
+                    points = points @ matrix[:3, :3].T + matrix[:3, 3]
+                strokes.append(points)
+    return strokes
+
+
+class TEXSYNTH_OT_field_from_strokes(bpy.types.Operator):
+    """Turn annotation (and selected Grease Pencil) strokes drawn on the surface into field anchors"""
+    bl_idname = "texsynth.field_from_strokes"
+    bl_label = "Field from Strokes"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.mode == "OBJECT" and context.active_object is not None and context.active_object.type == "MESH"
+
+    def execute(self, context):
+        props = context.scene.texsynth
+        try:
+            obj = _active_mesh(context)
+            strokes = guide_strokes(context)
+            if not strokes:
+                raise pipeline.SettingsError("no annotation or Grease Pencil strokes found: draw some on the surface")
+            state = field_state(context, obj)
+            used = fields.anchors_from_strokes(state, caster_for(obj, state.arrays), strokes,
+                                               props.field_brush_radius, props.field_brush_strength)
+            if not used:
+                raise pipeline.SettingsError("no stroke point lies within the brush radius of %r" % obj.name)
+            commit_edit(context, obj, state)
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        self.report({"INFO"}, "TexSynth: %d stroke point(s) became anchors" % used)
+        return {"FINISHED"}
+
+
+classes = (TEXSYNTH_OT_comb, TEXSYNTH_OT_singularity, TEXSYNTH_OT_field_preset, TEXSYNTH_OT_field_from_strokes)

@@ -1,0 +1,123 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Viewport overlay: the active object's direction field as short arrows (gpu module).
+
+Drawn while a field tool is running (comb modal) or while "Show Field" is on; nothing otherwise.
+Arrow geometry is computed in numpy (arrow_lines, bpy-free) and cached per object until the field
+or the display settings change (invalidate()).
+"""
+import numpy as np
+
+_handle = None
+_cache = {}          # object name -> (key, batch)
+active_editors = set()  # object names being edited by a modal tool
+
+
+def arrow_lines(positions, normals, directions, density, length, seed=0):
+    """(2 * 3 * k, 3) float32 line-segment endpoints: for a deterministic subset of about
+    density * N vertices, a shaft along the direction and two barbs. Positions are lifted off the
+    surface by a small fraction of the length so the arrows are not hidden by the faces."""
+    n = len(positions)
+    if n == 0:
+        return np.zeros((0, 3), np.float32)
+    rng = np.random.default_rng(seed)
+    chosen = np.flatnonzero(rng.random(n) < density) if density < 1.0 else np.arange(n)
+    d = np.asarray(directions, np.float64)[chosen]
+    keep = np.linalg.norm(d, axis=1) > 1e-6
+    chosen, d = chosen[keep], d[keep]
+    nrm = np.asarray(normals, np.float64)[chosen]
+    base = np.asarray(positions, np.float64)[chosen] + nrm * (0.05 * length)
+    tip = base + d * length
+    side = np.cross(nrm, d) * (0.25 * length)
+    back = d * (0.35 * length)
+    segments = np.stack([base, tip, tip, tip - back + side, tip, tip - back - side], axis=1)
+    return segments.reshape(-1, 3).astype(np.float32)
+
+
+def mean_edge_length(positions, edges):
+    if len(edges) == 0:
+        return 1.0
+    return float(np.mean(np.linalg.norm(positions[edges[:, 0]] - positions[edges[:, 1]], axis=1)))
+
+
+def invalidate(name=None):
+    if name is None:
+        _cache.clear()
+    else:
+        _cache.pop(name, None)
+
+
+def _uniform_color_shader():
+    import gpu
+    try:
+        return gpu.shader.from_builtin("UNIFORM_COLOR")  # 4.x name
+    except (ValueError, TypeError):
+        return gpu.shader.from_builtin("3D_UNIFORM_COLOR")  # 3.x name
+
+
+def _batch_for(obj, props):
+    import bpy
+    from gpu_extras.batch import batch_for_shader
+    from . import bridge, fields
+    key = (props.field_arrow_density, props.field_arrow_length, len(obj.data.vertices),
+           tuple(map(tuple, obj.matrix_world)))
+    cached = _cache.get(obj.name)
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    direction = bridge.read_point_attribute(obj.data, fields.DIRECTION_NAME, "FLOAT_VECTOR")
+    if direction is None:
+        _cache[obj.name] = (key, None)
+        return None
+    arrays = bridge.read_mesh(obj)
+    linear = np.array(obj.matrix_world, dtype=np.float64)[:3, :3]
+    world_direction = direction @ linear.T
+    length = mean_edge_length(arrays.positions, fields.edges(arrays)) * props.field_arrow_length
+    lines = arrow_lines(arrays.positions, fields.vertex_normals(arrays), world_direction,
+                        props.field_arrow_density, length)
+    batch = batch_for_shader(_uniform_color_shader(), "LINES", {"pos": lines}) if len(lines) else None
+    _cache[obj.name] = (key, batch)
+    del bpy
+    return batch
+
+
+def _draw():
+    import bpy
+    import gpu
+    context = bpy.context
+    scene = getattr(context, "scene", None)
+    obj = getattr(context, "active_object", None)
+    if scene is None or obj is None or obj.type != "MESH" or not hasattr(scene, "texsynth"):
+        return
+    props = scene.texsynth
+    if not (props.show_field or obj.name in active_editors):
+        return
+    try:
+        batch = _batch_for(obj, props)
+    except (ValueError, RuntimeError):
+        return  # a broken attribute is reported by the tools, never by the draw callback
+    if batch is None:
+        return
+    shader = _uniform_color_shader()
+    gpu.state.depth_test_set("LESS_EQUAL")
+    gpu.state.line_width_set(1.5)
+    shader.bind()
+    shader.uniform_float("color", (1.0, 0.55, 0.1, 1.0))
+    batch.draw(shader)
+    gpu.state.depth_test_set("NONE")
+    gpu.state.line_width_set(1.0)
+
+
+def register():
+    global _handle
+    import bpy
+    if _handle is None and not bpy.app.background:
+        _handle = bpy.types.SpaceView3D.draw_handler_add(_draw, (), "WINDOW", "POST_VIEW")
+
+
+def unregister():
+    global _handle
+    import bpy
+    if _handle is not None:
+        bpy.types.SpaceView3D.draw_handler_remove(_handle, "WINDOW")
+        _handle = None
+    _cache.clear()
+    active_editors.clear()
