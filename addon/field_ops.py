@@ -247,6 +247,16 @@ class TEXSYNTH_OT_field_preset(bpy.types.Operator):
         return {"FINISHED"}
 
 
+def _displayed_frame(layer, current):
+    """The frame a (Grease Pencil / annotation) layer shows at frame `current`: the last one at or
+    before it (active_frame is only set once the layer has been drawn)."""
+    frame = getattr(layer, "active_frame", None)
+    if frame is not None:
+        return frame
+    shown = [f for f in layer.frames if f.frame_number <= current]
+    return max(shown, key=lambda f: f.frame_number) if shown else None
+
+
 def guide_strokes(context):
     """World-space polylines of the scene's annotation strokes and of selected Grease Pencil objects."""
     strokes = []
@@ -256,7 +266,7 @@ def guide_strokes(context):
               if obj.type == "GPENCIL"]
     for data, matrix in datas:
         for layer in data.layers:
-            frame = getattr(layer, "active_frame", None)
+            frame = _displayed_frame(layer, context.scene.frame_current)
             if frame is None or getattr(layer, "hide", False):
                 continue
             for stroke in frame.strokes:

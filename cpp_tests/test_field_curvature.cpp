@@ -63,6 +63,29 @@ TEST(FieldCurvature, ConcaveCylinderStillFollowsTheAxis) {
   expect_axis_direction(cylinder(64, 20, 0.5, 2.0, true), 0.5, -2.0);
 }
 
+TEST(FieldCurvature, TiltedQuadCylinderFollowsItsAxis) {
+  // Axis not aligned with any world axis, so tangent frames are rotated against the quad edges
+  // (edges alone under-determine the fit there; polygon diagonals must be used).
+  TestMesh m = cylinder(64, 20, 0.5, 2.0, false);
+  const double c = std::cos(0.5), s = std::sin(0.5), c2 = std::cos(0.8), s2 = std::sin(0.8);
+  std::vector<float> original = m.positions;
+  for (size_t v = 0; v < m.positions.size() / 3; ++v) {
+    double x = original[3 * v], y = original[3 * v + 1], z = original[3 * v + 2];
+    double y1 = c * y - s * z, z1 = s * y + c * z;  // about X
+    double x2 = c2 * x + s2 * z1, z2 = -s2 * x + c2 * z1;  // about Y
+    m.positions[3 * v] = float(x2), m.positions[3 * v + 1] = float(y1), m.positions[3 * v + 2] = float(z2);
+  }
+  const double axis[3] = {s2 * c, -s, c2 * c};  // image of (0, 0, 1)
+  texsynth::Mesh mesh = texsynth::build_mesh(m.input());
+  texsynth::CurvatureResult r = texsynth::principal_curvature_directions(mesh);
+  for (int32_t v = 0; v < m.num_vertices(); ++v) {
+    const double z = original[3 * size_t(v) + 2];
+    if (z < 0.3 || z > 1.7) continue;
+    const float* d = &r.min_direction[3 * size_t(v)];
+    EXPECT_GT(std::fabs(d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2]), 0.999) << "vertex " << v;
+  }
+}
+
 TEST(FieldCurvature, SphereAndPlaneHaveNoDirection) {
   TestMesh sphere = fixtures::uv_sphere(30, 40, 1.5);
   texsynth::Mesh mesh = texsynth::build_mesh(sphere.input());

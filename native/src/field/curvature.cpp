@@ -4,6 +4,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <stdexcept>
@@ -43,14 +44,36 @@ CurvatureResult principal_curvature_directions(const Mesh& m, const CurvaturePar
   auto normal = [&](int32_t v) { return v3(&m.normals[3 * size_t(v)]); };
   auto position = [&](int32_t v) { return v3(m.positions + 3 * size_t(v)); };
 
-  // --- per-vertex least-squares fit of k(t) = a x² + 2 b x y + c y² over edge directions t = (x, y)
+  // Vertices sharing a polygon with v (edges AND diagonals): on quad meshes the edges alone give
+  // only two directions, too few to fix the three coefficients of the curvature form.
+  std::vector<int32_t> poly_start(size_t(nv) + 1, 0), vertex_polys;
+  for (int32_t c = 0; c < m.num_corners; ++c) ++poly_start[size_t(m.corner_verts[c]) + 1];
+  for (int32_t v = 0; v < nv; ++v) poly_start[v + 1] += poly_start[v];
+  vertex_polys.resize(size_t(m.num_corners));
+  {
+    std::vector<int32_t> fill(poly_start.begin(), poly_start.end() - 1);
+    for (int32_t p = 0; p < m.num_polys; ++p)
+      for (int32_t k = 0; k < m.poly_sizes[p]; ++k) vertex_polys[fill[m.corner_verts[m.poly_starts[p] + k]]++] = p;
+  }
+  constexpr int32_t kMaxRingPolySize = 16;  // larger n-gons contribute their edges only
+
+  // --- per-vertex least-squares fit of k(t) = a x² + 2 b x y + c y² over directions t = (x, y)
   std::vector<Tensor> tensor(nv, Tensor{});
   parallel_vertices(nv, [&](int32_t v) {
     V3 n = normal(v), e1, e2;
     frame(n, e1, e2);
     double ata[3][3] = {}, atb[3] = {};
-    for (int32_t k = m.neighbour_start[v]; k < m.neighbour_start[v + 1]; ++k) {
-      V3 e = position(m.neighbours[k]) - position(v);
+    std::vector<int32_t> ring(m.neighbours.begin() + m.neighbour_start[v], m.neighbours.begin() + m.neighbour_start[v + 1]);
+    for (int32_t i = poly_start[v]; i < poly_start[v + 1]; ++i) {
+      const int32_t p = vertex_polys[i];
+      if (m.poly_sizes[p] > kMaxRingPolySize) continue;
+      for (int32_t k = 0; k < m.poly_sizes[p]; ++k) ring.push_back(m.corner_verts[m.poly_starts[p] + k]);
+    }
+    std::sort(ring.begin(), ring.end());
+    ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
+    for (int32_t w : ring) {
+      if (w == v) continue;
+      V3 e = position(w) - position(v);
       double len2 = dot(e, e);
       V3 t = project_to_plane(e, n);
       double tl = norm(t);

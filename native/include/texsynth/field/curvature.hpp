@@ -2,9 +2,10 @@
 #pragma once
 // Per-vertex principal curvature directions, for the "from curvature" field preset.
 //
-// Shape operator per vertex: normal curvatures along each edge, k_ij = 2 n_i·(p_i − p_j) / |p_j − p_i|²
-// (positive on convex surfaces with outward normals), fitted by least squares to a symmetric 2×2
-// form in the tangent plane (Taubin-style one-ring estimate), then averaged over one-rings
+// Shape operator per vertex: normal curvatures toward every vertex sharing a polygon with it
+// (edges and diagonals), k_ij = 2 n_i·(p_i − p_j) / |p_j − p_i|² (positive on convex surfaces with
+// outward normals), fitted by least squares to a symmetric 2×2 form in the tangent plane
+// (Taubin-style estimate; a tiny ridge term keeps degenerate rings defined), then averaged over one-rings
 // `smoothing_rings` times (as 3×3 tensors, re-projected) to tame triangulation noise.
 //
 // The returned direction is the principal direction of SMALLER |curvature| (the "flattest" way:
