@@ -55,25 +55,9 @@ def ray_caster(arrays):
 
 
 def vertex_normals(arrays):
-    """Area-weighted vertex normals (Newell polygon normals summed), float32; zero-area -> +Z."""
-    positions = arrays.positions.astype(np.float64)
-    corner_verts = arrays.corner_verts
-    # Newell: sum over polygon edges (p_i x p_next(i)), next corner wraps inside each polygon.
-    corner_poly = np.repeat(np.arange(arrays.num_faces), arrays.poly_sizes)
-    next_corner = np.arange(arrays.num_corners) + 1
-    last = arrays.poly_starts + arrays.poly_sizes - 1
-    next_corner[last] = arrays.poly_starts
-    cross = np.cross(positions[corner_verts], positions[corner_verts[next_corner]])
-    poly_normal = np.zeros((arrays.num_faces, 3))
-    for axis in range(3):
-        poly_normal[:, axis] = np.bincount(corner_poly, cross[:, axis], minlength=arrays.num_faces)
-    normals = np.zeros((arrays.num_vertices, 3))
-    for axis in range(3):
-        normals[:, axis] = np.bincount(corner_verts, poly_normal[corner_poly, axis], minlength=arrays.num_vertices)
-    length = np.linalg.norm(normals, axis=1)
-    normals[length < 1e-30] = (0.0, 0.0, 1.0)
-    length[length < 1e-30] = 1.0
-    return (normals / length[:, None]).astype(np.float32)
+    """(N, 3) float32 unit vertex normals, the same the native field and synthesis use."""
+    return np.asarray(native.require().vertex_normals(arrays.positions, arrays.corner_verts, arrays.poly_starts,
+                                                      arrays.poly_sizes), dtype=np.float32)
 
 
 def edges(arrays):

@@ -106,6 +106,24 @@ def test_raycast_rejects_bad_input_with_value_errors():
         caster.vertices_within((0, 0, 0), -1.0)
 
 
+def newell_vertex_normals(pos, corner_verts, starts, sizes):
+    """Reference: area-weighted vertex normals from Newell polygon normals (float64 numpy)."""
+    normals = np.zeros((len(pos), 3))
+    for s, k in zip(starts, sizes):
+        ring = pos[corner_verts[s:s + k]].astype(np.float64)
+        newell = np.cross(ring, np.roll(ring, -1, axis=0)).sum(0)
+        normals[corner_verts[s:s + k]] += newell
+    return normals / np.linalg.norm(normals, axis=1, keepdims=True)
+
+
+def test_vertex_normals_match_newell_area_weighting():
+    pos, cv, st, sz = grid(12, 0.1, triangles=False, jitter=0.3)
+    pos = pos.copy()
+    pos[:, 2] = 0.3 * np.sin(pos[:, 0] * 5) * np.cos(pos[:, 1] * 4)
+    got = fields.vertex_normals(mesh_arrays(pos, cv, st, sz))
+    np.testing.assert_allclose(got, newell_vertex_normals(pos, cv, st, sz), atol=1e-5)
+
+
 # ---------------------------------------------------------------------------------------------
 # Comb brush
 

@@ -31,4 +31,19 @@ void bind_curvature(py::module_& m) {
       py::arg("smoothing_rings") = 2, py::arg("anisotropy_threshold") = 0.2,
       "(directions (N, 3), curvatures (N, 2)) float32: per vertex the principal direction of smaller |curvature| "
       "(sign-consistent; zero where flat or umbilic) and (k_flat, k_steep). Positive curvature = convex.");
+
+  m.def(
+      "vertex_normals",
+      [](py::object positions, py::object corner_verts, py::object poly_starts, py::object poly_sizes) {
+        MeshArrays arrays = mesh_arrays(positions, corner_verts, poly_starts, poly_sizes);
+        std::vector<float> normals;
+        {
+          py::gil_scoped_release release;
+          normals = std::move(texsynth::build_mesh(arrays.input).normals);
+        }
+        return to_numpy(std::move(normals), {py::ssize_t(arrays.input.num_vertices), 3});
+      },
+      py::arg("positions"), py::arg("corner_verts"), py::arg("poly_starts"), py::arg("poly_sizes"),
+      "(N, 3) float32 unit vertex normals, exactly those the field and synthesis use (area-weighted; "
+      "isolated vertices and zero-area neighbourhoods get a fallback).");
 }
