@@ -143,6 +143,9 @@ def test_bad_keywords_raise_value_error(pre):
     cases = [
         (dict(scale=0.0), "scale"),
         (dict(scale=30.0, jump_rate=0.0), "jump_rate"),
+        (dict(scale=30.0, jump_rate=float("inf")), "jump_rate"),
+        (dict(scale=float("nan")), "scale"),
+        (dict(scale=30.0, axis=(0.0, 0.0)), "axis"),
         (dict(scale=30.0, orientation="spiral"), "orientation"),
         (dict(scale=30.0, orientation="field"), "direction"),
         (dict(scale=30.0, orientation="anchors"), "anchors"),

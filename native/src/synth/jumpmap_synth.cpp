@@ -48,7 +48,7 @@ void validate_preprocessed(const Preprocessed& pre) {
 void validate_params(const Mesh& m, const float* orientation, const JumpSynthParams& p) {
   if (!std::isfinite(p.scale) || p.scale <= 0 || p.scale > 1e30)
     throw std::invalid_argument("scale (texels per object unit) must be finite, > 0 and <= 1e30");
-  if (!std::isfinite(p.jump_rate) || p.jump_rate <= 0) throw std::invalid_argument("jump_rate must be finite and > 0");
+  if (!(p.jump_rate > 0 && p.jump_rate <= 1e9)) throw std::invalid_argument("jump_rate must be in (0, 1e9]");
   if (p.max_rejection_draws < 0 || p.max_rejection_draws > 1000)
     throw std::invalid_argument("max_rejection_draws must be in [0, 1000]");
   if (!std::isfinite(p.border_ramp)) throw std::invalid_argument("border_ramp must be finite");  // 0 = no ramp
@@ -103,7 +103,9 @@ class Synthesizer {
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 8192), [&](const tbb::blocked_range<int32_t>& r) {
       for (int32_t v = r.begin(); v < r.end(); ++v) {
         V3 n = v3(&m_.normals[3 * size_t(v)]);
-        V3 u = normalized_or(project_to_plane(v3(orientation + 3 * size_t(v)), n), any_perpendicular(n));
+        V3 u = project_to_plane(v3(orientation + 3 * size_t(v)), n);
+        const double len = norm(u);
+        u = len > 1e-12 && std::isfinite(len) ? u * (1.0 / len) : any_perpendicular(n);
         VertexState& st = state_[v];
         store(st.up, u);
         store(st.right, cross(u, n));
@@ -132,8 +134,13 @@ class Synthesizer {
       for (int32_t i = 0; i < n; ++i) normal_sum = normal_sum + v3(&m_.normals[3 * size_t(cv[i])]);
       nf = normalized_or(normal_sum, V3{0, 0, 1});
     }
-    V3 up = normalized_or(project_to_plane(up_sum, nf),
-                          normalized_or(project_to_plane(v3(state_[cv[0]].up), nf), any_perpendicular(nf)));
+    V3 up = project_to_plane(up_sum, nf);
+    const double up_len = norm(up);
+    if (up_len > 1e-12 && std::isfinite(up_len)) {
+      up = up * (1.0 / up_len);
+    } else {  // vertex directions cancel out (next to a singularity): corner 0's, else any
+      up = normalized_or(project_to_plane(v3(state_[cv[0]].up), nf), any_perpendicular(nf));
+    }
     V3 right = cross(up, nf);
     const double s = p_.scale * mult / n;
     V3 origin = pos(cv[0]);
@@ -254,6 +261,7 @@ class Synthesizer {
     const float rate = float(p_.jump_rate);
     std::vector<Source> sources;
     std::vector<Candidate> table;
+    std::vector<char> fell_back(m_.num_vertices, 0);
     Rng rng(p_.seed, 0x6a756d70);  // "jump"
     for (int32_t v : order.order) {
       const Box& box = reach_[v];
@@ -355,12 +363,23 @@ class Synthesizer {
       }
       if (!chosen) {
         random_address(rng, box, x, y);
-        if (count > 0) ++st.fallback_vertices;
+        if (count > 0) ++st.fallback_vertices, fell_back[v] = 1;
       }
       if (jumped) ++st.jumps;
-      if (tileable_) x -= W_ * std::floor(x / W_), y -= H_ * std::floor(y / H_);
+      if (tileable_) {
+        x -= W_ * std::floor(x / W_), y -= H_ * std::floor(y / H_);
+        if (x >= W_) x = 0.f;  // a tiny negative x rounds to exactly W_
+        if (y >= H_) y = 0.f;
+      }
       state_[v].address[0] = x, state_[v].address[1] = y;
     }
+    if (st.fallback_vertices > 0)
+      for (int32_t poly = 0; poly < m_.num_polys; ++poly)
+        for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i)
+          if (fell_back[m_.corner_verts[m_.poly_starts[poly] + i]]) {
+            ++st.fallback_faces;
+            break;
+          }
   }
 
   // Pass 3: consistent per-polygon coordinates and blend sets (§4.3–4.4). Each polygon writes only
