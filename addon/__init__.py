@@ -28,9 +28,11 @@ def register():
         bpy.utils.register_class(cls)
     bpy.types.Scene.texsynth = bpy.props.PointerProperty(type=properties.TexSynthSettings)
     overlay.register()
+    field_ops.register_tool()
 
 
 def unregister():
+    field_ops.unregister_tool()
     overlay.unregister()
     if hasattr(bpy.types.Scene, "texsynth"):
         del bpy.types.Scene.texsynth

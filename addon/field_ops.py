@@ -109,7 +109,13 @@ class TEXSYNTH_OT_comb(bpy.types.Operator):
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
+        # Started by the Comb workspace tool's click: this press is the stroke, the release ends it.
+        self.from_tool = event.type == "LEFTMOUSE" and event.value == "PRESS"
         self.dragging = False
+        if self.from_tool:
+            self.dragging = True
+            origin, direction = _ray_from_event(context, event)
+            self.brush.dab(origin, direction, erase_mode=event.ctrl or props.field_erase)
         bridge.write_field_state(self.obj, self.state)  # the overlay needs the direction attribute
         overlay.active_editors.add(self.obj.name)
         overlay.invalidate(self.obj.name)
@@ -155,6 +161,9 @@ class TEXSYNTH_OT_comb(bpy.types.Operator):
                 return {"RUNNING_MODAL"}
             if event.value == "RELEASE" and self.dragging:
                 self._end_stroke(context)
+                if self.from_tool:
+                    self._finish(context)
+                    return {"FINISHED"}
                 return {"RUNNING_MODAL"}
         if event.type in {"MOUSEMOVE", "INBETWEEN_MOUSEMOVE"} and self.dragging:
             origin, direction = _ray_from_event(context, event)
@@ -307,6 +316,53 @@ class TEXSYNTH_OT_field_from_strokes(bpy.types.Operator):
             return {"CANCELLED"}
         self.report({"INFO"}, "TexSynth: %d stroke point(s) became anchors" % used)
         return {"FINISHED"}
+
+
+COMB_TOOL_ID = "texsynth.comb_tool"
+
+
+class TexSynthCombTool(bpy.types.WorkSpaceTool):
+    """Toolbar tool: each drag is one comb stroke (Ctrl-drag erases); the field overlay is shown
+    while the tool is active."""
+    bl_space_type = "VIEW_3D"
+    bl_context_mode = "OBJECT"
+    bl_idname = COMB_TOOL_ID
+    bl_label = "Comb Field"
+    bl_description = "Comb the TexSynth direction field: drag over the active mesh (Ctrl-drag erases)"
+    bl_icon = "ops.sculpt.border_hide"
+    bl_keymap = (("texsynth.comb", {"type": "LEFTMOUSE", "value": "PRESS"}, None),
+                 ("texsynth.comb", {"type": "LEFTMOUSE", "value": "PRESS", "ctrl": True}, None))
+
+    def draw_settings(context, layout, tool):
+        props = context.scene.texsynth
+        layout.prop(props, "field_brush_radius")
+        layout.prop(props, "field_brush_strength")
+        layout.prop(props, "field_erase")
+
+
+def comb_tool_active(context):
+    workspace = getattr(context, "workspace", None)
+    if workspace is None:
+        return False
+    try:
+        tool = workspace.tools.from_space_view3d_mode("OBJECT", create=False)
+    except (AttributeError, TypeError, RuntimeError):
+        return False
+    return tool is not None and tool.idname == COMB_TOOL_ID
+
+
+def register_tool():
+    try:
+        bpy.utils.register_tool(TexSynthCombTool, separator=True)
+    except (ValueError, RuntimeError, AttributeError):
+        pass  # no toolbar (e.g. some background setups): the operator and panel still work
+
+
+def unregister_tool():
+    try:
+        bpy.utils.unregister_tool(TexSynthCombTool)
+    except (ValueError, RuntimeError, AttributeError, KeyError):
+        pass
 
 
 classes = (TEXSYNTH_OT_comb, TEXSYNTH_OT_singularity, TEXSYNTH_OT_field_preset, TEXSYNTH_OT_field_from_strokes)

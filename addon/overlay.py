@@ -88,7 +88,8 @@ def _draw():
     if scene is None or obj is None or obj.type != "MESH" or not hasattr(scene, "texsynth"):
         return
     props = scene.texsynth
-    if not (props.show_field or obj.name in active_editors):
+    from . import field_ops
+    if not (props.show_field or obj.name in active_editors or field_ops.comb_tool_active(context)):
         return
     try:
         batch = _batch_for(obj, props)

@@ -320,6 +320,20 @@ def test_panel_and_overlay_geometry():
     assert len(overlay.arrow_lines(positions, normals, directions, 1.0, 0.1)) == 6 * 1000
 
 
+def test_register_adds_and_removes_the_comb_workspace_tool():
+    from bl_ui.space_toolsystem_common import ToolSelectPanelHelper
+    tools = ToolSelectPanelHelper._tool_class_from_space_type("VIEW_3D")._tools
+    assert field_ops.COMB_TOOL_ID in repr(tools["OBJECT"])
+    texsynth.unregister()
+    try:
+        assert field_ops.COMB_TOOL_ID not in repr(tools["OBJECT"])
+        assert not hasattr(bpy.types, "TEXSYNTH_OT_comb")
+    finally:
+        texsynth.register()
+    assert field_ops.COMB_TOOL_ID in repr(tools["OBJECT"])
+    assert not field_ops.comb_tool_active(bpy.context)
+
+
 if __name__ == "__main__":
     harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")],
                          only=harness.script_args())
