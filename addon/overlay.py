@@ -55,7 +55,6 @@ def _uniform_color_shader():
 
 
 def _batch_for(obj, props):
-    import bpy
     from gpu_extras.batch import batch_for_shader
     from . import bridge, fields
     key = (props.field_arrow_density, props.field_arrow_length, len(obj.data.vertices),
@@ -75,7 +74,6 @@ def _batch_for(obj, props):
                         props.field_arrow_density, length)
     batch = batch_for_shader(_uniform_color_shader(), "LINES", {"pos": lines}) if len(lines) else None
     _cache[obj.name] = (key, batch)
-    del bpy
     return batch
 
 
@@ -107,11 +105,18 @@ def _draw():
     gpu.state.line_width_set(1.0)
 
 
+def _on_undo_redo(*_args):
+    invalidate()  # undo/redo may restore another field: rebuild the arrows
+
+
 def register():
     global _handle
     import bpy
     if _handle is None and not bpy.app.background:
         _handle = bpy.types.SpaceView3D.draw_handler_add(_draw, (), "WINDOW", "POST_VIEW")
+    for handlers in (bpy.app.handlers.undo_post, bpy.app.handlers.redo_post):
+        if _on_undo_redo not in handlers:
+            handlers.append(_on_undo_redo)
 
 
 def unregister():
@@ -120,5 +125,8 @@ def unregister():
     if _handle is not None:
         bpy.types.SpaceView3D.draw_handler_remove(_handle, "WINDOW")
         _handle = None
+    for handlers in (bpy.app.handlers.undo_post, bpy.app.handlers.redo_post):
+        if _on_undo_redo in handlers:
+            handlers.remove(_on_undo_redo)
     _cache.clear()
     active_editors.clear()
