@@ -11,22 +11,31 @@ import numpy as np
 
 from . import bridge, fields, operators, overlay, pipeline, properties, synthesis
 
-# Ray casters per object name, rebuilt when the mesh changes (fields.mesh_key).
-_casters = {}
+# Per object name: (fields.mesh_key, RayCaster, FieldMesh), rebuilt when the mesh changes.
+_native_meshes = {}
 # Preprocessed samples kept in memory for live updates: key -> Preprocessed.
 _live_samples = {}
 # Figures of the last edit / live update, shown by the panel and read by tests and benchmarks.
 last_timings = {}
 
 
-def caster_for(obj, arrays):
+def _native_mesh(obj, arrays, which):
     key = fields.mesh_key(arrays)
-    cached = _casters.get(obj.name)
-    if cached is not None and cached[0] == key:
-        return cached[1]
-    caster = fields.ray_caster(arrays)
-    _casters[obj.name] = (key, caster)
-    return caster
+    cached = _native_meshes.get(obj.name)
+    if cached is None or cached[0] != key:
+        cached = [key, None, None]
+        _native_meshes[obj.name] = cached
+    if cached[which] is None:
+        cached[which] = fields.ray_caster(arrays) if which == 1 else fields.field_mesh(arrays)
+    return cached[which]
+
+
+def caster_for(obj, arrays):
+    return _native_mesh(obj, arrays, 1)
+
+
+def field_mesh_for(obj, arrays):
+    return _native_mesh(obj, arrays, 2)
 
 
 def _active_mesh(context):
@@ -39,7 +48,9 @@ def _active_mesh(context):
 
 
 def field_state(context, obj):
-    return bridge.read_field_state(obj, tuple(context.scene.texsynth.axis))
+    state = bridge.read_field_state(obj, tuple(context.scene.texsynth.axis))
+    state.field_mesh = field_mesh_for(obj, state.arrays)
+    return state
 
 
 def commit_edit(context, obj, state):

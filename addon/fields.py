@@ -35,10 +35,12 @@ class FieldState:
     direction: np.ndarray      # (N, 3) float32 unit tangent vectors
     axis: tuple = (0.0, 0.0, 1.0)
     normals: np.ndarray = None  # (N, 3) float32, computed on demand
+    field_mesh: object = None   # texsynth_native.FieldMesh of arrays (optional: reused by relax)
 
     def vertex_normals(self):
         if self.normals is None:
-            self.normals = vertex_normals(self.arrays)
+            self.normals = (np.asarray(self.field_mesh.normals, np.float32) if self.field_mesh is not None
+                            else vertex_normals(self.arrays))
         return self.normals
 
 
@@ -52,6 +54,11 @@ def mesh_key(arrays):
 
 def ray_caster(arrays):
     return native.require().RayCaster(arrays.positions, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes)
+
+
+def field_mesh(arrays):
+    """A native FieldMesh (adjacency built once) for repeated relaxations of this mesh."""
+    return native.require().FieldMesh(arrays.positions, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes)
 
 
 def vertex_normals(arrays):
@@ -93,10 +100,13 @@ def relax(state):
     a = state.arrays
     sources = np.flatnonzero(state.singularity == SOURCE).astype(np.int32)
     sinks = np.flatnonzero(state.singularity == SINK).astype(np.int32)
-    state.direction = np.asarray(module.compute_field(
-        a.positions, a.corner_verts, a.poly_starts, a.poly_sizes, orientation="field",
-        axis=tuple(float(c) for c in state.axis), direction=np.ascontiguousarray(state.guide, dtype=np.float32),
-        sources=sources, sinks=sinks), dtype=np.float32)
+    kwargs = dict(orientation="field", axis=tuple(float(c) for c in state.axis),
+                  direction=np.ascontiguousarray(state.guide, dtype=np.float32), sources=sources, sinks=sinks)
+    if state.field_mesh is not None:
+        field = state.field_mesh.compute_field(**kwargs)
+    else:
+        field = module.compute_field(a.positions, a.corner_verts, a.poly_starts, a.poly_sizes, **kwargs)
+    state.direction = np.asarray(field, dtype=np.float32)
     return state.direction
 
 

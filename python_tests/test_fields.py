@@ -124,6 +124,20 @@ def test_vertex_normals_match_newell_area_weighting():
     np.testing.assert_allclose(got, newell_vertex_normals(pos, cv, st, sz), atol=1e-5)
 
 
+def test_field_mesh_gives_the_same_field_and_normals_as_the_one_shot_calls():
+    pos, cv, st, sz = grid(20, 0.05, jitter=0.3)
+    pos = pos.copy()
+    pos[:, 2] = 0.1 * np.sin(pos[:, 0] * 6)
+    guide = np.zeros_like(pos)
+    guide[::37] = (1.0, 0.3, 0.0)
+    kwargs = dict(orientation="field", axis=(0.0, 1.0, 0.0), direction=guide, sources=[5], sinks=[300])
+    field_mesh = ts.FieldMesh(pos, cv, st, sz)
+    np.testing.assert_array_equal(field_mesh.compute_field(**kwargs), ts.compute_field(pos, cv, st, sz, **kwargs))
+    np.testing.assert_array_equal(field_mesh.normals, ts.vertex_normals(pos, cv, st, sz))
+    with pytest.raises(ValueError, match="direction"):
+        field_mesh.compute_field(orientation="field", direction=np.zeros((3, 3)))
+
+
 # ---------------------------------------------------------------------------------------------
 # Comb brush
 

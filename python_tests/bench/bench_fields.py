@@ -76,8 +76,9 @@ def bench_stroke(faces, dabs):
     n = arrays.num_vertices
     state = fields.FieldState(arrays, np.zeros((n, 3), np.float32), np.zeros(n, np.int32), np.zeros((n, 3), np.float32))
     start = time.perf_counter()
+    state.field_mesh = fields.field_mesh(arrays)
     state.vertex_normals()
-    normals_time = time.perf_counter() - start
+    field_mesh_time = time.perf_counter() - start
     state.direction = fields.tangent_unit(np.tile([0.0, 0.0, 1.0], (n, 1)), state.normals)
     brush = fields.CombBrush(state, caster, radius=0.05)
     # A stroke across the top of the torus, rays straight down.
@@ -92,6 +93,10 @@ def bench_stroke(faces, dabs):
     start = time.perf_counter()
     brush.end_stroke()
     relax = time.perf_counter() - start
+    one_shot = fields.FieldState(arrays, state.guide, state.singularity, state.direction)  # no FieldMesh
+    start = time.perf_counter()
+    fields.relax(one_shot)
+    relax_one_shot = time.perf_counter() - start
     origin = np.array([1.0, 0.0, 2.0], np.float32)
     t0 = time.perf_counter()
     brute = brute_force_hit(arrays, origin, np.array([0.0, 0.0, -1.0], np.float32))
@@ -99,14 +104,15 @@ def bench_stroke(faces, dabs):
     embree = caster.cast(origin[None], np.array([[0.0, 0.0, -1.0]], np.float32))
     assert abs(float(embree["distance"][0]) - brute) < 1e-4, (embree["distance"], brute)
     print("  BVH build (once per mesh):            %8.1f ms" % (1000 * build))
-    print("  vertex normals (once per session):    %8.1f ms" % (1000 * normals_time))
+    print("  FieldMesh + normals (once per mesh):  %8.1f ms" % (1000 * field_mesh_time))
     print("  %d dabs: hit testing total            %8.1f ms (%.3f ms per dab: ray cast + radius query)"
           % (dabs, 1000 * hit_total, 1000 * hit_total / dabs))
     print("  %d dabs: whole dab incl. paint        %8.1f ms median per dab" % (dabs, 1000 * statistics.median(per_dab)))
     print("  baseline: one ray, brute force numpy  %8.1f ms (%.0fx the Embree per-dab hit test)"
           % (1000 * brute_time, brute_time / max(hit_total / dabs, 1e-9)))
-    print("  relaxation after the stroke           %8.1f ms (native compute_field, %d anchors)"
+    print("  relaxation after the stroke           %8.1f ms (FieldMesh.compute_field, %d anchors)"
           % (1000 * relax, int(np.any(state.guide != 0, axis=1).sum())))
+    print("  baseline: one-shot compute_field      %8.1f ms (rebuilds the mesh adjacency)" % (1000 * relax_one_shot))
 
 
 def bench_resynthesis(faces, repeat):
@@ -118,6 +124,7 @@ def bench_resynthesis(faces, repeat):
     n = arrays.num_vertices
     state = fields.FieldState(arrays, np.zeros((n, 3), np.float32), np.zeros(n, np.int32), np.zeros((n, 3), np.float32))
     state.singularity[0] = fields.SOURCE
+    state.field_mesh = fields.field_mesh(arrays)
     relax_times, synth_times, native_seconds = [], [], []
     edge = 2 * np.pi * 1.35 / (2 * int(round((faces / 2) ** 0.5)))
     scale = 3.0 / edge  # ~3 texels per edge
@@ -131,7 +138,7 @@ def bench_resynthesis(faces, repeat):
         relax_times.append(t1 - t0)
         synth_times.append(t2 - t1)
         native_seconds.append(out["stats"]["seconds"])
-    print("  relax (compute_field, 1 source)       %8.1f ms median of %d" % (1000 * statistics.median(relax_times), repeat))
+    print("  relax (FieldMesh, 1 source)           %8.1f ms median of %d" % (1000 * statistics.median(relax_times), repeat))
     print("  synthesize_jumpmap (field, blend)     %8.1f ms median (native stats.seconds %.1f ms)"
           % (1000 * statistics.median(synth_times), 1000 * statistics.median(native_seconds)))
     print("  live update native part total         %8.1f ms (goal <= 100 ms)"
