@@ -54,14 +54,25 @@ def field_state(context, obj):
 
 
 def commit_edit(context, obj, state):
-    """Writes the edited field, refreshes the overlay and re-synthesizes when Live Update is on."""
+    """Writes the edited field, refreshes the overlay and re-synthesizes when Live Update is on.
+    Returns a warning when the live update failed (the field edit itself is kept), else None."""
     bridge.write_field_state(obj, state)
     overlay.invalidate(obj.name)
+    warning = None
     if context.scene.texsynth.field_live_update:
-        live_update(context, obj)
+        try:
+            live_update(context, obj)
+        except (ValueError, RuntimeError) as error:
+            warning = "TexSynth live update failed: %s" % error
     for area in getattr(context.screen, "areas", None) or ():
         if area.type == "VIEW_3D":
             area.tag_redraw()
+    return warning
+
+
+def _report_warning(operator, warning):
+    if warning:
+        operator.report({"WARNING"}, warning)
 
 
 def live_update(context, obj):
@@ -145,7 +156,7 @@ class TEXSYNTH_OT_comb(bpy.types.Operator):
         start = time.perf_counter()
         if self.brush.end_stroke():
             try:
-                commit_edit(context, self.obj, self.state)
+                _report_warning(self, commit_edit(context, self.obj, self.state))
             except (ValueError, RuntimeError) as error:
                 self.report({"WARNING"}, str(error))
         last_timings.update(stroke_hit_testing=self.brush.seconds["hit_testing"],
@@ -224,7 +235,7 @@ class TEXSYNTH_OT_singularity(bpy.types.Operator):
             obj = _active_mesh(context)
             state = field_state(context, obj)
             fields.set_singularity(state, self.vertex, kind)
-            commit_edit(context, obj, state)
+            _report_warning(self, commit_edit(context, obj, state))
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
@@ -260,7 +271,7 @@ class TEXSYNTH_OT_field_preset(bpy.types.Operator):
                 fields.preset_curvature(state)
             else:
                 fields.preset_smooth(state, self.iterations)
-            commit_edit(context, obj, state)
+            _report_warning(self, commit_edit(context, obj, state))
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
@@ -321,7 +332,7 @@ class TEXSYNTH_OT_field_from_strokes(bpy.types.Operator):
                                                props.field_brush_radius, props.field_brush_strength)
             if not used:
                 raise pipeline.SettingsError("no stroke point lies within the brush radius of %r" % obj.name)
-            commit_edit(context, obj, state)
+            _report_warning(self, commit_edit(context, obj, state))
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}

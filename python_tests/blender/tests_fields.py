@@ -293,6 +293,14 @@ def test_live_update_resynthesizes_after_an_edit():
     obj.data.uv_layers["TexSynth"].data.foreach_get("uv", second)
     assert not np.array_equal(first, second)
     assert field_ops.last_timings["live_native"] > 0
+    # A failing live update (no sample) keeps the field edit and only warns.
+    props.sample_path = "/no/such/sample.png"
+    field_ops._live_samples.clear()
+    assert bpy.ops.texsynth.singularity(mode="SINK", vertex=1) == {"FINISHED"}
+    assert bridge.read_point_attribute(obj.data, fields.SINGULARITY_NAME, "INT")[1] == -1
+    third = np.empty_like(first)
+    obj.data.uv_layers["TexSynth"].data.foreach_get("uv", third)
+    np.testing.assert_array_equal(third, second)
 
 
 def test_panel_and_overlay_geometry():
