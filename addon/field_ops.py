@@ -101,12 +101,22 @@ def live_update(context, obj):
 
 
 def _ray_from_event(context, event):
+    """World-space (origin, direction) of the view ray under the mouse, or (None, None) when the
+    mouse is not over a 3D view's main region. The operators may be started from the sidebar, so the
+    region is found from the window mouse position, not taken from the context."""
     from bpy_extras import view3d_utils
-    region, rv3d = context.region, context.region_data
-    coord = (event.mouse_region_x, event.mouse_region_y)
-    origin = view3d_utils.region_2d_to_origin_3d(region, rv3d, coord)
-    direction = view3d_utils.region_2d_to_vector_3d(region, rv3d, coord)
-    return np.array(origin, np.float64), np.array(direction, np.float64)
+    area = context.area
+    if area is None or area.type != "VIEW_3D":
+        return None, None
+    for region in area.regions:
+        if region.type != "WINDOW" or region.data is None:
+            continue
+        x, y = event.mouse_x - region.x, event.mouse_y - region.y
+        if 0 <= x < region.width and 0 <= y < region.height:
+            origin = view3d_utils.region_2d_to_origin_3d(region, region.data, (x, y))
+            direction = view3d_utils.region_2d_to_vector_3d(region, region.data, (x, y))
+            return np.array(origin, np.float64), np.array(direction, np.float64)
+    return None, None
 
 
 class TEXSYNTH_OT_comb(bpy.types.Operator):
@@ -136,8 +146,7 @@ class TEXSYNTH_OT_comb(bpy.types.Operator):
         self.dragging = False
         if self.from_tool:
             self.dragging = True
-            origin, direction = _ray_from_event(context, event)
-            self.brush.dab(origin, direction, erase_mode=event.ctrl or props.field_erase)
+            self._dab(context, event)
         bridge.write_field_state(self.obj, self.state)  # the overlay needs the direction attribute
         overlay.active_editors.add(self.obj.name)
         overlay.invalidate(self.obj.name)
@@ -145,6 +154,12 @@ class TEXSYNTH_OT_comb(bpy.types.Operator):
         context.area.header_text_set("Comb: drag to paint, Ctrl-drag to erase, [ ] radius, Esc/RMB to finish")
         context.area.tag_redraw()
         return {"RUNNING_MODAL"}
+
+    def _dab(self, context, event):
+        origin, direction = _ray_from_event(context, event)
+        if origin is not None:
+            props = context.scene.texsynth
+            self.brush.dab(origin, direction, erase_mode=event.ctrl or props.field_erase)
 
     def _finish(self, context):
         overlay.active_editors.discard(self.obj.name)
@@ -176,10 +191,11 @@ class TEXSYNTH_OT_comb(bpy.types.Operator):
             return {"RUNNING_MODAL"}
         if event.type == "LEFTMOUSE":
             if event.value == "PRESS":
+                if _ray_from_event(context, event)[0] is None:
+                    return {"PASS_THROUGH"}  # a click on the sidebar / header: let Blender handle it
                 self.dragging = True
                 self.brush.radius, self.brush.strength = props.field_brush_radius, props.field_brush_strength
-                origin, direction = _ray_from_event(context, event)
-                self.brush.dab(origin, direction, erase_mode=event.ctrl or props.field_erase)
+                self._dab(context, event)
                 return {"RUNNING_MODAL"}
             if event.value == "RELEASE" and self.dragging:
                 self._end_stroke(context)
@@ -188,8 +204,7 @@ class TEXSYNTH_OT_comb(bpy.types.Operator):
                     return {"FINISHED"}
                 return {"RUNNING_MODAL"}
         if event.type in {"MOUSEMOVE", "INBETWEEN_MOUSEMOVE"} and self.dragging:
-            origin, direction = _ray_from_event(context, event)
-            self.brush.dab(origin, direction, erase_mode=event.ctrl or props.field_erase)
+            self._dab(context, event)
             return {"RUNNING_MODAL"}
         return {"PASS_THROUGH"}  # navigation keeps working
 
@@ -205,20 +220,39 @@ class TEXSYNTH_OT_singularity(bpy.types.Operator):
                                                       ("SINK", "Sink", "Field points toward here"),
                                                       ("REMOVE", "Remove", "Remove a source or sink")),
                                  default="SOURCE")
-    vertex: bpy.props.IntProperty(name="Vertex", default=-1, min=-1,
-                                  description="Vertex index (-1: the vertex under the mouse when invoked)")
+    vertex: bpy.props.IntProperty(name="Vertex", default=-1, min=-1, options={"SKIP_SAVE"},
+                                  description="Vertex index (-1: pick it with a click on the surface)")
 
     @classmethod
     def poll(cls, context):
         return context.mode == "OBJECT" and context.active_object is not None and context.active_object.type == "MESH"
 
     def invoke(self, context, event):
-        if context.area is None or context.area.type != "VIEW_3D":
+        """From the viewport or the sidebar: wait for a click on the surface (Esc cancels)."""
+        if self.vertex >= 0 or context.area is None or context.area.type != "VIEW_3D":
             return self.execute(context)
+        context.window_manager.modal_handler_add(self)
+        context.window.cursor_modal_set("CROSSHAIR")
+        context.area.header_text_set("%s: click on the surface (Esc / right click to cancel)" % self.mode.title())
+        return {"RUNNING_MODAL"}
+
+    def _end(self, context):
+        context.window.cursor_modal_restore()
+        context.area.header_text_set(None)
+
+    def modal(self, context, event):
+        if event.type in {"ESC", "RIGHTMOUSE"} and event.value == "PRESS":
+            self._end(context)
+            return {"CANCELLED"}
+        if event.type != "LEFTMOUSE" or event.value != "PRESS":
+            return {"PASS_THROUGH"}
+        origin, direction = _ray_from_event(context, event)
+        if origin is None:
+            return {"PASS_THROUGH"}
+        self._end(context)
         try:
             obj = _active_mesh(context)
             arrays = bridge.read_mesh(obj)
-            origin, direction = _ray_from_event(context, event)
             vertex = fields.nearest_vertex(caster_for(obj, arrays), arrays.positions, origin, direction)
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
@@ -231,6 +265,9 @@ class TEXSYNTH_OT_singularity(bpy.types.Operator):
 
     def execute(self, context):
         kind = {"SOURCE": fields.SOURCE, "SINK": fields.SINK, "REMOVE": 0}[self.mode]
+        if self.vertex < 0:
+            self.report({"ERROR"}, "TexSynth: no vertex given (click on the surface, or set vertex=)")
+            return {"CANCELLED"}
         try:
             obj = _active_mesh(context)
             state = field_state(context, obj)

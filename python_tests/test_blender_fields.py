@@ -1,6 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Direction/scale fields inside Blender (python_tests/blender/tests_fields.py) and the CLI's field flags."""
 import os
+import shutil
+import subprocess
 
 import pytest
 
@@ -43,3 +45,15 @@ def test_cli_field_flags_report_bad_input(args, code, fragment):
     lines = blender_run.error_lines(process)
     assert process.returncode == code, process.stdout[-2000:] + process.stderr[-2000:]
     assert len(lines) == 1 and fragment.lower() in lines[0].lower(), lines
+
+
+@needs_native
+@pytest.mark.skipif(shutil.which("xvfb-run") is None, reason="xvfb-run not installed (scripts/install_deps.sh)")
+def test_interactive_tools_with_simulated_mouse_events():
+    """Comb modal, Ctrl-drag erase, sidebar-started Source pick and the overlay in a real (virtual) window."""
+    command = ["xvfb-run", "-a", "-s", "-screen 0 1280x800x24", addon_package.BLENDER, "--factory-startup",
+               "--enable-event-simulate", "--python", os.path.join(blender_run.BLENDER_TESTS, "gui_fields.py")]
+    process = subprocess.run(command, cwd=blender_run.ROOT, capture_output=True, text=True, timeout=300)
+    output = process.stdout + process.stderr
+    assert "GUI SUMMARY failed=0" in output, output[-4000:]
+    assert output.count("PASS ") >= 8, output[-3000:]
