@@ -13,6 +13,7 @@ Every edit changes guide/singularities, then `relax` recomputes the direction na
 (texsynth_native.compute_field: anchors held, transported and smoothed; sources/sinks honoured).
 """
 import dataclasses
+import time
 import zlib
 
 import numpy as np
@@ -152,7 +153,6 @@ class CombBrush:
 
     def dab(self, origin, direction, erase_mode=False):
         """Applies the brush where the ray hits; returns the hit point (None = missed)."""
-        import time
         start = time.perf_counter()
         point = self.hit(origin, direction)
         if point is None:
@@ -181,7 +181,6 @@ class CombBrush:
 
     def end_stroke(self):
         """Relaxes the field after a stroke; returns True if anything changed."""
-        import time
         self.last_point = None
         if not self.painted:
             return False

@@ -46,17 +46,9 @@ def invalidate(name=None):
         _cache.pop(name, None)
 
 
-def _uniform_color_shader():
-    import gpu
-    try:
-        return gpu.shader.from_builtin("UNIFORM_COLOR")  # 4.x name
-    except (ValueError, TypeError):
-        return gpu.shader.from_builtin("3D_UNIFORM_COLOR")  # 3.x name
-
-
 def _batch_for(obj, props):
     from gpu_extras.batch import batch_for_shader
-    from . import bridge, fields
+    from . import bridge, compat, fields
     key = (props.field_arrow_density, props.field_arrow_length, len(obj.data.vertices),
            tuple(map(tuple, obj.matrix_world)))
     cached = _cache.get(obj.name)
@@ -72,7 +64,7 @@ def _batch_for(obj, props):
     length = mean_edge_length(arrays.positions, fields.edges(arrays)) * props.field_arrow_length
     lines = arrow_lines(arrays.positions, fields.vertex_normals(arrays), world_direction,
                         props.field_arrow_density, length)
-    batch = batch_for_shader(_uniform_color_shader(), "LINES", {"pos": lines}) if len(lines) else None
+    batch = batch_for_shader(compat.uniform_color_shader(), "LINES", {"pos": lines}) if len(lines) else None
     _cache[obj.name] = (key, batch)
     return batch
 
@@ -80,6 +72,7 @@ def _batch_for(obj, props):
 def _draw():
     import bpy
     import gpu
+    from . import compat
     context = bpy.context
     scene = getattr(context, "scene", None)
     obj = getattr(context, "active_object", None)
@@ -95,7 +88,7 @@ def _draw():
         return  # a broken attribute is reported by the tools, never by the draw callback
     if batch is None:
         return
-    shader = _uniform_color_shader()
+    shader = compat.uniform_color_shader()
     gpu.state.depth_test_set("LESS_EQUAL")
     gpu.state.line_width_set(1.5)
     shader.bind()
