@@ -33,10 +33,14 @@ def arrow_lines(positions, normals, directions, density, length, seed=0):
     return segments.reshape(-1, 3).astype(np.float32)
 
 
-def mean_edge_length(positions, edges):
-    if len(edges) == 0:
+def mean_edge_length(arrays):
+    """Mean length over polygon sides (interior edges counted twice: no de-duplication pass)."""
+    if arrays.num_corners == 0:
         return 1.0
-    return float(np.mean(np.linalg.norm(positions[edges[:, 0]] - positions[edges[:, 1]], axis=1)))
+    next_corner = np.arange(arrays.num_corners) + 1
+    next_corner[arrays.poly_starts + arrays.poly_sizes - 1] = arrays.poly_starts
+    p = arrays.positions
+    return float(np.mean(np.linalg.norm(p[arrays.corner_verts] - p[arrays.corner_verts[next_corner]], axis=1)))
 
 
 def invalidate(name=None):
@@ -48,7 +52,7 @@ def invalidate(name=None):
 
 def _batch_for(obj, props):
     from gpu_extras.batch import batch_for_shader
-    from . import bridge, compat, fields
+    from . import bridge, compat, field_ops, fields
     key = (props.field_arrow_density, props.field_arrow_length, len(obj.data.vertices),
            tuple(map(tuple, obj.matrix_world)))
     cached = _cache.get(obj.name)
@@ -61,9 +65,9 @@ def _batch_for(obj, props):
     arrays = bridge.read_mesh(obj)
     linear = np.array(obj.matrix_world, dtype=np.float64)[:3, :3]
     world_direction = direction @ linear.T
-    length = mean_edge_length(arrays.positions, fields.edges(arrays)) * props.field_arrow_length
-    lines = arrow_lines(arrays.positions, fields.vertex_normals(arrays), world_direction,
-                        props.field_arrow_density, length)
+    length = mean_edge_length(arrays) * props.field_arrow_length
+    normals = field_ops.field_mesh_for(obj, arrays).normals  # cached per mesh, shared with the tools
+    lines = arrow_lines(arrays.positions, normals, world_direction, props.field_arrow_density, length)
     batch = batch_for_shader(compat.uniform_color_shader(), "LINES", {"pos": lines}) if len(lines) else None
     _cache[obj.name] = (key, batch)
     return batch
