@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Principal curvature directions on surfaces with known (analytic) curvature.
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
 
@@ -106,6 +107,22 @@ TEST(FieldCurvature, SphereAndPlaneHaveNoDirection) {
   texsynth::Mesh pm = texsynth::build_mesh(plane.input());
   texsynth::CurvatureResult pc = texsynth::principal_curvature_directions(pm);
   for (float x : pc.min_direction) EXPECT_EQ(x, 0.f);
+}
+
+TEST(FieldCurvature, IdenticalForAnyThreadCount) {
+  TestMesh sphere = fixtures::uv_sphere(60, 80, 1.0, 0.05);  // noisy: directions defined almost everywhere
+  texsynth::Mesh mesh = texsynth::build_mesh(sphere.input());
+  texsynth::CurvatureResult one, two;
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+    one = texsynth::principal_curvature_directions(mesh);
+  }
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+    two = texsynth::principal_curvature_directions(mesh);
+  }
+  EXPECT_EQ(one.min_direction, two.min_direction);
+  EXPECT_EQ(one.curvatures, two.curvatures);
 }
 
 TEST(FieldCurvature, RejectsBadParams) {
