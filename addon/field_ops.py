@@ -161,7 +161,14 @@ class TEXSYNTH_OT_comb(bpy.types.Operator):
             props = context.scene.texsynth
             self.brush.dab(origin, direction, erase_mode=event.ctrl or props.field_erase)
 
+    def _update_cursor(self, context, event):
+        origin, direction = _ray_from_event(context, event)
+        surface = None if origin is None else self.brush.hit(origin, direction)
+        overlay.brush_cursor = None if surface is None else (surface[0], surface[1], self.brush.radius)
+        context.area.tag_redraw()
+
     def _finish(self, context):
+        overlay.brush_cursor = None
         overlay.active_editors.discard(self.obj.name)
         context.area.header_text_set(None)
         context.area.tag_redraw()
@@ -203,9 +210,12 @@ class TEXSYNTH_OT_comb(bpy.types.Operator):
                     self._finish(context)
                     return {"FINISHED"}
                 return {"RUNNING_MODAL"}
-        if event.type in {"MOUSEMOVE", "INBETWEEN_MOUSEMOVE"} and self.dragging:
-            self._dab(context, event)
-            return {"RUNNING_MODAL"}
+        if event.type in {"MOUSEMOVE", "INBETWEEN_MOUSEMOVE"}:
+            self.brush.radius = props.field_brush_radius
+            self._update_cursor(context, event)
+            if self.dragging:
+                self._dab(context, event)
+                return {"RUNNING_MODAL"}
         return {"PASS_THROUGH"}  # navigation keeps working
 
 

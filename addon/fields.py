@@ -145,19 +145,23 @@ class CombBrush:
         self.seconds = {"hit_testing": 0.0, "relax": 0.0}
 
     def hit(self, origin, direction):
-        """World-space hit point of one ray, or None."""
+        """(world-space hit point, interpolated unit normal) of one ray, or None."""
         hits = self.caster.cast(np.asarray([origin], dtype=np.float32), np.asarray([direction], dtype=np.float32))
         if hits["face"][0] < 0:
             return None
-        return np.asarray(origin, dtype=np.float64) + float(hits["distance"][0]) * np.asarray(direction, dtype=np.float64)
+        point = np.asarray(origin, dtype=np.float64) + float(hits["distance"][0]) * np.asarray(direction, dtype=np.float64)
+        normal = hits["barycentrics"][0] @ self.state.vertex_normals()[hits["vertices"][0]].astype(np.float64)
+        length = np.linalg.norm(normal)
+        return point, (normal / length if length > 1e-12 else np.array([0.0, 0.0, 1.0]))
 
     def dab(self, origin, direction, erase_mode=False):
         """Applies the brush where the ray hits; returns the hit point (None = missed)."""
         start = time.perf_counter()
-        point = self.hit(origin, direction)
-        if point is None:
+        surface = self.hit(origin, direction)
+        if surface is None:
             self.seconds["hit_testing"] += time.perf_counter() - start
             return None
+        point = surface[0]
         ids, distances = self.caster.vertices_within(point, self.radius)
         # Only the side facing the ray: never paint through thin walls.
         facing = np.sum(self.state.vertex_normals()[ids] * np.asarray(direction, dtype=np.float32), axis=1) < 0

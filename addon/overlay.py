@@ -10,6 +10,7 @@ import numpy as np
 _handle = None
 _cache = {}          # object name -> (key, batch)
 active_editors = set()  # object names being edited by a modal tool
+brush_cursor = None  # (centre, unit normal, radius) in world space while the comb is over the surface
 
 
 def arrow_lines(positions, normals, directions, density, length, seed=0):
@@ -31,6 +32,18 @@ def arrow_lines(positions, normals, directions, density, length, seed=0):
     back = d * (0.35 * length)
     segments = np.stack([base, tip, tip, tip - back + side, tip, tip - back - side], axis=1)
     return segments.reshape(-1, 3).astype(np.float32)
+
+
+def circle_lines(centre, normal, radius, segments=48):
+    """(2 * segments, 3) float32 line endpoints of a circle in the plane through centre with normal."""
+    normal = np.asarray(normal, np.float64)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(normal, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    angles = np.linspace(0.0, 2.0 * np.pi, segments + 1)
+    ring = np.asarray(centre, np.float64) + radius * (np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v)
+    return np.stack([ring[:-1], ring[1:]], axis=1).reshape(-1, 3).astype(np.float32)
 
 
 def mean_edge_length(arrays):
@@ -86,6 +99,8 @@ def _draw():
     from . import field_ops
     if not (props.show_field or obj.name in active_editors or field_ops.comb_tool_active(context)):
         return
+    if brush_cursor is not None and obj.name in active_editors:
+        _draw_brush_cursor(*brush_cursor)
     try:
         batch = _batch_for(obj, props)
     except (ValueError, RuntimeError):
@@ -99,6 +114,20 @@ def _draw():
     shader.uniform_float("color", (1.0, 0.55, 0.1, 1.0))
     batch.draw(shader)
     gpu.state.depth_test_set("NONE")
+    gpu.state.line_width_set(1.0)
+
+
+def _draw_brush_cursor(centre, normal, radius):
+    import gpu
+    from gpu_extras.batch import batch_for_shader
+    from . import compat
+    shader = compat.uniform_color_shader()
+    lift = np.asarray(normal) * (0.01 * radius)  # just above the surface
+    batch = batch_for_shader(shader, "LINES", {"pos": circle_lines(np.asarray(centre) + lift, normal, radius)})
+    gpu.state.line_width_set(2.0)
+    shader.bind()
+    shader.uniform_float("color", (1.0, 1.0, 1.0, 0.9))
+    batch.draw(shader)
     gpu.state.line_width_set(1.0)
 
 
@@ -127,3 +156,5 @@ def unregister():
             handlers.remove(_on_undo_redo)
     _cache.clear()
     active_editors.clear()
+    global brush_cursor
+    brush_cursor = None

@@ -103,12 +103,21 @@ def scenario():
         bpy.ops.texsynth.comb("INVOKE_DEFAULT")
     yield
     check("comb_modal_running", obj.name in overlay.active_editors, overlay.active_editors)
+    x, y = to_window(region, (0.3, -0.4, 0.0))
+    window.event_simulate(type="MOUSEMOVE", value="NOTHING", x=x, y=y)
+    yield
+    cursor = overlay.brush_cursor
+    check("brush_cursor_follows_the_mouse", cursor is not None and np.linalg.norm(cursor[0] - (0.3, -0.4, 0.0)) < 0.02
+          and abs(cursor[1][2]) > 0.99 and abs(cursor[2] - 0.25) < 1e-6, cursor)
     yield from drag(window, region, (-0.7, 0.0, 0.0), (0.7, 0.0, 0.0))
     core = (np.abs(positions[:, 1]) < 0.1) & (np.abs(positions[:, 0]) < 0.5)
     errors = angle_deg(world_direction(obj)[core], (1.0, 0.0, 0.0))
     check("comb_stroke_sets_directions", core.sum() > 10 and errors.max() < 5.0, errors.max())
     far = np.abs(positions[:, 1]) > 0.8
     check("comb_field_relaxed_everywhere", np.median(angle_deg(world_direction(obj)[far], (1.0, 0.0, 0.0))) < 10.0)
+    area.tag_redraw()
+    yield  # let the viewport redraw after the stroke's commit invalidated the arrows
+    yield
     check("overlay_batch_built_while_combing", overlay._cache.get(obj.name, (None, None))[1] is not None,
           overlay._cache.get(obj.name))
     # Ctrl-drag erases the anchors under the brush.
@@ -122,7 +131,8 @@ def scenario():
     yield
     window.event_simulate(type="ESC", value="RELEASE", x=x, y=y)
     yield
-    check("comb_modal_finished", obj.name not in overlay.active_editors, overlay.active_editors)
+    check("comb_modal_finished", obj.name not in overlay.active_editors and overlay.brush_cursor is None,
+          overlay.active_editors)
 
     # --- Source picked with a click after pressing the sidebar button.
     target = np.array([0.5, 0.5, 0.0])

@@ -326,6 +326,11 @@ def test_panel_and_overlay_geometry():
     assert 150 < len(lines) < 250
     np.testing.assert_allclose(lines[:, 1] - lines[:, 0], np.tile([0.1, 0.0, 0.0], (len(lines), 1)), atol=1e-6)
     assert len(overlay.arrow_lines(positions, normals, directions, 1.0, 0.1)) == 6 * 1000
+    circle = overlay.circle_lines((1.0, 2.0, 3.0), (0.0, 0.6, 0.8), 0.5, segments=32).reshape(-1, 3)
+    offsets = circle - (1.0, 2.0, 3.0)
+    np.testing.assert_allclose(np.linalg.norm(offsets, axis=1), 0.5, atol=1e-5)
+    np.testing.assert_allclose(offsets @ np.array([0.0, 0.6, 0.8]), 0.0, atol=1e-5)
+    assert len(circle) == 64
     obj = grid_object(size=2.0, cuts=10)  # 10 x 10 quads of side 0.2
     assert abs(overlay.mean_edge_length(bridge.read_mesh(obj)) - 0.2) < 1e-6
 
