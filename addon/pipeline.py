@@ -17,6 +17,7 @@ from . import native
 METHODS = ("JUMPMAP", "TEXTON")
 IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON")
 ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
+SCALE_SOURCES = ("NONE", "ATTRIBUTE", "VERTEX_GROUP")
 MAX_UV_LAYERS = 8  # Blender's hard limit per mesh
 
 BASE_UV_NAME = "TexSynth"
@@ -46,6 +47,13 @@ class Settings:
     axis: tuple = (0.0, 0.0, 1.0)
     direction_attribute: str = ""    # FIELD: per-vertex vectors; ANCHORS: non-zero vectors mark anchors
     allow_oversized: bool = False    # map faces larger than the sample anyway (visible stretching/repeats)
+    # Per-vertex density multiplier (progressively-variant texture): a FLOAT point attribute, or a
+    # vertex group whose weight w maps to scale_min + w (scale_max - scale_min).
+    scale_source: str = "NONE"
+    scale_attribute: str = "TexSynth_Scale"
+    scale_group: str = ""
+    scale_min: float = 0.5
+    scale_max: float = 2.0
     neighbourhood: int = 11
     tileable: bool = False
     # TEXTON: 0 blends every interior edge; > 0 only edges whose blending metric Φ = λ·E_t·d/|camera - m|
@@ -75,6 +83,15 @@ class Settings:
             raise SettingsError("orientation %s needs the name of a vector attribute on the mesh" % self.orientation)
         if not (_finite(self.blend_threshold) and self.blend_threshold >= 0.0):
             raise SettingsError("blend threshold must be a finite number >= 0, got %r" % (self.blend_threshold,))
+        if self.scale_source not in SCALE_SOURCES:
+            raise SettingsError("unknown scale source %r (choose one of %s)" % (self.scale_source, ", ".join(SCALE_SOURCES)))
+        if self.scale_source == "ATTRIBUTE" and not self.scale_attribute:
+            raise SettingsError("scale source ATTRIBUTE needs the name of a float vertex attribute")
+        if self.scale_source == "VERTEX_GROUP":
+            if not self.scale_group:
+                raise SettingsError("scale source VERTEX_GROUP needs a vertex group name")
+            if not (_finite_positive(self.scale_min) and _finite_positive(self.scale_max)):
+                raise SettingsError("scale range must be two positive numbers, got (%r, %r)" % (self.scale_min, self.scale_max))
         if not isinstance(self.neighbourhood, int) or self.neighbourhood < 3 or self.neighbourhood % 2 == 0:
             raise SettingsError("neighbourhood must be an odd integer >= 3, got %r" % (self.neighbourhood,))
         return self
@@ -206,6 +223,7 @@ class MeshArrays:
     poly_starts: np.ndarray        # (P,) int32
     poly_sizes: np.ndarray         # (P,) int32
     direction: np.ndarray = None   # (N,3) float32, world space (FIELD / ANCHORS)
+    scale_multiplier: np.ndarray = None  # (N,) float32 > 0, or None
 
     @property
     def num_vertices(self):
@@ -318,6 +336,8 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale, pixels=None, vi
             raise SettingsError("attribute %r has no non-zero vectors: no anchors" % settings.direction_attribute)
         kwargs.update(orientation="anchors", anchor_vertices=anchors,
                       anchor_directions=np.ascontiguousarray(direction[anchors]))
+    if mesh_arrays.scale_multiplier is not None:
+        kwargs.update(scale_multiplier=mesh_arrays.scale_multiplier)
     mesh = (mesh_arrays.positions, mesh_arrays.corner_verts, mesh_arrays.poly_starts, mesh_arrays.poly_sizes)
     if settings.method == "TEXTON":
         if pixels is None:

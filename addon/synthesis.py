@@ -91,9 +91,11 @@ def camera_view(scene):
     return pipeline.View(position=tuple(camera.matrix_world.translation), pixels_per_radian=width / angle)
 
 
-def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None, scene=None):
+def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None, scene=None,
+               preprocessed=None):
     """Synthesizes on every mesh object; returns a pipeline.Report. Raises SettingsError /
-    NativeUnavailable / ValueError for problems that concern the whole run (nothing is changed then)."""
+    NativeUnavailable / ValueError for problems that concern the whole run (nothing is changed then).
+    `preprocessed` (optional) skips preprocessing, e.g. for live updates with a sample kept in memory."""
     settings.validate()
     report, timings = pipeline.Report(), pipeline.Timings()
     meshes, report.failures = mesh_objects(objects)
@@ -102,7 +104,8 @@ def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", p
     native.require()
     progress = progress or (lambda fraction, text: None)
     progress(0.0, "TexSynth: preprocessing %s" % sample.describe())
-    preprocessed = preprocess(sample, settings, cache_dir, timings)
+    if preprocessed is None:
+        preprocessed = preprocess(sample, settings, cache_dir, timings)
     report.cache_hit = bool(preprocessed.cache_hit)
     report.cache_status = str(getattr(preprocessed, "cache_status", ""))
     image = sample.shader_image()
@@ -118,6 +121,7 @@ def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", p
         try:
             with timings.phase("read"):
                 arrays = bridge.read_mesh(obj, settings.direction_attribute if settings.orientation != "AXIS" else "")
+                arrays.scale_multiplier = bridge.read_scale_multiplier(obj, settings)
             if arrays.num_faces == 0:
                 raise pipeline.SettingsError("mesh %r has no faces" % obj.data.name)
             bridge.check_capacity(obj.data, pipeline.needed_blend_sets(arrays, settings.blend))

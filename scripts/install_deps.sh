@@ -11,6 +11,7 @@ PACKAGES=(
   libgtest-dev libbenchmark-dev
   libnanoflann-dev libhnswlib-dev libfaiss-dev
   blender
+  xvfb xauth
 )
 
 missing=()
