@@ -108,6 +108,27 @@ TEST(FieldAnchors, SourcesPointAwayAndSinksToward) {
   }
 }
 
+TEST(FieldAnchors, SourceAndSinkAtPolesGiveMeridiansOnANoisySphere) {
+  auto s = fixtures::uv_sphere(30, 40, 1.0, 0.03);
+  auto m = texsynth::build_mesh(s.input());
+  FieldParams p;
+  p.mode = OrientationMode::Anchors;
+  p.sources = {0};                    // south pole
+  p.sinks = {m.num_vertices - 1};     // north pole
+  auto f = texsynth::compute_orientation_field(m, p);
+  expect_unit_tangent(m, f);
+  int checked = 0;
+  for (int32_t v = 0; v < m.num_vertices; ++v) {
+    double x = s.positions[3 * v], y = s.positions[3 * v + 1], z = s.positions[3 * v + 2];
+    double r = std::sqrt(x * x + y * y + z * z), rxy = std::hypot(x, y);
+    if (rxy < 0.3 * r) continue;
+    const double north[3] = {-z * x / (rxy * r), -z * y / (rxy * r), rxy / r};  // unit meridian direction
+    EXPECT_GT(dot3(&f[3 * v], north), 0.95) << "vertex " << v;
+    ++checked;
+  }
+  EXPECT_GT(checked, 800);
+}
+
 TEST(FieldCaller, UnsetVectorsAreFilledFromSetOnes) {
   auto g = fixtures::grid(10, 10, 1.0, true);
   auto m = texsynth::build_mesh(g.input());

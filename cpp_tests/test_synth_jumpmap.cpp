@@ -203,6 +203,7 @@ TEST(SynthJumpMap, CurvedMeshesAreSimilaritiesWithCorrectScale) {
     expect_inside_sample(r.r);
     expect_blend_sets_consistent(r, pre);
     EXPECT_EQ(r.r.stats.fallback_vertices, 0);
+    EXPECT_EQ(r.r.stats.fallback_faces, 0);
   }
 }
 
@@ -271,6 +272,10 @@ TEST(SynthJumpMap, NoJumpsForcesFallbacksButEverythingStaysInside) {
   auto r = run(grid, pre, p);
   EXPECT_EQ(r.r.stats.jumps, 0);
   EXPECT_GT(r.r.stats.fallback_vertices, 0);
+  // Faces touching a fallback vertex: a triangle holds at most 3 of them, and no vertex of this
+  // grid is on more than 6 triangles.
+  EXPECT_GE(r.r.stats.fallback_faces, r.r.stats.fallback_vertices / 3);
+  EXPECT_LE(r.r.stats.fallback_faces, 6 * r.r.stats.fallback_vertices);
   expect_inside_sample(r.r);
   expect_similarities(r, pre, 1.5, nullptr);
 }
@@ -459,4 +464,51 @@ TEST(SynthOrder, IsAPermutationGrowingFromSeedsWithNearGreedyChoices) {
   }
   // seed choice depends on the seed
   EXPECT_NE(texsynth::region_growing_order(m, 1).order[0], texsynth::region_growing_order(m, 2).order[0]);
+}
+
+// Random small meshes with random corruptions: every call either throws std::invalid_argument or
+// returns finite UVs inside the sample (run under TEXSYNTH_SANITIZE=ON to catch memory errors).
+TEST(SynthJumpMap, RandomMalformedInputsNeverCrash) {
+  auto pre = fixtures::planted(32, 24, 3, 0.9f, false, 2);
+  texsynth::Rng rng(2024);
+  int valid = 0, rejected = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    TestMesh t;
+    const int nv = 1 + int(rng.below(12));
+    for (int v = 0; v < nv; ++v) t.add_vertex(rng.uniform(), rng.uniform(), rng.below(4) == 0 ? 0.0 : rng.uniform());
+    const int np = int(rng.below(8));
+    for (int p = 0; p < np; ++p) {
+      std::vector<int32_t> poly;
+      const int n = 3 + int(rng.below(rng.below(3) == 0 ? 18 : 2));
+      for (int i = 0; i < n; ++i) poly.push_back(int32_t(rng.below(uint32_t(nv))));
+      t.add_poly(poly);
+    }
+    switch (rng.below(8)) {  // one corruption, or none
+      case 0: if (!t.corner_verts.empty()) t.corner_verts[rng.below(uint32_t(t.corner_verts.size()))] = int32_t(nv + rng.below(5)); break;
+      case 1: if (!t.poly_sizes.empty()) t.poly_sizes[rng.below(uint32_t(t.poly_sizes.size()))] = int32_t(rng.below(3)); break;
+      case 2: if (!t.poly_starts.empty()) t.poly_starts[rng.below(uint32_t(t.poly_starts.size()))] += 1; break;
+      case 3: t.positions[rng.below(uint32_t(t.positions.size()))] = rng.below(2) ? NAN : INFINITY; break;
+      case 4: if (!t.corner_verts.empty()) t.corner_verts.pop_back(); break;
+      default: break;
+    }
+    texsynth::FieldParams fp;
+    if (rng.below(2)) {
+      fp.mode = texsynth::OrientationMode::Anchors;
+      fp.sources = {int32_t(rng.below(uint32_t(nv + 1)))};  // sometimes out of range
+    }
+    JumpSynthParams p;
+    p.scale = 2.0 + 60.0 * rng.uniform();
+    p.allow_oversized = rng.below(2) == 0;
+    p.seed = trial;
+    try {
+      auto r = run(t, pre, p, fp);
+      for (float x : r.r.maps.blend_uv) ASSERT_TRUE(std::isfinite(x) && x >= 0.f && x <= 1.f) << "trial " << trial;
+      for (float x : r.r.maps.base_uv) ASSERT_TRUE(std::isfinite(x) && x >= 0.f && x <= 1.f) << "trial " << trial;
+      ++valid;
+    } catch (const std::invalid_argument&) {
+      ++rejected;
+    }
+  }
+  EXPECT_GT(valid, 50);
+  EXPECT_GT(rejected, 50);
 }

@@ -53,6 +53,7 @@ void bind_synth(py::module_& m) {
         stats["components"] = r.stats.components;
         stats["jumps"] = r.stats.jumps;
         stats["fallback_vertices"] = r.stats.fallback_vertices;
+        stats["fallback_faces"] = r.stats.fallback_faces;
         stats["oversized_faces"] = r.stats.oversized_faces;
         stats["max_oversize_ratio"] = r.stats.max_oversize_ratio;
         stats["seconds"] = r.stats.seconds;
@@ -73,7 +74,7 @@ void bind_synth(py::module_& m) {
       "Jump-map synthesis (Zelinka & Garland 2003) on a Blender-layout mesh. scale = texels per object unit.\n"
       "Returns dict: base_uv (L, 2), blend_uv (S, L, 2), blend_weights (L, S) float32 (one-hot per corner), "
       "num_blend_sets S (3 all triangles, 4 otherwise, 1 when blend=False) and stats (faces, vertices, corners, "
-      "components, jumps, fallback_vertices, oversized_faces, max_oversize_ratio, seconds). ValueError on bad input "
+      "components, jumps, fallback_vertices, fallback_faces, oversized_faces, max_oversize_ratio, seconds). ValueError on bad input "
       "and, unless allow_oversized, when faces are larger than the sample at this scale. cancel: a CancelToken; "
       "token.cancel() from another thread makes the call raise Cancelled within a fraction of a second.");
 }

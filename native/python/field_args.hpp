@@ -18,7 +18,7 @@ inline FieldArgs field_args(int32_t num_vertices, const std::string& orientation
   f.params.mode = texsynth::parse_orientation_mode(orientation);
   f.params.axis = vec3(axis, "axis");
   f.direction = optional_vectors(direction, num_vertices, "direction");
-  if (f.direction.size() > 0 || !direction.is_none()) f.params.direction = f.direction.data();
+  if (!direction.is_none()) f.params.direction = f.direction.data();
   if (f.params.mode == texsynth::OrientationMode::Field && direction.is_none())
     throw std::invalid_argument("orientation='field' needs direction=(N, 3) array");
   f.params.anchor_vertices = optional_indices(anchor_vertices, "anchor_vertices");

@@ -109,7 +109,9 @@ class Synthesizer {
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 8192), [&](const tbb::blocked_range<int32_t>& r) {
       for (int32_t v = r.begin(); v < r.end(); ++v) {
         V3 n = v3(&m_.normals[3 * size_t(v)]);
-        V3 u = normalized_or(project_to_plane(v3(orientation + 3 * size_t(v)), n), any_perpendicular(n));
+        V3 u = project_to_plane(v3(orientation + 3 * size_t(v)), n);
+        const double len = norm(u);
+        u = len > 1e-12 && std::isfinite(len) ? u * (1.0 / len) : any_perpendicular(n);
         VertexState& st = state_[v];
         store(st.up, u);
         store(st.right, cross(u, n));
@@ -138,8 +140,13 @@ class Synthesizer {
       for (int32_t i = 0; i < n; ++i) normal_sum = normal_sum + v3(&m_.normals[3 * size_t(cv[i])]);
       nf = normalized_or(normal_sum, V3{0, 0, 1});
     }
-    V3 up = normalized_or(project_to_plane(up_sum, nf),
-                          normalized_or(project_to_plane(v3(state_[cv[0]].up), nf), any_perpendicular(nf)));
+    V3 up = project_to_plane(up_sum, nf);
+    const double up_len = norm(up);
+    if (up_len > 1e-12 && std::isfinite(up_len)) {
+      up = up * (1.0 / up_len);
+    } else {  // vertex directions cancel out (next to a singularity): corner 0's, else any
+      up = normalized_or(project_to_plane(v3(state_[cv[0]].up), nf), any_perpendicular(nf));
+    }
     V3 right = cross(up, nf);
     const double s = p_.scale * mult / n;
     V3 origin = pos(cv[0]);
@@ -262,6 +269,7 @@ class Synthesizer {
     const float rate = float(p_.jump_rate);
     std::vector<Source> sources;
     std::vector<Candidate> table;
+    std::vector<char> fell_back(m_.num_vertices, 0);
     Rng rng(p_.seed, 0x6a756d70);  // "jump"
     size_t steps = 0;
     for (int32_t v : order.order) {
@@ -365,7 +373,7 @@ class Synthesizer {
       }
       if (!chosen) {
         random_address(rng, box, x, y);
-        if (count > 0) ++st.fallback_vertices;
+        if (count > 0) ++st.fallback_vertices, fell_back[v] = 1;
       }
       if (jumped) ++st.jumps;
       if (tileable_) {
@@ -375,6 +383,13 @@ class Synthesizer {
       }
       state_[v].address[0] = x, state_[v].address[1] = y;
     }
+    if (st.fallback_vertices > 0)
+      for (int32_t poly = 0; poly < m_.num_polys; ++poly)
+        for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i)
+          if (fell_back[m_.corner_verts[m_.poly_starts[poly] + i]]) {
+            ++st.fallback_faces;
+            break;
+          }
   }
 
   // Pass 3: consistent per-polygon coordinates and blend sets (§4.3–4.4). Each polygon writes only

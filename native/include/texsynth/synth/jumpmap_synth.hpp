@@ -48,6 +48,7 @@ struct SynthStats {
   int64_t faces = 0, vertices = 0, corners = 0, components = 0;
   int64_t jumps = 0;               // vertices whose address came from a jump entry
   int64_t fallback_vertices = 0;   // vertices with synthesized neighbours but no valid candidate
+  int64_t fallback_faces = 0;      // faces with at least one such vertex (likely visible seams)
   int64_t oversized_faces = 0;     // faces whose texture-space extent exceeds the sample
   double max_oversize_ratio = 0;   // max over faces of extent / sample side (≤ 1 when none)
   double seconds = 0;
