@@ -73,3 +73,29 @@ TEST(ImageSniffing, ContentDecidesNotTheExtensionAndTgaGoesByExtension) {
 }
 
 }  // namespace
+
+namespace {
+
+// fuzz_params: float pixels of -2e36 passed the NaN/Inf check and overflowed the L*a*b* conversion
+// into NaN textons. fuzz_image: a Radiance header with "+X 0" opened as a 0-wide image.
+TEST(ImageValues, HugeFloatPixelsAndZeroSizedHeadersAreClearErrors) {
+  std::vector<float> pixels(4 * 4 * 3, 0.5f);
+  EXPECT_NO_THROW(texsynth::image_from_pixels(pixels.data(), texsynth::PixelType::kFloat32, 4, 4, 3));
+  pixels[7] = 1e9f;  // the largest accepted magnitude
+  EXPECT_NO_THROW(texsynth::image_from_pixels(pixels.data(), texsynth::PixelType::kFloat32, 4, 4, 3));
+  for (float bad : {-2.03762e36f, 1.01e9f, -1.01e9f}) {
+    pixels[7] = bad;
+    try {
+      texsynth::image_from_pixels(pixels.data(), texsynth::PixelType::kFloat32, 4, 4, 3);
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("pixel (x=2, y=0) is beyond"), std::string::npos) << e.what();
+    }
+  }
+  TempDir dir;
+  write_bytes(dir.file("zero.hdr"), "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 0\n");
+  EXPECT_THROW(texsynth::read_image_info(dir.file("zero.hdr")), std::invalid_argument);
+  EXPECT_THROW(texsynth::load_image(dir.file("zero.hdr")), std::invalid_argument);
+}
+
+}  // namespace

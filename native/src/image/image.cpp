@@ -92,10 +92,12 @@ void check_dims(int width, int height, int channels, const std::string& where, i
 
 void check_finite(const std::vector<float>& pixels, int width, int channels, const std::string& where) {
   for (size_t i = 0; i < pixels.size(); ++i) {
-    if (!std::isfinite(pixels[i])) {
+    if (!(std::fabs(pixels[i]) <= kMaxPixelMagnitude)) {
       const size_t pixel = i / size_t(channels);
       throw std::invalid_argument(where + ": pixel (x=" + std::to_string(pixel % size_t(width)) +
-                                  ", y=" + std::to_string(pixel / size_t(width)) + ") is NaN or infinite");
+                                  ", y=" + std::to_string(pixel / size_t(width)) + ") is " +
+                                  (std::isfinite(pixels[i]) ? "beyond ±1e9 (" + std::to_string(pixels[i]) + ")"
+                                                            : std::string("NaN or infinite")));
     }
   }
 }
@@ -159,6 +161,10 @@ float half_to_float(uint16_t h) {
 ImageInfo read_image_info(const std::string& path) {
   auto input = open_input(path);
   const OIIO::ImageSpec& spec = input->spec();
+  // fuzz_image: a Radiance header "+X 0" opens as a 0-pixel-wide image.
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+    fail(path, "image has no pixels (" + std::to_string(spec.width) + "x" + std::to_string(spec.height) + ", " +
+                   std::to_string(spec.nchannels) + " channels)");
   ImageInfo info;
   info.width = spec.width;
   info.height = spec.height;
