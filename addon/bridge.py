@@ -10,9 +10,20 @@ Mirror or Array, so the modified result is textured consistently.
 Writes are atomic: everything is computed and validated first; if a write still fails, every layer
 created is removed and every layer overwritten is restored, leaving the mesh byte-identical.
 """
+import os
+
 import numpy as np
 
 from . import pipeline
+
+# Test hook: TEXSYNTH_TEST_FAIL_AT=<point> makes the write fail at that point (uv_layer, weights,
+# material) so the tests can prove a failure mid-write leaves the mesh byte-identical.
+FAIL_AT_ENV = "TEXSYNTH_TEST_FAIL_AT"
+
+
+def fail_point(name):
+    if os.environ.get(FAIL_AT_ENV) == name:
+        raise RuntimeError("injected failure at %r (%s)" % (name, FAIL_AT_ENV))
 
 
 class MeshWriteError(RuntimeError):
@@ -100,9 +111,8 @@ def _snapshot(mesh):
 
 def _restore(mesh, snapshot):
     """Puts back TexSynth's layers exactly as in snapshot (foreign layers are never touched)."""
-    for layer in list(mesh.uv_layers):
-        if pipeline.is_texsynth_uv_name(layer.name) and layer.name not in snapshot["uv"]:
-            mesh.uv_layers.remove(layer)
+    # By name: removing a layer invalidates Python references to the other layers.
+    _remove_uv_layers(mesh, [name for name in texsynth_uv_names(mesh) if name not in snapshot["uv"]])
     for name, values in snapshot["uv"].items():
         layer = mesh.uv_layers.get(name) or mesh.uv_layers.new(name=name, do_init=False)
         layer.data.foreach_set("uv", values)
@@ -136,7 +146,7 @@ def write_result(mesh, result):
 
     Foreign UV maps keep their data and flags; the active/render UV map is not changed unless the
     mesh had none. Raises SettingsError (too many UV maps) or MeshWriteError (restored) and then
-    leaves the mesh as it was.
+    leaves the mesh as it was. Returns the snapshot taken before writing, for restore().
     """
     num_corners = len(mesh.loops)
     base = pipeline.check_result(result, num_corners)
@@ -157,6 +167,7 @@ def write_result(mesh, result):
             if layer is None:
                 raise MeshWriteError("Blender refused to create UV map %r" % name)
             layer.data.foreach_set("uv", values)
+            fail_point("uv_layer")
         attribute = mesh.attributes.get(pipeline.WEIGHTS_NAME)
         if attribute is not None and (weights is None or attribute.data_type != "FLOAT_COLOR"
                                       or attribute.domain != "CORNER"):
@@ -166,6 +177,7 @@ def write_result(mesh, result):
             if attribute is None:
                 attribute = mesh.attributes.new(pipeline.WEIGHTS_NAME, "FLOAT_COLOR", "CORNER")
             attribute.data.foreach_set("color", weights)
+            fail_point("weights")
         # Last: removed layers would come back in another order if a later step failed.
         _remove_uv_layers(mesh, [n for n in texsynth_uv_names(mesh) if n not in names])
         if had_uv:
@@ -179,6 +191,12 @@ def write_result(mesh, result):
         if isinstance(error, (pipeline.SettingsError, MeshWriteError)):
             raise
         raise MeshWriteError("writing TexSynth layers failed (mesh restored): %s" % error) from error
+    return snapshot
+
+
+def restore(mesh, snapshot):
+    """Undoes a successful write_result (its returned snapshot): the mesh is as before it."""
+    _restore(mesh, snapshot)
 
 
 def _remove_uv_layers(mesh, names):

@@ -1,5 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Operators: Preprocess, Synthesize (all selected mesh objects), Clear."""
+import threading
+
 import bpy
 
 from . import compat, pipeline, properties, synthesis
@@ -82,7 +84,7 @@ class TEXSYNTH_OT_check_cache(bpy.types.Operator):
 
 
 class TEXSYNTH_OT_synthesize(bpy.types.Operator):
-    """Synthesize the sample texture on every selected mesh object"""
+    """Synthesize the sample texture on every selected mesh object (Esc cancels, changing nothing)"""
     bl_idname = "texsynth.synthesize"
     bl_label = "Synthesize"
     bl_options = {"REGISTER", "UNDO"}
@@ -91,24 +93,101 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
     def poll(cls, context):
         return context.mode == "OBJECT"
 
-    def execute(self, context):
+    def _job(self, context):
         props = context.scene.texsynth
         objects = sorted(context.selected_objects, key=lambda obj: obj.name)
-        try:
-            sample = sample_from_settings(props)
-            with _Progress(context) as progress:
-                report = synthesis.synthesize(objects, sample, props.to_settings(), properties.cache_dir(context),
-                                              props.material_mode, progress)
-        except (ValueError, RuntimeError) as error:
-            self.report({"ERROR"}, str(error))
-            return {"CANCELLED"}
-        cache_status_by_sample[sample.describe()] = "fresh"
-        self.last_report = report
+        return synthesis.Job(objects, sample_from_settings(props), props.to_settings(), properties.cache_dir(context),
+                             props.material_mode)
+
+    def _finish(self, job):
+        cache_status_by_sample[job.sample.describe()] = "fresh"
+        report = self.last_report = job.report
         if not report.objects:
             self.report({"ERROR"}, report.summary())
             return {"CANCELLED"}
         self.report({"WARNING"} if report.failures else {"INFO"}, report.summary())
         return {"FINISHED"}
+
+    def execute(self, context):
+        """Blocking run (scripts, tests, redo panel)."""
+        try:
+            job = self._job(context).prepare()
+            with _Progress(context) as progress:
+                job.compute(progress).apply(progress)
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        return self._finish(job)
+
+    def invoke(self, context, event):
+        """From the UI: native work in a worker thread (GIL released), Esc cancels it."""
+        if context.window is None:
+            return self.execute(context)
+        try:
+            self._job_state = ModalSynthesis(self._job(context).prepare())
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        self._job_state.start()
+        self._timer = context.window_manager.event_timer_add(ModalSynthesis.POLL_SECONDS, window=context.window)
+        context.window_manager.modal_handler_add(self)
+        context.window_manager.progress_begin(0, 1000)
+        compat.status_text_set(context, "TexSynth: synthesizing... (Esc to cancel)")
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        state = self._job_state
+        if event.type == "ESC" and event.value == "PRESS":
+            state.job.cancel()
+        if event.type != "TIMER" and event.type != "ESC":
+            return {"RUNNING_MODAL"}  # block other input: the meshes must not change mid-run
+        if state.running():
+            context.window_manager.progress_update(int(1000 * state.fraction))
+            return {"RUNNING_MODAL"}
+        context.window_manager.event_timer_remove(self._timer)
+        context.window_manager.progress_end()
+        compat.status_text_set(context, None)
+        try:
+            state.finish()  # re-raises the worker's error, or Cancelled
+            state.job.apply()
+        except (ValueError, RuntimeError) as error:
+            self.report({"WARNING"} if isinstance(error, synthesis.Cancelled) else {"ERROR"}, str(error))
+            return {"CANCELLED"}
+        return self._finish(state.job)
+
+
+class ModalSynthesis:
+    """Runs Job.compute in a worker thread; the modal operator polls it (and the tests drive it)."""
+    POLL_SECONDS = 0.05
+
+    def __init__(self, job):
+        self.job = job
+        self.fraction = 0.0
+        self.error = None
+        self.thread = threading.Thread(target=self._run, name="TexSynth synthesis", daemon=True)
+
+    def _progress(self, fraction, text):
+        self.fraction = fraction  # read by the main thread; no bpy access from the worker
+
+    def _run(self):
+        try:
+            self.job.compute(self._progress)
+        except BaseException as error:  # handed to the main thread by finish()
+            self.error = error
+
+    def start(self):
+        self.thread.start()
+        return self
+
+    def running(self):
+        return self.thread.is_alive()
+
+    def finish(self, timeout=None):
+        """Waits for the worker; raises its error (synthesis.Cancelled after cancel())."""
+        self.thread.join(timeout)
+        if self.error is not None:
+            raise self.error
+        return self.job
 
 
 class TEXSYNTH_OT_clear(bpy.types.Operator):

@@ -263,21 +263,26 @@ def cache_status(sample, settings, cache_dir):
     return module.cache_status(load_sample(sample), cache_dir=cache_dir, **settings.preprocess_params())
 
 
-def preprocess(sample, settings, cache_dir):
-    """Preprocessed sample (from the cache when fresh). Errors: SettingsError/ValueError with a message."""
+def preprocess(sample, settings, cache_dir, cancel=None):
+    """Preprocessed sample (from the cache when fresh). Errors: SettingsError/ValueError with a message.
+    cancel: a texsynth_native.CancelToken (the call then raises texsynth_native.Cancelled when raised)."""
     module = native.require()
     if cache_dir:
         os.makedirs(cache_dir, exist_ok=True)
-    return module.preprocess(load_sample(sample), cache_dir=cache_dir or None, **settings.preprocess_params())
+    extra = {} if cancel is None else {"cancel": cancel}
+    return module.preprocess(load_sample(sample), cache_dir=cache_dir or None, **settings.preprocess_params(), **extra)
 
 
-def synthesize(preprocessed, mesh_arrays, settings, seed, scale):
-    """Runs the native synthesizer on one mesh; returns its dict after checking every shape."""
+def synthesize(preprocessed, mesh_arrays, settings, seed, scale, cancel=None):
+    """Runs the native synthesizer on one mesh; returns its dict after checking every shape.
+    cancel: a texsynth_native.CancelToken, as for preprocess()."""
     module = native.require()
     if mesh_arrays.num_faces == 0:
         raise SettingsError("mesh has no faces")
     kwargs = dict(scale=float(scale), jump_rate=float(settings.jump_rate), seed=int(seed),
                   blend=bool(settings.blend), allow_oversized=bool(settings.allow_oversized))
+    if cancel is not None:
+        kwargs["cancel"] = cancel
     if settings.orientation == "AXIS":
         kwargs.update(orientation="axis", axis=tuple(float(c) for c in settings.axis))
     elif settings.orientation == "FIELD":

@@ -1,9 +1,10 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """One Synthesize / Preprocess / Clear run over Blender objects, shared by the operators and the CLI.
 
-Data flows one way: sample -> native preprocess (cached) -> per object: bridge.read_mesh ->
-native synthesis -> bridge.write_result (atomic) -> material. Per-object failures are reported and
-do not stop the other objects.
+Data flows one way: bridge.read_mesh (every object) -> native preprocess (cached) -> native
+synthesis (every object; may run in a worker thread, cancellable) -> bridge.write_result (atomic)
+-> material. Per-object failures are reported and do not stop the other objects; nothing is written
+until every native call has finished, so cancelling leaves every mesh untouched.
 """
 import os
 
@@ -79,43 +80,128 @@ def mesh_objects(objects):
     return meshes, skipped
 
 
+class Cancelled(RuntimeError):
+    """The user cancelled the run before anything was written."""
+
+
+class Job:
+    """One Synthesize run in three stages, so the native work can run in a worker thread:
+
+    prepare()  main thread: validates, reads every mesh and the sample (bpy access);
+    compute()  any thread: only native calls (GIL released), cancellable with cancel();
+    apply()    main thread: writes every result (atomically per mesh) and the materials.
+
+    Nothing is written before apply(), so a run cancelled or failing in compute() changes nothing.
+    """
+
+    def __init__(self, objects, sample, settings, cache_dir=None, material_mode="NEW"):
+        self.objects, self.sample, self.settings = objects, sample, settings
+        self.cache_dir, self.material_mode = cache_dir, material_mode
+        self.report, self.timings = pipeline.Report(), pipeline.Timings()
+        self.items = []  # [obj, arrays, result]
+        self.token = None
+        self.cancelled = False
+
+    def prepare(self):
+        """Raises SettingsError / NativeUnavailable / ValueError for problems of the whole run."""
+        self.settings.validate()
+        meshes, self.report.failures = mesh_objects(self.objects)
+        if not meshes:
+            raise pipeline.SettingsError("no mesh object selected")
+        module = native.require()
+        self.token = module.CancelToken() if hasattr(module, "CancelToken") else None
+        with self.timings.phase("preprocess"):
+            self.native_input = self.sample.native_input()
+        self.cache_dir = self.cache_dir or default_cache_dir()
+        for obj in meshes:
+            try:
+                with self.timings.phase("read"):
+                    arrays = bridge.read_mesh(obj, self.settings.direction_attribute
+                                              if self.settings.orientation != "AXIS" else "")
+                if arrays.num_faces == 0:
+                    raise pipeline.SettingsError("mesh %r has no faces" % obj.data.name)
+                bridge.check_capacity(obj.data, pipeline.needed_blend_sets(arrays, self.settings.blend))
+                self.items.append([obj, arrays, None])
+            except (ValueError, RuntimeError) as error:
+                self.report.failures.append((obj.name, str(error)))
+        return self
+
+    def cancel(self):
+        """Asks compute() to stop (from any thread); it then raises Cancelled."""
+        self.cancelled = True
+        if self.token is not None:
+            self.token.cancel()
+
+    def _check_cancelled(self):
+        if self.cancelled:
+            raise Cancelled("TexSynth: cancelled, nothing was changed")
+
+    def compute(self, progress=None):
+        """Native preprocessing and synthesis for every prepared mesh; no bpy access."""
+        progress = progress or (lambda fraction, text: None)
+        module = native.require()
+        native_cancelled = getattr(module, "Cancelled", Cancelled)
+        try:
+            self._check_cancelled()
+            progress(0.0, "TexSynth: preprocessing %s" % self.sample.describe())
+            with self.timings.phase("preprocess"):
+                preprocessed = pipeline.preprocess(self.native_input, self.settings, self.cache_dir, self.token)
+            self.preprocessed = preprocessed
+            self.report.cache_hit = bool(preprocessed.cache_hit)
+            self.report.cache_status = str(getattr(preprocessed, "cache_status", ""))
+            scale = pipeline.texels_per_unit(int(preprocessed.width), self.settings.sample_world_size)
+            for index, item in enumerate(self.items):
+                self._check_cancelled()
+                obj_name = item[0].name
+                progress((index + 0.1) / max(len(self.items), 1),
+                         "TexSynth: %s (%d/%d)" % (obj_name, index + 1, len(self.items)))
+                try:
+                    with self.timings.phase("synthesis"):
+                        item[2] = pipeline.synthesize(preprocessed, item[1], self.settings,
+                                                      pipeline.object_seed(self.settings.seed, obj_name), scale,
+                                                      self.token)
+                except native_cancelled:
+                    raise
+                except (ValueError, RuntimeError) as error:
+                    self.report.failures.append((obj_name, str(error)))
+            self._check_cancelled()
+        except native_cancelled:
+            self.cancelled = True
+            raise Cancelled("TexSynth: cancelled, nothing was changed") from None
+        return self
+
+    def apply(self, progress=None):
+        """Writes every computed result (main thread); returns the pipeline.Report."""
+        progress = progress or (lambda fraction, text: None)
+        self._check_cancelled()
+        image = self.sample.shader_image() if any(item[2] is not None for item in self.items) else None
+        for obj, arrays, result in self.items:
+            if result is None:
+                continue
+            try:
+                name = obj.name  # ReferenceError if the object was deleted meanwhile
+                with self.timings.phase("write"):
+                    snapshot = bridge.write_result(obj.data, result)
+                with self.timings.phase("material"):
+                    try:
+                        bridge.fail_point("material")
+                        shading.apply_material(obj, image, self.material_mode)
+                    except Exception as error:
+                        bridge.restore(obj.data, snapshot)
+                        raise bridge.MeshWriteError("material setup failed (mesh restored): %s" % error) from error
+                self.report.add_object(name, arrays, result.get("stats"))
+            except (ValueError, RuntimeError, ReferenceError) as error:
+                self.report.failures.append((getattr(obj, "name", "?"), str(error)))
+        progress(1.0, "TexSynth: done")
+        self.report.seconds = self.timings.as_dict()
+        return self.report
+
+
 def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None):
     """Synthesizes on every mesh object; returns a pipeline.Report. Raises SettingsError /
     NativeUnavailable / ValueError for problems that concern the whole run (nothing is changed then)."""
-    settings.validate()
-    report, timings = pipeline.Report(), pipeline.Timings()
-    meshes, report.failures = mesh_objects(objects)
-    if not meshes:
-        raise pipeline.SettingsError("no mesh object selected")
-    native.require()
-    progress = progress or (lambda fraction, text: None)
-    progress(0.0, "TexSynth: preprocessing %s" % sample.describe())
-    preprocessed = preprocess(sample, settings, cache_dir, timings)
-    report.cache_hit = bool(preprocessed.cache_hit)
-    report.cache_status = str(getattr(preprocessed, "cache_status", ""))
-    image = sample.shader_image()
-    scale = pipeline.texels_per_unit(int(preprocessed.width), settings.sample_world_size)
-    for index, obj in enumerate(meshes):
-        progress((index + 0.1) / len(meshes), "TexSynth: %s (%d/%d)" % (obj.name, index + 1, len(meshes)))
-        try:
-            with timings.phase("read"):
-                arrays = bridge.read_mesh(obj, settings.direction_attribute if settings.orientation != "AXIS" else "")
-            if arrays.num_faces == 0:
-                raise pipeline.SettingsError("mesh %r has no faces" % obj.data.name)
-            bridge.check_capacity(obj.data, pipeline.needed_blend_sets(arrays, settings.blend))
-            with timings.phase("synthesis"):
-                result = pipeline.synthesize(preprocessed, arrays, settings,
-                                             pipeline.object_seed(settings.seed, obj.name), scale)
-            with timings.phase("write"):
-                bridge.write_result(obj.data, result)
-            with timings.phase("material"):
-                shading.apply_material(obj, image, material_mode)
-            report.add_object(obj.name, arrays, result.get("stats"))
-        except (ValueError, RuntimeError) as error:
-            report.failures.append((obj.name, str(error)))
-    progress(1.0, "TexSynth: done")
-    report.seconds = timings.as_dict()
-    return report
+    job = Job(objects, sample, settings, cache_dir, material_mode).prepare()
+    return job.compute(progress).apply(progress)
 
 
 def clear(objects):

@@ -434,7 +434,7 @@ TEST(SynthOrder, IsAPermutationGrowingFromSeedsWithNearGreedyChoices) {
   t.add_vertex(20, 20, 20);  // loose: not ordered
   auto m = texsynth::build_mesh(t.input());
   for (auto order_fn : {texsynth::region_growing_order, texsynth::region_growing_order_heap}) {
-    auto o = order_fn(m, 7);
+    auto o = order_fn(m, 7, nullptr);
     ASSERT_EQ(o.order.size(), size_t(m.num_vertices - 1));
     ASSERT_EQ(o.component_start.size(), 3u);
     std::set<int32_t> seen(o.order.begin(), o.order.end());

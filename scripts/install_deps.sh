@@ -11,6 +11,7 @@ PACKAGES=(
   libgtest-dev libbenchmark-dev
   libnanoflann-dev libhnswlib-dev libfaiss-dev
   blender
+  clang libclang-rt-14-dev
 )
 
 missing=()

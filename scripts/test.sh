@@ -8,5 +8,9 @@ bash scripts/install_deps.sh
 bash scripts/build.sh
 echo "== C++ tests (ctest)"
 ctest --test-dir build --output-on-failure -j"$(nproc)"
+echo "== Sanitizer tests (ASan+UBSan build in build-asan: core, cpp_tests, fuzz seed/regression replay)"
+bash scripts/sanitize.sh
+echo "== Fuzzing (libFuzzer, ${TEXSYNTH_FUZZ_SECONDS:-20} s per target)"
+bash scripts/fuzz.sh "${TEXSYNTH_FUZZ_SECONDS:-20}"
 echo "== Python and Blender tests (pytest)"
 PYTHONPATH="$root/addon" /usr/bin/python3.11 -m pytest -q python_tests

@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 
+#include "cancel_arg.hpp"
 #include "image_arg.hpp"
 #include "texsynth/image/image.hpp"
 #include "texsynth/preprocess/cache.hpp"
@@ -127,20 +128,21 @@ void bind_preprocess(py::module_& m) {
   m.def(
       "preprocess",
       [](py::object image_arg, int neighbourhood, int num_textons, int jump_candidates, int feature_dims, bool tileable,
-         uint64_t seed, const std::string& color_space, py::object cache_dir) {
+         uint64_t seed, const std::string& color_space, py::object cache_dir, py::object cancel) {
         const PreprocessParams params =
             make_params(neighbourhood, num_textons, jump_candidates, feature_dims, tileable, seed);
         texsynth::Image image = texsynth_python::image_from_python(image_arg, color_space);
         std::optional<std::string> dir;
         if (!cache_dir.is_none()) dir = cache_dir_string(cache_dir);
+        const std::atomic<bool>* flag = texsynth_py::cancel_flag(cancel);
         py::gil_scoped_release release;
-        auto result = std::make_shared<Preprocessed>(dir ? texsynth::preprocess_cached(image, params, *dir)
-                                                         : texsynth::preprocess(image, params));
+        auto result = std::make_shared<Preprocessed>(dir ? texsynth::preprocess_cached(image, params, *dir, flag)
+                                                         : texsynth::preprocess(image, params, flag));
         return result;
       },
-      py::arg("image"), TEXSYNTH_PARAM_ARGS, py::arg("cache_dir") = py::none(),
+      py::arg("image"), TEXSYNTH_PARAM_ARGS, py::arg("cache_dir") = py::none(), py::arg("cancel") = py::none(),
       "Preprocesses a sample (path or numpy array). With cache_dir, a valid cache is loaded instead "
-      "(cache_hit=True) and a missing/corrupt one is recomputed and rewritten.");
+      "(cache_hit=True) and a missing/corrupt one is recomputed and rewritten. cancel: a CancelToken (raises Cancelled).");
 
   m.def(
       "cache_file_path",

@@ -2,6 +2,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include "cancel_arg.hpp"
 #include "field_args.hpp"
 #include "texsynth/mesh/mesh.hpp"
 #include "texsynth/preprocess/preprocessed.hpp"
@@ -11,12 +12,14 @@ namespace py = pybind11;
 using namespace texsynth_py;
 
 void bind_synth(py::module_& m) {
+  bind_cancel_token(m);
   m.def(
       "synthesize_jumpmap",
       [](const texsynth::Preprocessed& pre, py::object positions, py::object corner_verts, py::object poly_starts,
          py::object poly_sizes, double scale, double jump_rate, uint64_t seed, bool blend, const std::string& orientation,
          py::object axis, py::object direction, py::object anchor_vertices, py::object anchor_directions,
-         py::object sources, py::object sinks, py::object normals, py::object scale_multiplier, bool allow_oversized) {
+         py::object sources, py::object sinks, py::object normals, py::object scale_multiplier, bool allow_oversized,
+         py::object cancel) {
         MeshArrays arrays = mesh_arrays(positions, corner_verts, poly_starts, poly_sizes);
         const int32_t nv = arrays.input.num_vertices;
         FloatArray normal_array = optional_vectors(normals, nv, "normals");
@@ -33,10 +36,12 @@ void bind_synth(py::module_& m) {
         params.blend = blend;
         params.allow_oversized = allow_oversized;
         params.scale_multiplier = scale_multiplier.is_none() ? nullptr : multiplier.data();
+        params.cancel = field.params.cancel = cancel_flag(cancel);
         texsynth::JumpSynthResult r;
         {
           py::gil_scoped_release release;
-          texsynth::Mesh mesh = texsynth::build_mesh(arrays.input, normals.is_none() ? nullptr : normal_array.data());
+          texsynth::Mesh mesh =
+              texsynth::build_mesh(arrays.input, normals.is_none() ? nullptr : normal_array.data(), params.cancel);
           std::vector<float> up = texsynth::compute_orientation_field(mesh, field.params);
           r = texsynth::synthesize_jumpmap(pre, mesh, up.data(), params);
         }
@@ -65,10 +70,11 @@ void bind_synth(py::module_& m) {
       py::arg("orientation") = "axis", py::arg("axis") = py::make_tuple(0.0, 0.0, 1.0), py::arg("direction") = py::none(),
       py::arg("anchor_vertices") = py::none(), py::arg("anchor_directions") = py::none(), py::arg("sources") = py::none(),
       py::arg("sinks") = py::none(), py::arg("normals") = py::none(), py::arg("scale_multiplier") = py::none(),
-      py::arg("allow_oversized") = false,
+      py::arg("allow_oversized") = false, py::arg("cancel") = py::none(),
       "Jump-map synthesis (Zelinka & Garland 2003) on a Blender-layout mesh. scale = texels per object unit.\n"
       "Returns dict: base_uv (L, 2), blend_uv (S, L, 2), blend_weights (L, S) float32 (one-hot per corner), "
       "num_blend_sets S (3 all triangles, 4 otherwise, 1 when blend=False) and stats (faces, vertices, corners, "
       "components, jumps, fallback_vertices, fallback_faces, oversized_faces, max_oversize_ratio, seconds). ValueError on bad input "
-      "and, unless allow_oversized, when faces are larger than the sample at this scale.");
+      "and, unless allow_oversized, when faces are larger than the sample at this scale. cancel: a CancelToken; "
+      "token.cancel() from another thread makes the call raise Cancelled within a fraction of a second.");
 }

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "texsynth/common/errors.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 
 namespace texsynth {
@@ -106,9 +107,11 @@ std::vector<float> compute_orientation_field(const Mesh& m, const FieldParams& p
   if (p.mode == OrientationMode::Anchors && anchors.empty() && p.sources.empty() && p.sinks.empty())
     throw std::invalid_argument("orientation='anchors' needs anchor_vertices/anchor_directions, sources or sinks");
 
+  throw_if_cancelled(p.cancel);
   std::vector<float> out(size_t(nv) * 3);
   if (p.mode == OrientationMode::Axis) {
     parallel_vertices(nv, [&](int32_t v) { store(&out[3 * size_t(v)], ctx.axis_direction(v)); });
+    throw_if_cancelled(p.cancel);
     return out;
   }
 
@@ -134,6 +137,7 @@ std::vector<float> compute_orientation_field(const Mesh& m, const FieldParams& p
     if (!fixed[v]) fixed[v] = 1, fixed_list.push_back(v);
   }
 
+  throw_if_cancelled(p.cancel);
   // --- transport fixed vectors outward
   std::vector<float> anchor_length;
   bfs(m, fixed_list, anchor_length, [&](int32_t w, int32_t parent) {
@@ -141,6 +145,7 @@ std::vector<float> compute_orientation_field(const Mesh& m, const FieldParams& p
     store(&out[3 * size_t(w)], normalized_or(carried, ctx.axis_direction(w)));
   });
 
+  throw_if_cancelled(p.cancel);
   // --- singularities: away from sources, toward sinks, along BFS paths
   if (!p.sources.empty() || !p.sinks.empty()) {
     std::vector<int32_t> roots(p.sources);
@@ -193,9 +198,11 @@ std::vector<float> compute_orientation_field(const Mesh& m, const FieldParams& p
     if (o[0] == 0.f && o[1] == 0.f && o[2] == 0.f) store(o, ctx.axis_direction(v));
   });
 
+  throw_if_cancelled(p.cancel);
   // --- Jacobi smoothing, fixed vectors held; order-independent so thread count cannot matter
   std::vector<float> next(out.size());
   for (int it = 0; it < p.smoothing_iterations; ++it) {
+    throw_if_cancelled(p.cancel);
     parallel_vertices(nv, [&](int32_t v) {
       const float* cur = &out[3 * size_t(v)];
       if (fixed[v] || m.degree(v) == 0) {
@@ -211,6 +218,7 @@ std::vector<float> compute_orientation_field(const Mesh& m, const FieldParams& p
     });
     out.swap(next);
   }
+  throw_if_cancelled(p.cancel);
   return out;
 }
 

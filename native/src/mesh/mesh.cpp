@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "texsynth/common/errors.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 
 namespace texsynth {
@@ -55,8 +56,9 @@ void validate(const PolyMeshInput& in, const float* normals) {
 }
 
 template <class F>
-void for_each_poly_edge(const Mesh& m, F&& f) {
+void for_each_poly_edge(const Mesh& m, F&& f, const std::atomic<bool>* cancel) {
   for (int32_t p = 0; p < m.num_polys; ++p) {
+    if ((p & 0xFFFF) == 0) throw_if_cancelled(cancel);
     const int32_t* cv = m.corner_verts + m.poly_starts[p];
     const int32_t n = m.poly_sizes[p];
     for (int32_t i = 0; i < n; ++i) {
@@ -66,19 +68,21 @@ void for_each_poly_edge(const Mesh& m, F&& f) {
   }
 }
 
-void build_one_rings(Mesh& m) {
+void build_one_rings(Mesh& m, const std::atomic<bool>* cancel) {
   const int32_t nv = m.num_vertices;
   // Directed half-edges in both directions, bucketed by source vertex, then deduplicated per vertex.
   std::vector<int32_t> start(size_t(nv) + 1, 0);
-  for_each_poly_edge(m, [&](int32_t a, int32_t b) { ++start[a + 1], ++start[b + 1]; });
+  for_each_poly_edge(m, [&](int32_t a, int32_t b) { ++start[a + 1], ++start[b + 1]; }, cancel);
   for (int32_t v = 0; v < nv; ++v) start[v + 1] += start[v];
   std::vector<int32_t> ring(start[nv]);
   {
     std::vector<int32_t> fill(start.begin(), start.end() - 1);
-    for_each_poly_edge(m, [&](int32_t a, int32_t b) { ring[fill[a]++] = b, ring[fill[b]++] = a; });
+    for_each_poly_edge(m, [&](int32_t a, int32_t b) { ring[fill[a]++] = b, ring[fill[b]++] = a; }, cancel);
   }
+  throw_if_cancelled(cancel);
   std::vector<int32_t> unique_count(nv);
   tbb::parallel_for(tbb::blocked_range<int32_t>(0, nv, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+    throw_if_cancelled(cancel);
     for (int32_t v = r.begin(); v < r.end(); ++v) {
       int32_t* b = ring.data() + start[v];
       int32_t* e = ring.data() + start[v + 1];
@@ -93,10 +97,11 @@ void build_one_rings(Mesh& m) {
     std::copy(ring.begin() + start[v], ring.begin() + start[v] + unique_count[v], m.neighbours.begin() + m.neighbour_start[v]);
 }
 
-void build_normals(Mesh& m, const float* given) {
+void build_normals(Mesh& m, const float* given, const std::atomic<bool>* cancel) {
   const int32_t nv = m.num_vertices;
   std::vector<double> acc(size_t(nv) * 3, 0.0);
   for (int32_t p = 0; p < m.num_polys; ++p) {
+    if ((p & 0xFFFF) == 0) throw_if_cancelled(cancel);
     // Newell's vector = 2 × area × unit normal: summing it weights faces by area.
     const int32_t* cv = m.corner_verts + m.poly_starts[p];
     const int32_t n = m.poly_sizes[p];
@@ -114,13 +119,14 @@ void build_normals(Mesh& m, const float* given) {
   }
 }
 
-void build_components(Mesh& m) {
+void build_components(Mesh& m, const std::atomic<bool>* cancel) {
   const int32_t nv = m.num_vertices;
   m.component.assign(nv, -1);
   std::vector<char> used(nv, 0);
   for (int32_t c = 0; c < m.num_corners; ++c) used[m.corner_verts[c]] = 1;
   std::vector<int32_t> stack;
   int32_t id = 0;
+  int64_t visited = 0;
   for (int32_t s = 0; s < nv; ++s) {
     if (!used[s] || m.component[s] >= 0) continue;
     m.component[s] = id;
@@ -128,6 +134,7 @@ void build_components(Mesh& m) {
     while (!stack.empty()) {
       int32_t v = stack.back();
       stack.pop_back();
+      if ((++visited & 0xFFFF) == 0) throw_if_cancelled(cancel);
       for (int32_t k = m.neighbour_start[v]; k < m.neighbour_start[v + 1]; ++k) {
         int32_t w = m.neighbours[k];
         if (m.component[w] < 0) m.component[w] = id, stack.push_back(w);
@@ -152,8 +159,9 @@ int32_t Mesh::max_poly_size() const {
   return best;
 }
 
-Mesh build_mesh(const PolyMeshInput& in, const float* normals) {
+Mesh build_mesh(const PolyMeshInput& in, const float* normals, const std::atomic<bool>* cancel) {
   validate(in, normals);
+  throw_if_cancelled(cancel);
   Mesh m;
   m.num_vertices = in.num_vertices;
   m.num_corners = in.num_corners;
@@ -162,9 +170,11 @@ Mesh build_mesh(const PolyMeshInput& in, const float* normals) {
   m.corner_verts = in.corner_verts;
   m.poly_starts = in.poly_starts;
   m.poly_sizes = in.poly_sizes;
-  build_one_rings(m);
-  build_normals(m, normals);
-  build_components(m);
+  build_one_rings(m, cancel);
+  throw_if_cancelled(cancel);
+  build_normals(m, normals, cancel);
+  throw_if_cancelled(cancel);
+  build_components(m, cancel);
   return m;
 }
 

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <numeric>
 
+#include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
 
 namespace texsynth {
@@ -73,7 +74,8 @@ int full_feature_dims(const Image& image, int neighbourhood) {
   return neighbourhood * neighbourhood * feature_channel_count(image);
 }
 
-Features compute_features(const Image& image, int neighbourhood, int feature_dims, bool tileable, uint64_t seed) {
+Features compute_features(const Image& image, int neighbourhood, int feature_dims, bool tileable, uint64_t seed,
+                          const std::atomic<bool>* cancel) {
   const WindowGatherer gatherer(image, neighbourhood, tileable);
   const int full_dims = gatherer.dims();
   const int64_t count = image.pixel_count();
@@ -101,6 +103,7 @@ Features compute_features(const Image& image, int neighbourhood, int feature_dim
   const Eigen::VectorXf mean_f = mean.cast<float>();
 
   Eigen::MatrixXf projection;  // out_dims × full_dims
+  throw_if_cancelled(cancel);
   if (reduce) {
     samples.colwise() -= mean_f;
     const Eigen::MatrixXf cov_f = (samples * samples.transpose()) / float(sample_count);
@@ -116,6 +119,7 @@ Features compute_features(const Image& image, int neighbourhood, int feature_dim
     }
   }
   samples.resize(0, 0);
+  throw_if_cancelled(cancel);
 
   Features features;
   features.count = int(count);
@@ -126,6 +130,7 @@ Features compute_features(const Image& image, int neighbourhood, int feature_dim
     Eigen::MatrixXf windows(full_dims, width);
     Eigen::MatrixXf reduced;
     for (int y = rows.begin(); y < rows.end(); ++y) {
+      throw_if_cancelled(cancel);
       for (int x = 0; x < width; ++x) gatherer.gather(x, y, windows.col(x).data());
       float* out = features.values.data() + size_t(y) * size_t(width) * size_t(out_dims);
       if (reduce) {

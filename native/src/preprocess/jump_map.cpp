@@ -109,6 +109,7 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
       if (cancel && cancel->load(std::memory_order_relaxed)) return;
       const int32_t own_begin = bucket_start[size_t(t)], own_end = bucket_start[size_t(t) + 1];
       for (int32_t block = own_begin; block < own_end; block += kQueryBlock) {
+        if (cancel && cancel->load(std::memory_order_relaxed)) return;
         const int block_size = std::min<int32_t>(kQueryBlock, own_end - block);
         candidates.clear();
         Rng rng(params.seed ^ splitmix64(uint64_t(t)), uint64_t(block));

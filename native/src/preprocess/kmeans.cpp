@@ -73,12 +73,13 @@ struct PointBounds {
 // Assigns every point; labels[i] < 0 means "no previous label" (guess the previous point's).
 // Returns how many labels changed.
 int64_t assign_all(const Features& points, const std::vector<float>& centres, int k, const CentreIndex& index,
-                   std::vector<int32_t>& labels, PointBounds& bounds) {
+                   std::vector<int32_t>& labels, PointBounds& bounds, const std::atomic<bool>* cancel) {
   const int64_t n = points.count;
   const int dims = points.dims;
   return tbb::parallel_reduce(
       tbb::blocked_range<int64_t>(0, n, kChunk), int64_t(0),
       [&](const tbb::blocked_range<int64_t>& r, int64_t changed) {
+        check_cancel(cancel);
         int previous = 0;
         for (int64_t i = r.begin(); i < r.end(); ++i) {
           const int old = labels[size_t(i)];
@@ -206,7 +207,7 @@ int lloyd(const Features& points, int k, uint64_t seed, double change_fraction, 
         build_centre_index(centre_distance_table(centres, k, points.dims), k, std::min(k, kMaxListLength));
     const bool first = labels[0] < 0;
     previous_labels = labels;
-    const int64_t changed = assign_all(points, centres, k, index, labels, bounds);
+    const int64_t changed = assign_all(points, centres, k, index, labels, bounds, cancel);
     last_change = double(changed) / double(points.count);
     if ((!first && last_change <= change_fraction) || iteration >= max_iterations) break;
     previous_centres = centres;

@@ -75,7 +75,7 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
   };
 
   const Features features =
-      compute_features(image, params.neighbourhood, params.feature_dims, params.tileable, params.seed);
+      compute_features(image, params.neighbourhood, params.feature_dims, params.tileable, params.seed, cancel);
   if (cancel && cancel->load()) throw Cancelled();
   lap(stats->features_seconds, stats->features_cpu);
 

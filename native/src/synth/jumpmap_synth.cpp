@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 
@@ -73,7 +74,9 @@ class Synthesizer {
   JumpSynthResult run() {
     JumpSynthResult r;
     reach_.assign(m_.num_vertices, Box{});
+    throw_if_cancelled(p_.cancel);
     measure_faces(r.stats);
+    throw_if_cancelled(p_.cancel);
     if (r.stats.oversized_faces > 0 && !p_.allow_oversized) {
       std::ostringstream msg;
       msg << r.stats.oversized_faces << " of " << m_.num_polys << " faces are larger than the " << pre_.width << "x"
@@ -81,9 +84,12 @@ class Synthesizer {
           << "x the sample); lower the scale by at least that factor, subdivide those faces, or pass allow_oversized=True";
       throw std::invalid_argument(msg.str());
     }
-    VertexOrder order = region_growing_order(m_, p_.seed);
+    VertexOrder order = region_growing_order(m_, p_.seed, p_.cancel);
+    throw_if_cancelled(p_.cancel);
     walk(order, r.stats);
+    throw_if_cancelled(p_.cancel);
     write_corners(r.maps);
+    throw_if_cancelled(p_.cancel);
     r.vertex_address.resize(size_t(m_.num_vertices) * 2);
     for (int32_t v = 0; v < m_.num_vertices; ++v)
       r.vertex_address[2 * size_t(v)] = state_[v].address[0], r.vertex_address[2 * size_t(v) + 1] = state_[v].address[1];
@@ -156,10 +162,12 @@ class Synthesizer {
   void measure_faces(SynthStats& st) {
     corner_offset_.resize(size_t(m_.num_corners) * 2);
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+      throw_if_cancelled(p_.cancel);
       for (int32_t poly = r.begin(); poly < r.end(); ++poly) face_offsets(poly, &corner_offset_[2 * size_t(m_.poly_starts[poly])]);
     });
     const double w = pre_.width, h = pre_.height;
     for (int32_t poly = 0; poly < m_.num_polys; ++poly) {
+      if ((poly & 0xFFFF) == 0) throw_if_cancelled(p_.cancel);
       const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
       const int32_t n = m_.poly_sizes[poly];
       double lo_x = 0, hi_x = 0, lo_y = 0, hi_y = 0;
@@ -263,7 +271,9 @@ class Synthesizer {
     std::vector<Candidate> table;
     std::vector<char> fell_back(m_.num_vertices, 0);
     Rng rng(p_.seed, 0x6a756d70);  // "jump"
+    size_t steps = 0;
     for (int32_t v : order.order) {
+      if ((++steps & 4095) == 0) throw_if_cancelled(p_.cancel);
       const Box& box = reach_[v];
       if (sources.size() < size_t(m_.degree(v))) sources.resize(m_.degree(v));
       size_t count = 0;
@@ -395,6 +405,7 @@ class Synthesizer {
     const uint64_t poly_seed = splitmix64(p_.seed ^ 0x62617365ull);  // "base"
     const float inv_w = 1.f / W_, inv_h = 1.f / H_;
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 2048), [&](const tbb::blocked_range<int32_t>& range) {
+      throw_if_cancelled(p_.cancel);
       for (int32_t poly = range.begin(); poly < range.end(); ++poly) {
         const int32_t n = m_.poly_sizes[poly];
         const size_t first = size_t(m_.poly_starts[poly]);

@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <queue>
 
+#include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/synth/jumpmap_synth.hpp"
 
@@ -25,7 +26,7 @@ std::vector<int32_t> component_seeds(const Mesh& m, uint64_t seed) {
 
 }  // namespace
 
-VertexOrder region_growing_order(const Mesh& m, uint64_t seed) {
+VertexOrder region_growing_order(const Mesh& m, uint64_t seed, const std::atomic<bool>* cancel) {
   VertexOrder out;
   out.order.reserve(m.num_vertices);
   out.component_start.reserve(size_t(m.num_components) + 1);
@@ -58,6 +59,7 @@ VertexOrder region_growing_order(const Mesh& m, uint64_t seed) {
       if (queued_level[v] != top) continue;
       queued_level[v] = kDone;
       out.order.push_back(v);
+      if ((out.order.size() & 0xFFFF) == 0) throw_if_cancelled(cancel);
       for (int32_t k = m.neighbour_start[v]; k < m.neighbour_start[v + 1]; ++k) {
         int32_t w = m.neighbours[k];
         if (queued_level[w] == kDone) continue;
@@ -75,7 +77,7 @@ VertexOrder region_growing_order(const Mesh& m, uint64_t seed) {
   return out;
 }
 
-VertexOrder region_growing_order_heap(const Mesh& m, uint64_t seed) {
+VertexOrder region_growing_order_heap(const Mesh& m, uint64_t seed, const std::atomic<bool>* cancel) {
   VertexOrder out;
   out.order.reserve(m.num_vertices);
   std::vector<int32_t> done_neighbours(m.num_vertices, 0);
@@ -92,6 +94,7 @@ VertexOrder region_growing_order_heap(const Mesh& m, uint64_t seed) {
       if (m.degree(v) > 0 && proportion != double(done_neighbours[v]) / m.degree(v)) continue;  // stale
       done[v] = 1;
       out.order.push_back(v);
+      if ((out.order.size() & 0xFFFF) == 0) throw_if_cancelled(cancel);
       for (int32_t k = m.neighbour_start[v]; k < m.neighbour_start[v + 1]; ++k) {
         int32_t w = m.neighbours[k];
         if (done[w]) continue;

@@ -7,6 +7,7 @@
 //  - std::runtime_error    : anything else the caller cannot fix (I/O failure, out of memory).
 // Core code never aborts and never leaves outputs half-written: it validates, then computes
 // into fresh buffers, then returns them.
+#include <atomic>
 #include <stdexcept>
 #include <string>
 
@@ -22,5 +23,11 @@ class Cancelled : public std::runtime_error {
  public:
   Cancelled() : std::runtime_error("cancelled") {}
 };
+
+// Long computations take an optional flag another thread raises to stop them; they call this often
+// enough that a raised flag is noticed within a small fraction of a second.
+inline void throw_if_cancelled(const std::atomic<bool>* cancel) {
+  if (cancel && cancel->load(std::memory_order_relaxed)) throw Cancelled();
+}
 
 }  // namespace texsynth

@@ -18,6 +18,7 @@
 // Singularities: a source/sink vertex itself has no defined direction; it keeps the average of
 // its neighbours after smoothing, or the projected global axis when that average cancels out.
 // Components with no anchor, set vector, source or sink get the projected global axis.
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -37,6 +38,7 @@ struct FieldParams {
   std::vector<int32_t> sources;
   std::vector<int32_t> sinks;
   int smoothing_iterations = 6;
+  const std::atomic<bool>* cancel = nullptr;  // raised by another thread: throws texsynth::Cancelled
 };
 
 // Parses "axis" | "anchors" | "field"; throws std::invalid_argument otherwise.

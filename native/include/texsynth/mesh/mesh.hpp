@@ -7,6 +7,7 @@
 // Tolerated: boundaries, several components, non-manifold edges, loose vertices (no corners),
 // duplicate vertices, repeated vertices inside a polygon, zero-area polygons (never NaN: such
 // polygons and isolated vertices get a fallback normal).
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -41,7 +42,8 @@ struct Mesh {
 
 // Validates `in` and builds the adjacency. `normals` (num_vertices*3) is optional: when null,
 // area-weighted vertex normals are computed; when given, each must be finite and is normalised
-// (zero vectors get the computed normal). Throws std::invalid_argument naming the first problem.
-Mesh build_mesh(const PolyMeshInput& in, const float* normals = nullptr);
+// (zero vectors get the computed normal). Throws std::invalid_argument naming the first problem,
+// texsynth::Cancelled when *cancel is raised.
+Mesh build_mesh(const PolyMeshInput& in, const float* normals = nullptr, const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace texsynth

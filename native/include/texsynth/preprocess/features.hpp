@@ -4,6 +4,7 @@
 // L*a*b* (+ alpha), multiplied by one centred Gaussian (sigma = n/4), optionally reduced by PCA.
 // Borders: mirrored (reflect without repeating the edge pixel), so border pixels see a full,
 // unbiased window; with `tileable` the sample is periodic.
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -25,8 +26,9 @@ int full_feature_dims(const Image& image, int neighbourhood);
 // feature_dims <= 0 or >= full dimension keeps the full, mean-centred features; otherwise PCA
 // (covariance of a deterministic subsample, Eigen) projects onto the leading `feature_dims` axes,
 // ordered by decreasing variance. The caller validates the image and neighbourhood.
+// Throws texsynth::Cancelled when *cancel is raised (checked per image row).
 Features compute_features(const Image& image, int neighbourhood, int feature_dims, bool tileable,
-                          uint64_t seed);
+                          uint64_t seed, const std::atomic<bool>* cancel = nullptr);
 
 // Squared Euclidean distance between two feature rows.
 inline float squared_distance(const float* a, const float* b, int dims) {

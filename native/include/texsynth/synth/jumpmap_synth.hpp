@@ -17,6 +17,7 @@
 //    ceil(k·n/S). Blender interpolates one-hot corner weights into a partition of unity over the
 //    polygon, so Σ weights = 1 everywhere and the shader's cross-fade stays correct.
 // With blend = false, S = 1: the single set is the base mapping with weight 1.
+#include <atomic>
 #include <cstdint>
 #include <vector>
 
@@ -40,6 +41,7 @@ struct JumpSynthParams {
   // Draws from the selection table by rejection (see walk()); after this many rejected draws the
   // exact filtered table is built. 0 = always build the exact table (slower, same distribution).
   int max_rejection_draws = 8;
+  const std::atomic<bool>* cancel = nullptr;  // raised by another thread: throws texsynth::Cancelled
 };
 
 struct SynthStats {
@@ -59,7 +61,8 @@ struct JumpSynthResult {
 };
 
 // Throws std::invalid_argument for bad parameters, an inconsistent Preprocessed, an orientation
-// array with non-finite values, or oversized faces (unless allow_oversized; message gives counts).
+// array with non-finite values, or oversized faces (unless allow_oversized; message gives counts);
+// texsynth::Cancelled when *params.cancel is raised (checked every few thousand vertices/faces).
 JumpSynthResult synthesize_jumpmap(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
                                    const JumpSynthParams& params);
 
@@ -72,8 +75,8 @@ struct VertexOrder {
   std::vector<int32_t> order;            // vertices in synthesis order
   std::vector<int32_t> component_start;  // order[component_start[c]] is component c's seed; size = components + 1
 };
-VertexOrder region_growing_order(const Mesh& mesh, uint64_t seed);
+VertexOrder region_growing_order(const Mesh& mesh, uint64_t seed, const std::atomic<bool>* cancel = nullptr);
 // Baseline for benchmarks: the same rule with exact proportions and a std::priority_queue.
-VertexOrder region_growing_order_heap(const Mesh& mesh, uint64_t seed);
+VertexOrder region_growing_order_heap(const Mesh& mesh, uint64_t seed, const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace texsynth

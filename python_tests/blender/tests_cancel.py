@@ -1,0 +1,139 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Cancellation inside Blender: Run: blender -b --factory-startup --python-exit-code 1 --python <this>
+
+The Synthesize operator, invoked from the UI, runs the native work in a worker thread (ModalSynthesis)
+and polls it from modal(); Esc cancels. Background Blender has no event loop, so these tests drive
+the same objects the operator uses: a real Job on a large mesh cancelled mid-run, and modal() fed
+Esc / timer events. Prints "CANCEL latency_ms=..." for the README figure.
+"""
+import os
+import sys
+import time
+import types
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+import harness  # noqa: E402
+
+texsynth = harness.load_addon()
+from texsynth import operators, synthesis  # noqa: E402
+
+texsynth.register()
+BRICKS = os.path.join(harness.SAMPLES_DIR, "bricks.png")
+
+
+def big_grid(side=700):
+    """side x side quads (490k faces at 700) with a foreign UV map, built with foreach_set."""
+    for obj in list(bpy.data.objects):
+        bpy.data.objects.remove(obj)
+    for mesh in list(bpy.data.meshes):
+        bpy.data.meshes.remove(mesh)
+    xs, ys = np.meshgrid(np.arange(side + 1, dtype=np.float32), np.arange(side + 1, dtype=np.float32))
+    positions = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size, np.float32)], 1) * 0.01
+    qx, qy = np.meshgrid(np.arange(side, dtype=np.int32), np.arange(side, dtype=np.int32))
+    v00 = (qy * (side + 1) + qx).ravel()
+    corners = np.stack([v00, v00 + 1, v00 + side + 2, v00 + side + 1], 1).ravel().astype(np.int32)
+    mesh = bpy.data.meshes.new("Big")
+    mesh.vertices.add(len(positions))
+    mesh.vertices.foreach_set("co", positions.ravel())
+    mesh.loops.add(len(corners))
+    mesh.loops.foreach_set("vertex_index", corners)
+    mesh.polygons.add(side * side)
+    mesh.polygons.foreach_set("loop_start", np.arange(side * side, dtype=np.int32) * 4)
+    mesh.polygons.foreach_set("loop_total", np.full(side * side, 4, np.int32))
+    mesh.update(calc_edges=True)
+    mesh.uv_layers.new(name="UVMap")
+    obj = bpy.data.objects.new("Big", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def settings():
+    props = bpy.context.scene.texsynth
+    props.sample_source, props.sample_path, props.scale, props.blend = "FILE", BRICKS, 2.0, True
+    return props
+
+
+def new_job(obj):
+    props = settings()
+    return synthesis.Job([obj], synthesis.Sample(path=BRICKS), props.to_settings(), None, "NEW").prepare()
+
+
+def test_cancelled_job_stops_fast_and_writes_nothing():
+    obj = big_grid()
+    before = harness.mesh_hash(obj.data)
+    new_job(obj).compute()  # warm the preprocessing cache: the timed run below is pure synthesis
+    job = new_job(obj)
+    state = operators.ModalSynthesis(job).start()
+    time.sleep(0.05)
+    assert state.running(), "the synthesis finished before it could be cancelled: use a larger mesh"
+    cancelled_at = time.perf_counter()
+    job.cancel()
+    try:
+        state.finish(timeout=30)
+        raise AssertionError("a cancelled job must raise")
+    except synthesis.Cancelled:
+        pass
+    latency = time.perf_counter() - cancelled_at
+    print("CANCEL latency_ms=%.1f faces=%d" % (1e3 * latency, len(obj.data.polygons)), flush=True)
+    assert not state.running()
+    try:
+        job.apply()
+        raise AssertionError("apply() after cancel must raise")
+    except synthesis.Cancelled:
+        pass
+    assert harness.mesh_hash(obj.data) == before
+    assert len(obj.material_slots) == 0
+
+
+class FakeWindowManager:
+    def __init__(self):
+        self.calls = []
+
+    def __getattr__(self, name):
+        return lambda *args, **kwargs: self.calls.append(name)
+
+
+def drive_modal(job, events):
+    """Calls the operator's modal() as Blender would, with a stand-in operator and context."""
+    reports = []
+    fake_self = types.SimpleNamespace(_job_state=operators.ModalSynthesis(job).start(), _timer=None,
+                                      report=lambda kind, text: reports.append((kind, text)))
+    fake_self._finish = lambda job_: operators.TEXSYNTH_OT_synthesize._finish(fake_self, job_)
+    context = types.SimpleNamespace(window_manager=FakeWindowManager(), workspace=None)
+    result = None
+    for event_type in events:
+        result = operators.TEXSYNTH_OT_synthesize.modal(fake_self, context, types.SimpleNamespace(
+            type=event_type, value="PRESS"))
+    while result == {"RUNNING_MODAL"}:
+        time.sleep(operators.ModalSynthesis.POLL_SECONDS)
+        result = operators.TEXSYNTH_OT_synthesize.modal(fake_self, context, types.SimpleNamespace(
+            type="TIMER", value="NOTHING"))
+    return result, reports
+
+
+def test_modal_escape_cancels_and_changes_nothing():
+    obj = big_grid()
+    before = harness.mesh_hash(obj.data)
+    result, reports = drive_modal(new_job(obj), ["MOUSEMOVE", "ESC"])
+    assert result == {"CANCELLED"}, result
+    assert reports and "cancelled" in reports[-1][1].lower(), reports
+    assert harness.mesh_hash(obj.data) == before
+
+
+def test_modal_run_to_completion_writes_and_one_undo_restores():
+    obj = big_grid(60)
+    before = harness.mesh_hash(obj.data)
+    bpy.ops.ed.undo_push(message="before TexSynth")
+    result, reports = drive_modal(new_job(obj), ["TIMER"])
+    assert result == {"FINISHED"}, reports
+    assert "TexSynth" in bpy.data.objects["Big"].data.uv_layers
+    bpy.ops.ed.undo_push(message="TexSynth")  # what Blender does after a FINISHED modal operator with UNDO
+    bpy.ops.ed.undo()
+    assert harness.mesh_hash(bpy.data.objects["Big"].data) == before
+
+
+harness.Checks().run([test_cancelled_job_stops_fast_and_writes_nothing, test_modal_escape_cancels_and_changes_nothing,
+                      test_modal_run_to_completion_writes_and_one_undo_restores], harness.script_args())
