@@ -6,6 +6,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -71,9 +72,8 @@ class Synthesizer {
     build_frames(orientation);
   }
 
-  JumpSynthResult run() {
+  JumpSynthResult run(const CornerMapsView& out) {
     JumpSynthResult r;
-    reach_.assign(m_.num_vertices, Box{});
     throw_if_cancelled(p_.cancel);
     measure_faces(r.stats);
     throw_if_cancelled(p_.cancel);
@@ -88,7 +88,7 @@ class Synthesizer {
     throw_if_cancelled(p_.cancel);
     walk(order, r.stats);
     throw_if_cancelled(p_.cancel);
-    write_corners(r.maps);
+    write_corners(out);
     throw_if_cancelled(p_.cancel);
     r.vertex_address.resize(size_t(m_.num_vertices) * 2);
     for (int32_t v = 0; v < m_.num_vertices; ++v)
@@ -157,37 +157,58 @@ class Synthesizer {
     }
   }
 
-  // Pass 1: in-face corner offsets (parallel, per polygon), then per-vertex reach boxes
-  // (validity, §4.2.4) and oversized-face statistics.
+  // Pass 1: in-face corner offsets and their bounding box (parallel, per polygon), then per-vertex
+  // reach boxes (validity, §4.2.4; parallel, per vertex over its corners in ascending order, so
+  // the float min/max are the same whatever the thread count) and oversized-face statistics.
   void measure_faces(SynthStats& st) {
     corner_offset_.resize(size_t(m_.num_corners) * 2);
+    std::vector<Box> face_box(size_t(m_.num_polys));  // offsets' bounds, including corner 0's (0, 0)
+    std::atomic<int32_t> first_huge_face{std::numeric_limits<int32_t>::max()};
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 4096), [&](const tbb::blocked_range<int32_t>& r) {
       throw_if_cancelled(p_.cancel);
-      for (int32_t poly = r.begin(); poly < r.end(); ++poly) face_offsets(poly, &corner_offset_[2 * size_t(m_.poly_starts[poly])]);
+      for (int32_t poly = r.begin(); poly < r.end(); ++poly) {
+        float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
+        face_offsets(poly, xy);
+        Box b;
+        for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i) {
+          // Beyond ~1e9 texels float addresses are meaningless; refuse even with allow_oversized.
+          if (!(std::fabs(xy[2 * i]) <= kMaxOffset && std::fabs(xy[2 * i + 1]) <= kMaxOffset)) {
+            int32_t seen = first_huge_face.load();
+            while (poly < seen && !first_huge_face.compare_exchange_weak(seen, poly)) {
+            }
+            break;
+          }
+          b.min_x = std::min(b.min_x, xy[2 * i]), b.max_x = std::max(b.max_x, xy[2 * i]);
+          b.min_y = std::min(b.min_y, xy[2 * i + 1]), b.max_y = std::max(b.max_y, xy[2 * i + 1]);
+        }
+        face_box[poly] = b;
+      }
     });
+    if (first_huge_face.load() < m_.num_polys)  // the lowest such face, as a serial loop would report
+      throw std::invalid_argument("scale " + std::to_string(p_.scale) + " makes face " +
+                                  std::to_string(first_huge_face.load()) + " span more than 1e9 texels");
     const double w = pre_.width, h = pre_.height;
     for (int32_t poly = 0; poly < m_.num_polys; ++poly) {
-      if ((poly & 0xFFFF) == 0) throw_if_cancelled(p_.cancel);
-      const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
-      const int32_t n = m_.poly_sizes[poly];
-      double lo_x = 0, hi_x = 0, lo_y = 0, hi_y = 0;
-      for (int32_t i = 0; i < n; ++i) {
-        // Beyond ~1e9 texels float addresses are meaningless; refuse even with allow_oversized.
-        if (!(std::fabs(xy[2 * i]) <= kMaxOffset && std::fabs(xy[2 * i + 1]) <= kMaxOffset))
-          throw std::invalid_argument("scale " + std::to_string(p_.scale) + " makes face " + std::to_string(poly) +
-                                      " span more than 1e9 texels");
-        lo_x = std::min(lo_x, double(xy[2 * i])), hi_x = std::max(hi_x, double(xy[2 * i]));
-        lo_y = std::min(lo_y, double(xy[2 * i + 1])), hi_y = std::max(hi_y, double(xy[2 * i + 1]));
-      }
-      double ratio = std::max((hi_x - lo_x) / w, (hi_y - lo_y) / h);
+      const Box& b = face_box[poly];
+      const double ratio = std::max((double(b.max_x) - b.min_x) / w, (double(b.max_y) - b.min_y) / h);
       st.max_oversize_ratio = std::max(st.max_oversize_ratio, ratio);
       if (ratio > 1.0) ++st.oversized_faces;
-      for (int32_t i = 0; i < n; ++i) {
-        Box& b = reach_[m_.corner_verts[m_.poly_starts[poly] + i]];
-        b.min_x = std::min(b.min_x, float(lo_x - xy[2 * i])), b.max_x = std::max(b.max_x, float(hi_x - xy[2 * i]));
-        b.min_y = std::min(b.min_y, float(lo_y - xy[2 * i + 1])), b.max_y = std::max(b.max_y, float(hi_y - xy[2 * i + 1]));
-      }
     }
+    reach_.resize(size_t(m_.num_vertices));
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+      throw_if_cancelled(p_.cancel);
+      for (int32_t v = r.begin(); v < r.end(); ++v) {
+        Box reach;
+        for (int32_t k = m_.vertex_corner_start[v]; k < m_.vertex_corner_start[v + 1]; ++k) {
+          const int32_t c = m_.vertex_corners[k];
+          const Box& b = face_box[m_.corner_poly[c]];
+          const double x = corner_offset_[2 * size_t(c)], y = corner_offset_[2 * size_t(c) + 1];
+          reach.min_x = std::min(reach.min_x, float(b.min_x - x)), reach.max_x = std::max(reach.max_x, float(b.max_x - x));
+          reach.min_y = std::min(reach.min_y, float(b.min_y - y)), reach.max_y = std::max(reach.max_y, float(b.max_y - y));
+        }
+        reach_[v] = reach;
+      }
+    });
   }
 
   // Distance (texels) from the reach box placed at (x, y) to the nearest sample border; < 0 = invalid.
@@ -394,14 +415,9 @@ class Synthesizer {
 
   // Pass 3: consistent per-polygon coordinates and blend sets (§4.3–4.4). Each polygon writes only
   // its own corners, so this is order-independent and runs in parallel.
-  void write_corners(CornerMaps& out) const {
-    const int32_t S = !p_.blend ? 1 : m_.all_triangles() ? 3 : 4;
+  void write_corners(const CornerMapsView& out) const {
+    const int32_t S = out.num_blend_sets;
     const size_t L = size_t(m_.num_corners);
-    out.num_corners = m_.num_corners;
-    out.num_blend_sets = S;
-    out.base_uv.resize(L * 2);
-    out.blend_uv.resize(size_t(S) * L * 2);
-    out.blend_weights.assign(L * S, 0.f);
     const uint64_t poly_seed = splitmix64(p_.seed ^ 0x62617365ull);  // "base"
     const float inv_w = 1.f / W_, inv_h = 1.f / H_;
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 2048), [&](const tbb::blocked_range<int32_t>& range) {
@@ -422,9 +438,9 @@ class Synthesizer {
           }
         };
         const int32_t base = int32_t(((splitmix64(poly_seed + uint64_t(poly)) >> 32) * uint64_t(n)) >> 32);
-        grow(base, out.base_uv.data());
+        grow(base, out.base_uv);
         for (int32_t set = 0; set < S; ++set) {
-          float* uv = out.blend_uv.data() + size_t(set) * L * 2;
+          float* uv = out.blend_uv + size_t(set) * L * 2;
           if (S == 1) {
             grow(base, uv);
           } else if (n <= S) {
@@ -434,8 +450,9 @@ class Synthesizer {
           }
         }
         for (int32_t i = 0; i < n; ++i) {
-          const int32_t set = S == 1 ? 0 : n <= S ? i : int32_t(int64_t(i) * S / n);
-          out.blend_weights[(first + i) * S + set] = 1.f;
+          const int32_t one = S == 1 ? 0 : n <= S ? i : int32_t(int64_t(i) * S / n);
+          float* w = out.blend_weights + (first + i) * S;
+          for (int32_t set = 0; set < S; ++set) w[set] = set == one ? 1.f : 0.f;
         }
       }
     });
@@ -460,13 +477,42 @@ class Synthesizer {
 
 }  // namespace
 
+int32_t jumpmap_blend_sets(const int32_t* poly_sizes, int32_t num_polys, bool blend) {
+  if (!blend) return 1;
+  for (int32_t p = 0; p < num_polys; ++p)
+    if (poly_sizes[p] != 3) return 4;
+  return 3;
+}
+
 JumpSynthResult synthesize_jumpmap(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
-                                   const JumpSynthParams& params) {
+                                   const JumpSynthParams& params, const CornerMapsView& out) {
   const auto start = std::chrono::steady_clock::now();
   validate_preprocessed(pre);
   validate_params(mesh, orientation, params);
-  JumpSynthResult r = Synthesizer(pre, mesh, orientation, params).run();
+  const int32_t S = jumpmap_blend_sets(mesh.poly_sizes, mesh.num_polys, params.blend);
+  if (out.num_corners != mesh.num_corners || out.num_blend_sets != S ||
+      (mesh.num_corners > 0 && (!out.base_uv || !out.blend_uv || !out.blend_weights)))
+    throw std::invalid_argument("synthesize_jumpmap: output buffers are missing or sized for " +
+                                std::to_string(out.num_corners) + " corners and " + std::to_string(out.num_blend_sets) +
+                                " blend sets, expected " + std::to_string(mesh.num_corners) + " and " + std::to_string(S));
+  JumpSynthResult r = Synthesizer(pre, mesh, orientation, params).run(out);
   r.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+JumpSynthResult synthesize_jumpmap(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
+                                   const JumpSynthParams& params) {
+  CornerMaps maps;
+  maps.num_corners = mesh.num_corners;
+  maps.num_blend_sets = jumpmap_blend_sets(mesh.poly_sizes, mesh.num_polys, params.blend);
+  const size_t L = size_t(mesh.num_corners), S = size_t(maps.num_blend_sets);
+  maps.base_uv.resize(L * 2);
+  maps.blend_uv.resize(S * L * 2);
+  maps.blend_weights.resize(L * S);
+  JumpSynthResult r = synthesize_jumpmap(
+      pre, mesh, orientation, params,
+      CornerMapsView{maps.num_corners, maps.num_blend_sets, maps.base_uv.data(), maps.blend_uv.data(), maps.blend_weights.data()});
+  r.maps = std::move(maps);
   return r;
 }
 
