@@ -123,8 +123,9 @@ def _snapshot(mesh):
 
 def _restore(mesh, snapshot):
     """Puts back TexSynth's layers exactly as in snapshot (foreign layers are never touched)."""
-    # By name: removing a layer invalidates Python references to the other layers.
-    _remove_uv_layers(mesh, [name for name in texsynth_uv_names(mesh) if name not in snapshot["uv"]])
+    # By name, looked up each time: removing a layer invalidates references to the other layers.
+    for name in [name for name in texsynth_uv_names(mesh) if name not in snapshot["uv"]]:
+        mesh.uv_layers.remove(mesh.uv_layers[name])
     for name, values in snapshot["uv"].items():
         layer = mesh.uv_layers.get(name) or mesh.uv_layers.new(name=name, do_init=False)
         layer.data.foreach_set("uv", values)
