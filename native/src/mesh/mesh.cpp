@@ -80,33 +80,44 @@ void build_corner_tables(Mesh& m, const std::atomic<bool>* cancel) {
   for (int32_t c = 0; c < nc; ++c) m.vertex_corners[fill[m.corner_verts[c]]++] = c;
 }
 
+// Distinct neighbours of v, sorted: each corner of v contributes its polygon's previous and next
+// vertex (unless they are v). Returns the count; ring holds at least 2 entries per corner of v.
+int32_t gather_ring(const Mesh& m, int32_t v, std::vector<int32_t>& ring) {
+  ring.resize(2 * size_t(m.vertex_corner_start[v + 1] - m.vertex_corner_start[v]));
+  int32_t* b = ring.data();
+  int32_t* e = b;
+  for (int32_t k = m.vertex_corner_start[v]; k < m.vertex_corner_start[v + 1]; ++k) {
+    const int32_t c = m.vertex_corners[k], p = m.corner_poly[c];
+    const int32_t first = m.poly_starts[p], n = m.poly_sizes[p], i = c - first;
+    const int32_t prev = m.corner_verts[first + (i == 0 ? n - 1 : i - 1)];
+    const int32_t next = m.corner_verts[first + (i + 1 == n ? 0 : i + 1)];
+    if (prev != v) *e++ = prev;
+    if (next != v) *e++ = next;
+  }
+  std::sort(b, e);
+  return int32_t(std::unique(b, e) - b);
+}
+
+// Two parallel gathers (count, then fill the CSR): recomputing the few entries per vertex is
+// cheaper than a temporary of 2 entries per corner that the kernel must hand out and zero.
 void build_one_rings(Mesh& m, const std::atomic<bool>* cancel) {
   const int32_t nv = m.num_vertices;
-  // Each corner of v contributes its polygon's previous and next vertex (unless they are v):
-  // at most 2 entries per corner, gathered, sorted and deduplicated per vertex in parallel.
-  std::vector<int32_t> ring(size_t(m.num_corners) * 2);
-  std::vector<int32_t> unique_count(nv);
-  parallel_range(nv, 4096, cancel, [&](int32_t v) {
-    int32_t* b = ring.data() + 2 * size_t(m.vertex_corner_start[v]);
-    int32_t* e = b;
-    for (int32_t k = m.vertex_corner_start[v]; k < m.vertex_corner_start[v + 1]; ++k) {
-      const int32_t c = m.vertex_corners[k], p = m.corner_poly[c];
-      const int32_t first = m.poly_starts[p], n = m.poly_sizes[p], i = c - first;
-      const int32_t prev = m.corner_verts[first + (i == 0 ? n - 1 : i - 1)];
-      const int32_t next = m.corner_verts[first + (i + 1 == n ? 0 : i + 1)];
-      if (prev != v) *e++ = prev;
-      if (next != v) *e++ = next;
-    }
-    std::sort(b, e);
-    unique_count[v] = int32_t(std::unique(b, e) - b);
-  });
   m.neighbour_start.resize(size_t(nv) + 1);
   m.neighbour_start[0] = 0;
-  for (int32_t v = 0; v < nv; ++v) m.neighbour_start[v + 1] = m.neighbour_start[v] + unique_count[v];
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, nv, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+    throw_if_cancelled(cancel);
+    std::vector<int32_t> ring;
+    for (int32_t v = r.begin(); v < r.end(); ++v) m.neighbour_start[v + 1] = gather_ring(m, v, ring);
+  });
+  for (int32_t v = 0; v < nv; ++v) m.neighbour_start[v + 1] += m.neighbour_start[v];
   m.neighbours.resize(m.neighbour_start[nv]);
-  parallel_range(nv, 8192, cancel, [&](int32_t v) {
-    const int32_t* b = ring.data() + 2 * size_t(m.vertex_corner_start[v]);
-    std::copy(b, b + unique_count[v], m.neighbours.begin() + m.neighbour_start[v]);
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, nv, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+    throw_if_cancelled(cancel);
+    std::vector<int32_t> ring;
+    for (int32_t v = r.begin(); v < r.end(); ++v) {
+      const int32_t count = gather_ring(m, v, ring);
+      std::copy(ring.begin(), ring.begin() + count, m.neighbours.begin() + m.neighbour_start[v]);
+    }
   });
 }
 

@@ -3,6 +3,7 @@
 #include "texsynth/synth/jumpmap_synth.hpp"
 
 #include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -157,43 +158,55 @@ class Synthesizer {
     }
   }
 
-  // Pass 1: in-face corner offsets and their bounding box (parallel, per polygon), then per-vertex
-  // reach boxes (validity, §4.2.4; parallel, per vertex over its corners in ascending order, so
-  // the float min/max are the same whatever the thread count) and oversized-face statistics.
+  // Texel-space bounds of polygon `poly`'s corner offsets, including corner 0's (0, 0).
+  Box face_box(int32_t poly) const {
+    const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
+    Box b;
+    for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i) {
+      b.min_x = std::min(b.min_x, xy[2 * i]), b.max_x = std::max(b.max_x, xy[2 * i]);
+      b.min_y = std::min(b.min_y, xy[2 * i + 1]), b.max_y = std::max(b.max_y, xy[2 * i + 1]);
+    }
+    return b;
+  }
+
+  // Pass 1: in-face corner offsets (parallel, per polygon), then per-vertex reach boxes (validity,
+  // §4.2.4; parallel, per vertex over its corners in ascending order, so the float min/max are the
+  // same whatever the thread count) and oversized-face statistics (exact max and count).
   void measure_faces(SynthStats& st) {
     corner_offset_.resize(size_t(m_.num_corners) * 2);
-    std::vector<Box> face_box(size_t(m_.num_polys));  // offsets' bounds, including corner 0's (0, 0)
     std::atomic<int32_t> first_huge_face{std::numeric_limits<int32_t>::max()};
+    const double w = pre_.width, h = pre_.height;
+    struct Oversize {
+      double max_ratio = 0;
+      int64_t count = 0;
+    };
+    tbb::combinable<Oversize> oversize;
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 4096), [&](const tbb::blocked_range<int32_t>& r) {
       throw_if_cancelled(p_.cancel);
+      Oversize& local = oversize.local();
       for (int32_t poly = r.begin(); poly < r.end(); ++poly) {
-        float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
-        face_offsets(poly, xy);
-        Box b;
-        for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i) {
+        const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
+        face_offsets(poly, &corner_offset_[2 * size_t(m_.poly_starts[poly])]);
+        for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i)
           // Beyond ~1e9 texels float addresses are meaningless; refuse even with allow_oversized.
           if (!(std::fabs(xy[2 * i]) <= kMaxOffset && std::fabs(xy[2 * i + 1]) <= kMaxOffset)) {
             int32_t seen = first_huge_face.load();
             while (poly < seen && !first_huge_face.compare_exchange_weak(seen, poly)) {
             }
-            break;
           }
-          b.min_x = std::min(b.min_x, xy[2 * i]), b.max_x = std::max(b.max_x, xy[2 * i]);
-          b.min_y = std::min(b.min_y, xy[2 * i + 1]), b.max_y = std::max(b.max_y, xy[2 * i + 1]);
-        }
-        face_box[poly] = b;
+        const Box b = face_box(poly);
+        const double ratio = std::max((double(b.max_x) - b.min_x) / w, (double(b.max_y) - b.min_y) / h);
+        local.max_ratio = std::max(local.max_ratio, ratio);
+        if (ratio > 1.0) ++local.count;
       }
     });
     if (first_huge_face.load() < m_.num_polys)  // the lowest such face, as a serial loop would report
       throw std::invalid_argument("scale " + std::to_string(p_.scale) + " makes face " +
                                   std::to_string(first_huge_face.load()) + " span more than 1e9 texels");
-    const double w = pre_.width, h = pre_.height;
-    for (int32_t poly = 0; poly < m_.num_polys; ++poly) {
-      const Box& b = face_box[poly];
-      const double ratio = std::max((double(b.max_x) - b.min_x) / w, (double(b.max_y) - b.min_y) / h);
-      st.max_oversize_ratio = std::max(st.max_oversize_ratio, ratio);
-      if (ratio > 1.0) ++st.oversized_faces;
-    }
+    oversize.combine_each([&](const Oversize& o) {
+      st.max_oversize_ratio = std::max(st.max_oversize_ratio, o.max_ratio);
+      st.oversized_faces += o.count;
+    });
     reach_.resize(size_t(m_.num_vertices));
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 4096), [&](const tbb::blocked_range<int32_t>& r) {
       throw_if_cancelled(p_.cancel);
@@ -201,7 +214,7 @@ class Synthesizer {
         Box reach;
         for (int32_t k = m_.vertex_corner_start[v]; k < m_.vertex_corner_start[v + 1]; ++k) {
           const int32_t c = m_.vertex_corners[k];
-          const Box& b = face_box[m_.corner_poly[c]];
+          const Box b = face_box(m_.corner_poly[c]);
           const double x = corner_offset_[2 * size_t(c)], y = corner_offset_[2 * size_t(c) + 1];
           reach.min_x = std::min(reach.min_x, float(b.min_x - x)), reach.max_x = std::max(reach.max_x, float(b.max_x - x));
           reach.min_y = std::min(reach.min_y, float(b.min_y - y)), reach.max_y = std::max(reach.max_y, float(b.max_y - y));
