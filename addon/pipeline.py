@@ -308,12 +308,6 @@ def _require_direction(mesh_arrays, settings):
     return mesh_arrays.direction
 
 
-def all_finite(array):
-    """True when no float32 value is NaN or infinite: one float64 sum (NaN and inf propagate; float32
-    values cannot overflow a float64 sum), without np.isfinite's temporary boolean array."""
-    return bool(np.isfinite(np.sum(array, dtype=np.float64)))
-
-
 def check_result(result, num_corners):
     """Validates a synthesizer result before anything is written (so a bad one changes nothing)."""
     base = result["base_uv"]
@@ -328,7 +322,7 @@ def check_result(result, num_corners):
         if array.shape != shape or array.dtype != np.float32:
             raise SettingsError("native result %s has shape %s %s, expected %s float32"
                                 % (key, array.shape, array.dtype, shape))
-        if not all_finite(array):
+        if not np.all(np.isfinite(array)):
             raise SettingsError("native result %s contains NaN or infinite values" % key)
     return base
 
