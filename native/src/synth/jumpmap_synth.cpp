@@ -11,9 +11,12 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <new>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
@@ -23,6 +26,29 @@ namespace texsynth {
 namespace {
 
 constexpr double kMaxOffset = 1e9;
+
+// resize() without zero-filling: for buffers that a parallel pass overwrites completely, so the
+// pages are first touched (and zeroed by the kernel) by the worker threads, not by a serial memset.
+template <class T>
+struct UninitializedAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = UninitializedAllocator<U>;
+  };
+  UninitializedAllocator() = default;
+  template <class U>
+  UninitializedAllocator(const UninitializedAllocator<U>&) {}
+  template <class U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+template <class T>
+using UninitializedVector = std::vector<T, UninitializedAllocator<T>>;
 
 struct Box {  // texel-space offsets reachable from a vertex's address through its polygons
   float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
@@ -483,8 +509,8 @@ class Synthesizer {
     float address[2];  // texel address; NaN until synthesized
     bool synthesized() const { return address[0] == address[0]; }
   };
-  std::vector<VertexState> state_;
-  std::vector<float> corner_offset_;  // per corner: texel offset from its polygon's corner 0 (face frame)
+  UninitializedVector<VertexState> state_;     // written for every vertex by build_frames
+  UninitializedVector<float> corner_offset_;  // per corner: texel offset from its polygon's corner 0 (face frame)
   std::vector<Box> reach_;
 };
 
