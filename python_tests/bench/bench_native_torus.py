@@ -54,10 +54,11 @@ def main():
         walls.append(time.perf_counter() - start)
         cpus.append(time.process_time() - start_cpu)
         cores.append(result["stats"]["seconds"])
-        h = hashlib.sha256()
-        for key in ("base_uv", "blend_uv", "blend_weights"):
-            h.update(np.ascontiguousarray(result[key]).tobytes())
-        digest = h.hexdigest()[:16]
+        if digest is None:  # outputs of every run are compared by the tests; hash the first only
+            h = hashlib.sha256()
+            for key in ("base_uv", "blend_uv", "blend_weights"):
+                h.update(np.ascontiguousarray(result[key]))
+            digest = h.hexdigest()[:16]
         del result
     print("faces %d: synthesize_jumpmap call %.3f s wall, %.3f s CPU (all threads), core %.3f s wall "
           "(medians of %d; wall runs %s), output sha256 %s"
