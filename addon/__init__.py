@@ -17,9 +17,9 @@ bl_info = {
 
 import bpy  # noqa: E402
 
-from . import operators, properties, ui  # noqa: E402
+from . import field_ops, operators, overlay, properties, ui  # noqa: E402
 
-classes = properties.classes + operators.classes + ui.classes
+classes = properties.classes + operators.classes + field_ops.classes + ui.classes
 
 
 def register():
@@ -27,9 +27,13 @@ def register():
     for cls in classes:
         bpy.utils.register_class(cls)
     bpy.types.Scene.texsynth = bpy.props.PointerProperty(type=properties.TexSynthSettings)
+    overlay.register()
+    field_ops.register_tool()
 
 
 def unregister():
+    field_ops.unregister_tool()
+    overlay.unregister()
     if hasattr(bpy.types.Scene, "texsynth"):
         del bpy.types.Scene.texsynth
     for cls in reversed(classes):

@@ -98,17 +98,21 @@ def _uv_data(layer, num_corners):
     return values
 
 
+def _attribute_snapshot(attribute):
+    is_color = attribute.data_type in ("FLOAT_COLOR", "BYTE_COLOR")
+    values = np.empty(len(attribute.data) * (4 if is_color else 1), dtype=np.float32)
+    key = "color" if is_color else "value"
+    attribute.data.foreach_get(key, values)
+    return (attribute.data_type, attribute.domain, key, values)
+
+
 def _snapshot(mesh):
     """Everything write_result/clear may change, to restore it exactly."""
     num_corners = len(mesh.loops)
-    weights = mesh.attributes.get(pipeline.WEIGHTS_NAME)
-    weights_snapshot = None
-    if weights is not None:
-        values = np.empty(len(weights.data) * (4 if weights.data_type in ("FLOAT_COLOR", "BYTE_COLOR") else 1),
-                          dtype=np.float32)
-        key = "color" if weights.data_type in ("FLOAT_COLOR", "BYTE_COLOR") else "value"
-        weights.data.foreach_get(key, values)
-        weights_snapshot = (weights.data_type, weights.domain, key, values)
+    attributes = {}
+    for name in pipeline.ATTRIBUTE_NAMES:
+        attribute = mesh.attributes.get(name)
+        attributes[name] = _attribute_snapshot(attribute) if attribute is not None else None
     active_color = getattr(mesh.attributes, "active_color", None)
     return {
         "uv_order": [layer.name for layer in mesh.uv_layers],
@@ -116,7 +120,7 @@ def _snapshot(mesh):
                if pipeline.is_texsynth_uv_name(layer.name)},
         "active_uv": mesh.uv_layers.active_index,
         "render_uv": next((i for i, layer in enumerate(mesh.uv_layers) if layer.active_render), -1),
-        "weights": weights_snapshot,
+        "attributes": attributes,
         "active_color": active_color.name if active_color is not None else None,
     }
 
@@ -130,16 +134,17 @@ def _restore(mesh, snapshot):
         layer = mesh.uv_layers.get(name) or mesh.uv_layers.new(name=name, do_init=False)
         layer.data.foreach_set("uv", values)
     _restore_uv_order_flags(mesh, snapshot)
-    weights = mesh.attributes.get(pipeline.WEIGHTS_NAME)
-    if weights is not None and snapshot["weights"] is None:
-        mesh.attributes.remove(weights)
-    elif snapshot["weights"] is not None:
-        data_type, domain, key, values = snapshot["weights"]
-        if weights is None or weights.data_type != data_type or weights.domain != domain:
-            if weights is not None:
-                mesh.attributes.remove(weights)
-            weights = mesh.attributes.new(pipeline.WEIGHTS_NAME, data_type, domain)
-        weights.data.foreach_set(key, values)
+    for name, saved in snapshot["attributes"].items():
+        attribute = mesh.attributes.get(name)
+        if attribute is not None and saved is None:
+            mesh.attributes.remove(attribute)
+        elif saved is not None:
+            data_type, domain, key, values = saved
+            if attribute is None or attribute.data_type != data_type or attribute.domain != domain:
+                if attribute is not None:
+                    mesh.attributes.remove(attribute)
+                attribute = mesh.attributes.new(name, data_type, domain)
+            attribute.data.foreach_set(key, values)
     if snapshot["active_color"] is not None and hasattr(mesh.attributes, "active_color"):
         attribute = mesh.attributes.get(snapshot["active_color"])
         if attribute is not None:
@@ -163,6 +168,7 @@ def write_result(mesh, result):
     """
     num_corners = len(mesh.loops)
     base = pipeline.check_result(result, num_corners)
+    extras = pipeline.corner_attributes(result, num_corners)
     sets = int(result["num_blend_sets"])
     check_capacity(mesh, sets)
     names = pipeline.uv_layer_names(sets)
@@ -191,6 +197,17 @@ def write_result(mesh, result):
                 attribute = mesh.attributes.new(pipeline.WEIGHTS_NAME, "FLOAT_COLOR", "CORNER")
             attribute.data.foreach_set("color", weights)
             fail_point("weights")
+        # Per-corner FLOAT attributes of the method (texton: blended edges, E_t); stale ones go.
+        for name in pipeline.EXTRA_ATTRIBUTE_NAMES:
+            attribute = mesh.attributes.get(name)
+            if attribute is not None and (name not in extras or attribute.data_type != "FLOAT"
+                                          or attribute.domain != "CORNER"):
+                mesh.attributes.remove(attribute)
+                attribute = None
+            if name in extras:
+                if attribute is None:
+                    attribute = mesh.attributes.new(name, "FLOAT", "CORNER")
+                attribute.data.foreach_set("value", extras[name])
         # Last: removed layers would come back in another order if a later step failed.
         _remove_uv_layers(mesh, [n for n in texsynth_uv_names(mesh) if n not in names])
         if had_uv:
@@ -225,10 +242,11 @@ def clear(mesh):
     active_name = mesh.uv_layers.active.name if mesh.uv_layers.active else None
     _remove_uv_layers(mesh, names)
     removed = len(names)
-    attribute = mesh.attributes.get(pipeline.WEIGHTS_NAME)
-    if attribute is not None:
-        mesh.attributes.remove(attribute)
-        removed += 1
+    for name in pipeline.ATTRIBUTE_NAMES:
+        attribute = mesh.attributes.get(name)
+        if attribute is not None:
+            mesh.attributes.remove(attribute)
+            removed += 1
     if active_name is not None and mesh.uv_layers.get(active_name) is not None:
         mesh.uv_layers.active_index = list(mesh.uv_layers.keys()).index(active_name)
     if removed:
@@ -245,3 +263,113 @@ def read_image_pixels(image):
     pixels = np.empty(width * height * channels, dtype=np.float32)
     image.pixels.foreach_get(pixels)
     return pipeline.blender_pixels_to_image(pixels, width, height, channels)
+
+
+# ---------------------------------------------------------------------------------------------
+# Field attributes (fields.py): vectors are object space on the mesh, world space in FieldState.
+
+_POINT_KEYS = {"FLOAT_VECTOR": ("vector", 3, np.float32), "FLOAT": ("value", 1, np.float32),
+               "INT": ("value", 1, np.int32)}
+
+
+def read_point_attribute(mesh, name, data_type):
+    """A POINT attribute as (N,) or (N, 3) numpy, or None when missing. SettingsError on a wrong
+    domain/type or non-finite values."""
+    attribute = mesh.attributes.get(name)
+    if attribute is None:
+        return None
+    if attribute.domain != "POINT" or attribute.data_type != data_type:
+        raise pipeline.SettingsError("attribute %r must be a vertex (point) %s attribute, it is %s on %s"
+                                     % (name, data_type, attribute.data_type, attribute.domain))
+    key, width, dtype = _POINT_KEYS[data_type]
+    values = np.empty(len(mesh.vertices) * width, dtype=dtype)
+    attribute.data.foreach_get(key, values)
+    if dtype == np.float32 and not np.all(np.isfinite(values)):
+        raise pipeline.SettingsError("attribute %r contains NaN or infinite values" % name)
+    return values.reshape(-1, 3) if width == 3 else values
+
+
+def write_point_attribute(mesh, name, data_type, values):
+    """Creates or replaces a POINT attribute (a same-named attribute of another type is replaced)."""
+    key, width, dtype = _POINT_KEYS[data_type]
+    values = np.ascontiguousarray(values, dtype=dtype).ravel()
+    if values.size != len(mesh.vertices) * width:
+        raise pipeline.SettingsError("attribute %r needs %d values, got %d" % (name, len(mesh.vertices) * width, values.size))
+    attribute = mesh.attributes.get(name)
+    if attribute is not None and (attribute.domain != "POINT" or attribute.data_type != data_type):
+        mesh.attributes.remove(attribute)
+        attribute = None
+    if attribute is None:
+        attribute = mesh.attributes.new(name, data_type, "POINT")
+    attribute.data.foreach_set(key, values)
+
+
+def _linear(obj):
+    return np.array(obj.matrix_world, dtype=np.float64)[:3, :3]
+
+
+def read_field_state(obj, axis=(0.0, 0.0, 1.0)):
+    """fields.FieldState of obj (world space). A mesh without field attributes gets an empty guide,
+    no singularities and a direction relaxed from them (the axis)."""
+    from . import fields
+    mesh = obj.data
+    arrays = read_mesh(obj)
+    n = arrays.num_vertices
+    linear = _linear(obj)
+    guide = read_point_attribute(mesh, fields.GUIDE_NAME, "FLOAT_VECTOR")
+    guide = np.zeros((n, 3), np.float32) if guide is None else (guide @ linear.T).astype(np.float32)
+    singularity = read_point_attribute(mesh, fields.SINGULARITY_NAME, "INT")
+    singularity = np.zeros(n, np.int32) if singularity is None else np.clip(singularity, -1, 1).astype(np.int32)
+    direction = read_point_attribute(mesh, fields.DIRECTION_NAME, "FLOAT_VECTOR")
+    state = fields.FieldState(arrays, guide, singularity,
+                              None if direction is None else (direction @ linear.T).astype(np.float32), tuple(axis))
+    if state.direction is None:
+        fields.relax(state)
+    return state
+
+
+def write_field_state(obj, state):
+    """Stores guide, singularities and direction on obj's mesh (object space)."""
+    from . import fields
+    mesh = obj.data
+    if state.arrays.num_vertices != len(mesh.vertices):
+        raise pipeline.SettingsError("mesh %r changed while its field was edited" % mesh.name)
+    inverse = np.linalg.inv(_linear(obj)) if abs(np.linalg.det(_linear(obj))) > 1e-30 else np.eye(3)
+    write_point_attribute(mesh, fields.GUIDE_NAME, "FLOAT_VECTOR", state.guide @ inverse.T)
+    write_point_attribute(mesh, fields.SINGULARITY_NAME, "INT", state.singularity)
+    write_point_attribute(mesh, fields.DIRECTION_NAME, "FLOAT_VECTOR", state.direction @ inverse.T)
+    mesh.update()
+
+
+def read_vertex_group(obj, name):
+    """Per-vertex weights of vertex group `name` (0 where a vertex is not in it).
+    Blender has no bulk accessor for group weights: one pass over the vertices' group lists."""
+    group = obj.vertex_groups.get(name)
+    if group is None:
+        raise pipeline.SettingsError("object %r has no vertex group %r" % (obj.name, name))
+    index = group.index
+    weights = np.zeros(len(obj.data.vertices), dtype=np.float32)
+    for vertex in obj.data.vertices:
+        for element in vertex.groups:
+            if element.group == index:
+                weights[vertex.index] = element.weight
+                break
+    return weights
+
+
+def read_scale_multiplier(obj, settings):
+    """Per-vertex density multiplier from settings.scale_source, or None."""
+    from . import fields
+    source = getattr(settings, "scale_source", "NONE")
+    if source == "ATTRIBUTE":
+        values = read_point_attribute(obj.data, settings.scale_attribute, "FLOAT")
+        if values is None:
+            raise pipeline.SettingsError("mesh %r has no scale attribute %r" % (obj.data.name, settings.scale_attribute))
+        try:
+            return fields.check_scale_multiplier(values, "attribute %r" % settings.scale_attribute)
+        except ValueError as error:
+            raise pipeline.SettingsError(str(error))
+    if source == "VERTEX_GROUP":
+        weights = read_vertex_group(obj, settings.scale_group)
+        return fields.scale_from_weights(weights, settings.scale_min, settings.scale_max)
+    return None

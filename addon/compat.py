@@ -85,3 +85,12 @@ def status_text_set(context, text):
             workspace.status_text_set(text)
         except (AttributeError, RuntimeError):
             pass
+
+
+def uniform_color_shader():
+    """The built-in flat-colour 3D shader: 'UNIFORM_COLOR' in 4.x, '3D_UNIFORM_COLOR' in 3.x."""
+    import gpu
+    try:
+        return gpu.shader.from_builtin("UNIFORM_COLOR")
+    except (ValueError, TypeError):
+        return gpu.shader.from_builtin("3D_UNIFORM_COLOR")

@@ -97,7 +97,7 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
         props = context.scene.texsynth
         objects = sorted(context.selected_objects, key=lambda obj: obj.name)
         return synthesis.Job(objects, sample_from_settings(props), props.to_settings(), properties.cache_dir(context),
-                             props.material_mode)
+                             props.material_mode, context.scene)
 
     def _finish(self, job):
         cache_status_by_sample[job.sample.describe()] = "fresh"

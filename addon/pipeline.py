@@ -15,13 +15,19 @@ import numpy as np
 from . import native
 
 METHODS = ("JUMPMAP", "TEXTON")
-IMPLEMENTED_METHODS = ("JUMPMAP",)
+IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON")
 ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
+SCALE_SOURCES = ("NONE", "ATTRIBUTE", "VERTEX_GROUP")
 MAX_UV_LAYERS = 8  # Blender's hard limit per mesh
 
 BASE_UV_NAME = "TexSynth"
 BLEND_UV_PREFIX = "TexSynth_B"
 WEIGHTS_NAME = "TexSynth_Weights"
+# Texton method, per corner (the edge from the corner to the next): 1 where that edge is blended, and its E_t.
+EDGE_BLENDED_NAME = "TexSynth_EdgeBlended"
+EDGE_ERROR_NAME = "TexSynth_EdgeError"
+EXTRA_ATTRIBUTE_NAMES = (EDGE_BLENDED_NAME, EDGE_ERROR_NAME)
+ATTRIBUTE_NAMES = (WEIGHTS_NAME,) + EXTRA_ATTRIBUTE_NAMES
 MAX_BLEND_SETS = 4  # the weight attribute is RGBA
 
 
@@ -41,8 +47,19 @@ class Settings:
     axis: tuple = (0.0, 0.0, 1.0)
     direction_attribute: str = ""    # FIELD: per-vertex vectors; ANCHORS: non-zero vectors mark anchors
     allow_oversized: bool = False    # map faces larger than the sample anyway (visible stretching/repeats)
+    # Per-vertex density multiplier (progressively-variant texture): a FLOAT point attribute, or a
+    # vertex group whose weight w maps to scale_min + w (scale_max - scale_min).
+    scale_source: str = "NONE"
+    scale_attribute: str = "TexSynth_Scale"
+    scale_group: str = ""
+    scale_min: float = 0.5
+    scale_max: float = 2.0
     neighbourhood: int = 11
     tileable: bool = False
+    # TEXTON: 0 blends every interior edge; > 0 only edges whose blending metric Φ = λ·E_t·d/|camera - m|
+    # (λ = render width in pixels / camera field of view, so Φ ≈ colour error × edge length in pixels)
+    # exceeds it. Needs a scene camera.
+    blend_threshold: float = 0.0
 
     def validate(self):
         """Raises SettingsError naming the first bad setting; returns self."""
@@ -64,6 +81,17 @@ class Settings:
                 raise SettingsError("orientation axis must be a finite non-zero 3D vector, got %r" % (tuple(self.axis),))
         elif not self.direction_attribute:
             raise SettingsError("orientation %s needs the name of a vector attribute on the mesh" % self.orientation)
+        if not (_finite(self.blend_threshold) and self.blend_threshold >= 0.0):
+            raise SettingsError("blend threshold must be a finite number >= 0, got %r" % (self.blend_threshold,))
+        if self.scale_source not in SCALE_SOURCES:
+            raise SettingsError("unknown scale source %r (choose one of %s)" % (self.scale_source, ", ".join(SCALE_SOURCES)))
+        if self.scale_source == "ATTRIBUTE" and not self.scale_attribute:
+            raise SettingsError("scale source ATTRIBUTE needs the name of a float vertex attribute")
+        if self.scale_source == "VERTEX_GROUP":
+            if not self.scale_group:
+                raise SettingsError("scale source VERTEX_GROUP needs a vertex group name")
+            if not (_finite_positive(self.scale_min) and _finite_positive(self.scale_max)):
+                raise SettingsError("scale range must be two positive numbers, got (%r, %r)" % (self.scale_min, self.scale_max))
         if not isinstance(self.neighbourhood, int) or self.neighbourhood < 3 or self.neighbourhood % 2 == 0:
             raise SettingsError("neighbourhood must be an odd integer >= 3, got %r" % (self.neighbourhood,))
         return self
@@ -195,6 +223,7 @@ class MeshArrays:
     poly_starts: np.ndarray        # (P,) int32
     poly_sizes: np.ndarray         # (P,) int32
     direction: np.ndarray = None   # (N,3) float32, world space (FIELD / ANCHORS)
+    scale_multiplier: np.ndarray = None  # (N,) float32 > 0, or None
 
     @property
     def num_vertices(self):
@@ -273,16 +302,32 @@ def preprocess(sample, settings, cache_dir, cancel=None):
     return module.preprocess(load_sample(sample), cache_dir=cache_dir or None, **settings.preprocess_params(), **extra)
 
 
-def synthesize(preprocessed, mesh_arrays, settings, seed, scale, cancel=None):
+def sample_pixels(native_input):
+    """The sample as float32 H x W x C (what synthesize_texton needs for E_t): decodes a path."""
+    if isinstance(native_input, str):
+        return native.require().load_image(native_input)
+    array = np.asarray(native_input)
+    if array.dtype == np.uint8:
+        return np.ascontiguousarray(array, dtype=np.float32) / np.float32(255.0)
+    return np.ascontiguousarray(array, dtype=np.float32)
+
+
+@dataclasses.dataclass
+class View:
+    """The scene camera for the blending metric: world position and λ (pixels per radian)."""
+    position: tuple
+    pixels_per_radian: float
+
+
+def synthesize(preprocessed, mesh_arrays, settings, seed, scale, pixels=None, view=None, cancel=None):
     """Runs the native synthesizer on one mesh; returns its dict after checking every shape.
-    cancel: a texsynth_native.CancelToken, as for preprocess()."""
+    TEXTON needs `pixels` (sample_pixels) and, with a blend threshold, `view`. cancel: a
+    texsynth_native.CancelToken, as for preprocess() (the texton synthesizer does not check it yet)."""
     module = native.require()
     if mesh_arrays.num_faces == 0:
         raise SettingsError("mesh has no faces")
-    kwargs = dict(scale=float(scale), jump_rate=float(settings.jump_rate), seed=int(seed),
+    kwargs = dict(scale=float(scale), seed=int(seed),
                   blend=bool(settings.blend), allow_oversized=bool(settings.allow_oversized))
-    if cancel is not None:
-        kwargs["cancel"] = cancel
     if settings.orientation == "AXIS":
         kwargs.update(orientation="axis", axis=tuple(float(c) for c in settings.axis))
     elif settings.orientation == "FIELD":
@@ -294,8 +339,28 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale, cancel=None):
             raise SettingsError("attribute %r has no non-zero vectors: no anchors" % settings.direction_attribute)
         kwargs.update(orientation="anchors", anchor_vertices=anchors,
                       anchor_directions=np.ascontiguousarray(direction[anchors]))
-    result = dict(module.synthesize_jumpmap(preprocessed, mesh_arrays.positions, mesh_arrays.corner_verts,
-                                            mesh_arrays.poly_starts, mesh_arrays.poly_sizes, **kwargs))
+    if mesh_arrays.scale_multiplier is not None:
+        kwargs.update(scale_multiplier=mesh_arrays.scale_multiplier)
+    mesh = (mesh_arrays.positions, mesh_arrays.corner_verts, mesh_arrays.poly_starts, mesh_arrays.poly_sizes)
+    if settings.method == "TEXTON":
+        if pixels is None:
+            raise SettingsError("the texton method needs the sample pixels")
+        if view is not None:
+            kwargs.update(camera_position=tuple(float(c) for c in view.position),
+                          lambda_=float(view.pixels_per_radian))
+        if settings.blend_threshold > 0.0:
+            if view is None:
+                raise SettingsError("a blend threshold needs a scene camera (the blending metric is view-dependent)")
+            kwargs.update(blend_threshold=float(settings.blend_threshold))
+        result = dict(module.synthesize_texton(preprocessed, pixels, *mesh, **kwargs))
+        result["corner_attributes"] = {
+            EDGE_BLENDED_NAME: np.asarray(result.pop("corner_edge_blended"), dtype=np.float32),
+            EDGE_ERROR_NAME: np.asarray(result.pop("corner_edge_error"), dtype=np.float32)}
+    else:
+        kwargs.update(jump_rate=float(settings.jump_rate))
+        if cancel is not None:
+            kwargs.update(cancel=cancel)
+        result = dict(module.synthesize_jumpmap(preprocessed, *mesh, **kwargs))
     if not settings.blend:
         # Without blending the native single set is the base mapping with weight 1: write the base only.
         result.update(num_blend_sets=0, blend_uv=None, blend_weights=None)
@@ -325,6 +390,17 @@ def check_result(result, num_corners):
         if not np.all(np.isfinite(array)):
             raise SettingsError("native result %s contains NaN or infinite values" % key)
     return base
+
+
+def corner_attributes(result, num_corners):
+    """The method's extra per-corner FLOAT attributes {name: (L,) float32}, checked before writing."""
+    extras = result.get("corner_attributes") or {}
+    for name, values in extras.items():
+        if name not in EXTRA_ATTRIBUTE_NAMES:
+            raise SettingsError("native result has an unknown corner attribute %r" % name)
+        if values.shape != (num_corners,) or values.dtype != np.float32 or not np.all(np.isfinite(values)):
+            raise SettingsError("native result %s must be finite float32 of shape (%d,)" % (name, num_corners))
+    return extras
 
 
 def weights_rgba(result, num_corners):

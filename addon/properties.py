@@ -19,7 +19,8 @@ class TexSynthSettings(bpy.types.PropertyGroup):
     method: bpy.props.EnumProperty(
         name="Method",
         items=(("JUMPMAP", "Jump Map", "Jump-map vertex walk (Zelinka & Garland)"),
-               ("TEXTON", "Texton Strings (not yet)", "Texton-string patch matching: not implemented yet")),
+               ("TEXTON", "Texton Strings", "Texton-string patch matching per face (Magda & Kriegman); "
+                                            "better on structured samples")),
         default="JUMPMAP")
     scale: bpy.props.FloatProperty(name="Scale", subtype="DISTANCE", default=1.0, min=1e-4, soft_max=100.0,
                                    description="World size of the sample's width: one sample spans this many "
@@ -35,10 +36,45 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                       "the direction is interpolated between them")),
         default="AXIS")
     axis: bpy.props.FloatVectorProperty(name="Axis", size=3, default=(0.0, 0.0, 1.0), subtype="XYZ")
-    direction_attribute: bpy.props.StringProperty(name="Attribute", default="",
-                                                  description="Vertex FLOAT_VECTOR attribute name")
+    direction_attribute: bpy.props.StringProperty(name="Attribute", default="TexSynth_Direction",
+                                                  description="Vertex FLOAT_VECTOR attribute name "
+                                                              "(TexSynth_Direction is the field the Field tools edit)")
+    scale_source: bpy.props.EnumProperty(
+        name="Scale Map",
+        items=(("NONE", "Uniform", "The same scale everywhere"),
+               ("ATTRIBUTE", "Attribute", "A float vertex attribute multiplies the texture density "
+                                          "(2 = features half as large)"),
+               ("VERTEX_GROUP", "Vertex Group", "Weight-painted vertex group mapped to the Min..Max range")),
+        default="NONE")
+    scale_attribute: bpy.props.StringProperty(name="Scale Attribute", default="TexSynth_Scale",
+                                              description="Float vertex attribute: density multiplier (> 0)")
+    scale_group: bpy.props.StringProperty(name="Vertex Group", default="",
+                                          description="Vertex group whose weights map to the density range")
+    scale_min: bpy.props.FloatProperty(name="Min", default=0.5, min=1e-3, soft_max=10.0,
+                                       description="Density multiplier at weight 0")
+    scale_max: bpy.props.FloatProperty(name="Max", default=2.0, min=1e-3, soft_max=10.0,
+                                       description="Density multiplier at weight 1")
+    field_brush_radius: bpy.props.FloatProperty(name="Radius", subtype="DISTANCE", default=0.2, min=1e-5,
+                                                soft_max=10.0, description="Comb / stroke brush radius (world units)")
+    field_brush_strength: bpy.props.FloatProperty(name="Strength", default=1.0, min=0.0, max=1.0,
+                                                  description="How far a dab turns existing anchors")
+    field_erase: bpy.props.BoolProperty(name="Erase", default=False,
+                                        description="The comb removes anchors (also: hold Ctrl while dragging)")
+    show_field: bpy.props.BoolProperty(name="Show Field", default=False,
+                                       description="Draw the direction field as arrows on the active object")
+    field_arrow_density: bpy.props.FloatProperty(name="Density", default=0.25, min=0.001, max=1.0,
+                                                 subtype="FACTOR", description="Fraction of vertices with an arrow")
+    field_arrow_length: bpy.props.FloatProperty(name="Arrow Length", default=1.0, min=0.05, soft_max=5.0,
+                                                description="Arrow length in mean edge lengths")
+    field_live_update: bpy.props.BoolProperty(
+        name="Live Update", default=False,
+        description="Re-synthesize the object after each field edit (uses the cached sample)")
     blend: bpy.props.BoolProperty(name="Blending", default=True,
                                   description="Write blend UV sets and weights that hide patch seams")
+    blend_threshold: bpy.props.FloatProperty(
+        name="Blend Threshold", default=0.0, min=0.0, soft_max=50.0,
+        description="Texton method: blend only edges whose seam, seen from the scene camera, exceeds this "
+                    "(colour error × edge length in pixels); 0 blends every edge")
     allow_oversized: bpy.props.BoolProperty(
         name="Allow Oversized Faces", default=False,
         description="Also map faces larger than the sample at this scale (otherwise they are refused: "
@@ -55,7 +91,11 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                  jump_rate=float(self.jump_rate), blend=bool(self.blend),
                                  orientation=self.orientation, axis=tuple(self.axis),
                                  direction_attribute=self.direction_attribute,
-                                 allow_oversized=bool(self.allow_oversized))
+                                 allow_oversized=bool(self.allow_oversized),
+                                 blend_threshold=float(self.blend_threshold),
+                                 scale_source=self.scale_source, scale_attribute=self.scale_attribute,
+                                 scale_group=self.scale_group, scale_min=float(self.scale_min),
+                                 scale_max=float(self.scale_max))
 
 
 class TexSynthPreferences(bpy.types.AddonPreferences):

@@ -80,6 +80,18 @@ def mesh_objects(objects):
     return meshes, skipped
 
 
+def camera_view(scene):
+    """The scene camera as a pipeline.View (world position, λ = render width / field of view), or None."""
+    camera = scene.camera if scene is not None else None
+    if camera is None or camera.type != "CAMERA":
+        return None
+    angle = float(camera.data.angle)  # horizontal field of view for the default sensor fit
+    width = scene.render.resolution_x * scene.render.resolution_percentage / 100.0
+    if not (angle > 0.0) or width <= 0:
+        return None
+    return pipeline.View(position=tuple(camera.matrix_world.translation), pixels_per_radian=width / angle)
+
+
 class Cancelled(RuntimeError):
     """The user cancelled the run before anything was written."""
 
@@ -94,9 +106,11 @@ class Job:
     Nothing is written before apply(), so a run cancelled or failing in compute() changes nothing.
     """
 
-    def __init__(self, objects, sample, settings, cache_dir=None, material_mode="NEW"):
+    def __init__(self, objects, sample, settings, cache_dir=None, material_mode="NEW", scene=None, preprocessed=None):
         self.objects, self.sample, self.settings = objects, sample, settings
-        self.cache_dir, self.material_mode = cache_dir, material_mode
+        self.cache_dir, self.material_mode, self.scene = cache_dir, material_mode, scene
+        self.preprocessed = preprocessed  # given: preprocessing is skipped (live updates)
+        self.pixels = self.view = None
         self.report, self.timings = pipeline.Report(), pipeline.Timings()
         self.items = []  # [obj, arrays, result]
         self.token = None
@@ -113,11 +127,18 @@ class Job:
         with self.timings.phase("preprocess"):
             self.native_input = self.sample.native_input()
         self.cache_dir = self.cache_dir or default_cache_dir()
+        if self.settings.method == "TEXTON":
+            self.pixels = pipeline.sample_pixels(self.native_input)
+            self.view = camera_view(self.scene or bpy.context.scene)
+            if self.settings.blend_threshold > 0.0 and self.view is None:
+                raise pipeline.SettingsError(
+                    "a blend threshold needs a scene camera (the blending metric is view-dependent)")
         for obj in meshes:
             try:
                 with self.timings.phase("read"):
                     arrays = bridge.read_mesh(obj, self.settings.direction_attribute
                                               if self.settings.orientation != "AXIS" else "")
+                    arrays.scale_multiplier = bridge.read_scale_multiplier(obj, self.settings)
                 if arrays.num_faces == 0:
                     raise pipeline.SettingsError("mesh %r has no faces" % obj.data.name)
                 bridge.check_capacity(obj.data, pipeline.needed_blend_sets(arrays, self.settings.blend))
@@ -144,9 +165,11 @@ class Job:
         try:
             self._check_cancelled()
             progress(0.0, "TexSynth: preprocessing %s" % self.sample.describe())
-            with self.timings.phase("preprocess"):
-                preprocessed = pipeline.preprocess(self.native_input, self.settings, self.cache_dir, self.token)
-            self.preprocessed = preprocessed
+            if self.preprocessed is None:
+                with self.timings.phase("preprocess"):
+                    self.preprocessed = pipeline.preprocess(self.native_input, self.settings, self.cache_dir,
+                                                            self.token)
+            preprocessed = self.preprocessed
             self.report.cache_hit = bool(preprocessed.cache_hit)
             self.report.cache_status = str(getattr(preprocessed, "cache_status", ""))
             scale = pipeline.texels_per_unit(int(preprocessed.width), self.settings.sample_world_size)
@@ -159,7 +182,7 @@ class Job:
                     with self.timings.phase("synthesis"):
                         item[2] = pipeline.synthesize(preprocessed, item[1], self.settings,
                                                       pipeline.object_seed(self.settings.seed, obj_name), scale,
-                                                      self.token)
+                                                      self.pixels, self.view, self.token)
                 except native_cancelled:
                     raise
                 except (ValueError, RuntimeError) as error:
@@ -197,10 +220,12 @@ class Job:
         return self.report
 
 
-def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None):
+def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None, scene=None,
+               preprocessed=None):
     """Synthesizes on every mesh object; returns a pipeline.Report. Raises SettingsError /
-    NativeUnavailable / ValueError for problems that concern the whole run (nothing is changed then)."""
-    job = Job(objects, sample, settings, cache_dir, material_mode).prepare()
+    NativeUnavailable / ValueError for problems that concern the whole run (nothing is changed then).
+    `preprocessed` (optional) skips preprocessing, e.g. for live updates with a sample kept in memory."""
+    job = Job(objects, sample, settings, cache_dir, material_mode, scene, preprocessed).prepare()
     return job.compute(progress).apply(progress)
 
 

@@ -2,8 +2,10 @@
 """Headless TexSynth for pipelines:
 
   blender -b [scene.blend] --python-exit-code 1 --python addon/texsynth_cli.py -- \\
-      --sample IMAGE (--object NAME | --mesh FILE.obj|.ply|.stl) [--method jumpmap] [--scale S]
-      [--seed N] [--no-blend] [--save OUT.blend] [--render OUT.png] [--resolution W H] [--stats OUT.json]
+      --sample IMAGE (--object NAME | --mesh FILE.obj|.ply|.stl) [--method jumpmap|texton] [--scale S]
+      [--seed N] [--no-blend] [--blend-threshold PHI] [--direction-attribute NAME]
+      [--scale-attribute NAME | --scale-group NAME [--scale-range LO HI]] [--save OUT.blend]
+      [--render OUT.png] [--resolution W H] [--stats OUT.json]
 
 Exit 0 on success; bad arguments or inputs print one line "texsynth_cli: error: ..." and exit 2
 (arguments) or 1 (inputs, synthesis failures).
@@ -49,8 +51,20 @@ def parse_args(argv):
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--jump-rate", type=float, default=20.0)
     parser.add_argument("--no-blend", action="store_true", help="only the base UV layer, no blend sets")
+    parser.add_argument("--blend-threshold", type=float, default=0.0,
+                        help="texton method: blend only edges whose blending metric from the scene camera "
+                             "exceeds this (0 = every edge)")
     parser.add_argument("--allow-oversized", action="store_true",
                         help="map faces larger than the sample at this scale instead of refusing them")
+    parser.add_argument("--direction-attribute", metavar="NAME", default="",
+                        help="orient the texture along this vertex vector attribute (e.g. TexSynth_Direction)")
+    scale = parser.add_mutually_exclusive_group()
+    scale.add_argument("--scale-attribute", metavar="NAME", default="",
+                       help="per-vertex density multiplier from this float vertex attribute (e.g. TexSynth_Scale)")
+    scale.add_argument("--scale-group", metavar="NAME", default="",
+                       help="per-vertex density multiplier from this vertex group's weights (see --scale-range)")
+    parser.add_argument("--scale-range", type=float, nargs=2, metavar=("LO", "HI"), default=(0.5, 2.0),
+                        help="density multiplier at weight 0 and 1 for --scale-group (default 0.5 2)")
     parser.add_argument("--material", default="new", choices=["new", "insert", "none"])
     parser.add_argument("--cache-dir", default="", help="preprocessing cache folder (default: Blender's)")
     parser.add_argument("--save", metavar="OUT.blend")
@@ -60,6 +74,8 @@ def parse_args(argv):
     args = parser.parse_args(argv)
     if not math.isfinite(args.scale) or args.scale <= 0:
         raise UsageError("--scale must be a positive number of world units, got %s" % args.scale)
+    if not all(math.isfinite(v) and v > 0 for v in args.scale_range):
+        raise UsageError("--scale-range must be two positive numbers, got %s" % list(args.scale_range))
     if args.resolution and not all(4 <= v <= 16384 for v in args.resolution):
         raise UsageError("--resolution must be two integers in [4, 16384], got %s" % args.resolution)
     for option in ("save", "render", "stats"):
@@ -161,7 +177,14 @@ def main(argv):
     objects = find_objects(args, compat)
     settings = pipeline.Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
                                  jump_rate=args.jump_rate, blend=not args.no_blend,
-                                 allow_oversized=args.allow_oversized)
+                                 allow_oversized=args.allow_oversized, blend_threshold=args.blend_threshold,
+                                 orientation="FIELD" if args.direction_attribute else "AXIS",
+                                 direction_attribute=args.direction_attribute,
+                                 scale_source="ATTRIBUTE" if args.scale_attribute else
+                                 "VERTEX_GROUP" if args.scale_group else "NONE",
+                                 scale_attribute=args.scale_attribute or "TexSynth_Scale",
+                                 scale_group=args.scale_group, scale_min=args.scale_range[0],
+                                 scale_max=args.scale_range[1])
     try:
         settings.validate()
         report = synthesis.synthesize(objects, synthesis.Sample(path=os.path.abspath(args.sample)), settings,

@@ -34,25 +34,79 @@ class TEXSYNTH_PT_main(bpy.types.Panel):
         layout.label(text="Cache: %s" % operators.cache_status_by_sample.get(key, "unknown"))
 
         layout.prop(props, "method")
-        if props.method != "JUMPMAP":
-            layout.label(text="Texton strings are not implemented yet", icon="ERROR")
         layout.prop(props, "scale")
         layout.prop(props, "seed")
-        layout.prop(props, "jump_rate")
+        if props.method == "JUMPMAP":
+            layout.prop(props, "jump_rate")
         layout.prop(props, "orientation")
         if props.orientation == "AXIS":
             layout.prop(props, "axis")
         else:
             layout.prop(props, "direction_attribute")
+        layout.prop(props, "scale_source")
+        if props.scale_source == "ATTRIBUTE":
+            layout.prop(props, "scale_attribute")
+        elif props.scale_source == "VERTEX_GROUP":
+            obj = context.active_object
+            if obj is not None and obj.type == "MESH":
+                layout.prop_search(props, "scale_group", obj, "vertex_groups")
+            else:
+                layout.prop(props, "scale_group")
+            row = layout.row(align=True)
+            row.prop(props, "scale_min")
+            row.prop(props, "scale_max")
         layout.prop(props, "blend")
+        if props.method == "TEXTON" and props.blend:
+            layout.prop(props, "blend_threshold")
+            if props.blend_threshold > 0.0 and context.scene.camera is None:
+                layout.label(text="Blend threshold needs a scene camera", icon="ERROR")
         layout.prop(props, "allow_oversized")
         layout.prop(props, "material_mode")
 
         column = layout.column()
-        column.enabled = not native.reason() and props.method == "JUMPMAP"
+        column.enabled = not native.reason()
         column.scale_y = 1.4
         column.operator("texsynth.synthesize", icon="TEXTURE")
         layout.operator("texsynth.clear", icon="X")
+
+
+class TEXSYNTH_PT_field(bpy.types.Panel):
+    bl_label = "Direction Field"
+    bl_idname = "TEXSYNTH_PT_field"
+    bl_parent_id = "TEXSYNTH_PT_main"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "TexSynth"
+
+    def draw(self, context):
+        from . import field_ops
+        layout = self.layout
+        props = context.scene.texsynth
+        column = layout.column()
+        column.enabled = not native.reason()
+        row = column.row(align=True)
+        row.operator("texsynth.comb", icon="BRUSH_DATA")
+        row.prop(props, "field_erase", toggle=True, icon="X", text="")
+        row = column.row(align=True)
+        row.prop(props, "field_brush_radius")
+        row.prop(props, "field_brush_strength")
+        row = column.row(align=True)
+        row.operator("texsynth.singularity", text="Source").mode = "SOURCE"
+        row.operator("texsynth.singularity", text="Sink").mode = "SINK"
+        row.operator("texsynth.singularity", text="Remove").mode = "REMOVE"
+        column.operator("texsynth.field_from_strokes", icon="GREASEPENCIL")
+        row = column.row(align=True)
+        row.operator("texsynth.field_preset", text="Axis").preset = "AXIS"
+        row.operator("texsynth.field_preset", text="Curvature").preset = "CURVATURE"
+        row.operator("texsynth.field_preset", text="Smooth").preset = "SMOOTH"
+        row = column.row(align=True)
+        row.prop(props, "show_field", toggle=True, icon="ORIENTATION_GIMBAL")
+        row.prop(props, "field_arrow_density")
+        column.prop(props, "field_arrow_length")
+        column.prop(props, "field_live_update")
+        if "live_native" in field_ops.last_timings:
+            column.label(text="Last live update: %.0f ms (native %.0f ms)" % (
+                1000 * field_ops.last_timings["live_update"], 1000 * field_ops.last_timings["live_native"]))
 
 
 def _wrap(text, width):
@@ -66,4 +120,4 @@ def _wrap(text, width):
     return lines + ([line] if line else [])
 
 
-classes = (TEXSYNTH_PT_main,)
+classes = (TEXSYNTH_PT_main, TEXSYNTH_PT_field)

@@ -14,12 +14,12 @@ def test_valid_settings_pass_and_each_bad_setting_is_named():
     assert pipeline.Settings().validate() is not None
     bad = {"method": ("NOPE", "method"), "sample_world_size": (0.0, "scale"), "seed": (-1, "seed"),
            "jump_rate": (float("nan"), "jump rate"), "orientation": ("UP", "orientation"),
-           "axis": ((0.0, 0.0, 0.0), "axis"), "neighbourhood": (4, "neighbourhood")}
+           "axis": ((0.0, 0.0, 0.0), "axis"), "neighbourhood": (4, "neighbourhood"),
+           "blend_threshold": (-0.5, "blend threshold")}
     for field, (value, word) in bad.items():
         with pytest.raises(pipeline.SettingsError, match=word):
             pipeline.Settings(**{field: value}).validate()
-    with pytest.raises(pipeline.SettingsError, match="not implemented"):
-        pipeline.Settings(method="TEXTON").validate()
+    assert pipeline.Settings(method="TEXTON", blend_threshold=2.0).validate() is not None
     with pytest.raises(pipeline.SettingsError, match="attribute"):
         pipeline.Settings(orientation="FIELD").validate()
     for inf in (float("inf"), -1.0, True):
@@ -161,3 +161,42 @@ def test_native_diagnosis_names_the_problem(tmp_path):
     assert "another Python" in message and "cpython-310" in message and "3.11" in message
     (tmp_path / ("texsynth_native" + suffix)).write_bytes(b"")
     assert native.diagnose(str(tmp_path), suffix, (3, 11)) is None
+
+
+@pytest.fixture
+def real_native(monkeypatch):
+    """The built module as add-on's native module (imported once, under its own name: loading the same
+    extension a second time as texsynth.texsynth_native would register its types twice)."""
+    module = pytest.importorskip("texsynth_native")
+    if not hasattr(module, "synthesize_texton"):
+        pytest.skip("texsynth_native without synthesize_texton")
+    monkeypatch.setattr(native, "_module", module)
+    monkeypatch.setattr(native, "_tried", True)
+    return module
+
+
+def test_texton_method_calls_the_native_texton_synthesizer_and_returns_corner_attributes(real_native):
+    rng = np.random.default_rng(0)
+    image = rng.random((32, 32, 3), dtype=np.float32)
+    pre = real_native.preprocess(image, jump_candidates=2)
+    ys, xs = np.mgrid[0:5, 0:5]
+    pos = np.stack([xs.ravel(), ys.ravel(), np.zeros(25)], 1).astype(np.float32) * 0.1
+    quads = [[y * 5 + x, y * 5 + x + 1, y * 5 + x + 6, y * 5 + x + 5] for y in range(4) for x in range(4)]
+    arrays = pipeline.MeshArrays(pos, np.array(sum(quads, []), np.int32), np.arange(0, 64, 4, dtype=np.int32),
+                                 np.full(16, 4, np.int32))
+    settings = pipeline.Settings(method="TEXTON").validate()
+    with pytest.raises(pipeline.SettingsError, match="pixels"):
+        pipeline.synthesize(pre, arrays, settings, 1, 60.0)
+    result = pipeline.synthesize(pre, arrays, settings, 1, 60.0, pixels=image)
+    extras = pipeline.corner_attributes(result, 64)
+    assert set(extras) == {pipeline.EDGE_BLENDED_NAME, pipeline.EDGE_ERROR_NAME}
+    blended = extras[pipeline.EDGE_BLENDED_NAME]
+    # Each of the 4 x 4 quads' 4 edges: interior edges are blended (every corner but the boundary ones).
+    assert blended.sum() == 64 - 16 and set(np.unique(blended)) <= {0.0, 1.0}
+    np.testing.assert_array_equal(pipeline.check_result(result, 64), result["base_uv"])
+    threshold = pipeline.Settings(method="TEXTON", blend_threshold=1.0).validate()
+    with pytest.raises(pipeline.SettingsError, match="camera"):
+        pipeline.synthesize(pre, arrays, threshold, 1, 60.0, pixels=image)
+    far = pipeline.synthesize(pre, arrays, threshold, 1, 60.0, pixels=image,
+                              view=pipeline.View(position=(0.2, 0.2, 1e6), pixels_per_radian=1000.0))
+    assert far["stats"]["blended_edges"] == 0  # a far camera: every Φ is tiny

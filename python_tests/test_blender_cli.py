@@ -39,7 +39,8 @@ def test_bad_arguments_exit_2_with_one_line(args, fragment):
     (("--sample", BRICKS, "--object", "Nobody"), "no object named 'Nobody'"),
     (("--sample", BRICKS, "--object", "Camera"), "not a mesh"),
     (("--sample", BRICKS, "--mesh", "/no/such/mesh.obj"), "not found"),
-    (("--sample", BRICKS, "--object", "Suzanne", "--method", "texton"), "not implemented"),
+    (("--sample", BRICKS, "--object", "Suzanne", "--method", "texton", "--blend-threshold", "-1"),
+     "blend threshold"),
 ])
 def test_bad_inputs_exit_1_with_one_line(args, fragment):
     run_failing(*args, code=1, fragment=fragment, blend_file=SCENE)
@@ -126,3 +127,32 @@ def test_mesh_importers(tmp_path, suffix):
     stats = json.loads(stats_path.read_text())
     assert stats["faces"] == 4 and stats["corners"] == 12
     assert stats["vertices"] in (4, 12)  # STL stores unshared triangle corners
+
+
+def test_texton_method_writes_layers_and_blended_edge_attributes(tmp_path):
+    """--method texton on Suzanne: the same layers as the jump map plus the per-corner edge attributes;
+    a blend threshold (scene camera) blends fewer edges than blending everything."""
+    if not addon_package.real_synthesizer_available():
+        pytest.skip("needs the real texsynth_native")
+    counts = {}
+    for name, extra in (("all", ()), ("threshold", ("--blend-threshold", "0.5"))):
+        stats_path, out = tmp_path / (name + ".json"), tmp_path / (name + ".blend")
+        process = blender_run.cli("--sample", BRICKS, "--object", "Suzanne", "--scale", "0.8", "--method", "texton",
+                                  "--cache-dir", str(tmp_path / "cache"), "--stats", str(stats_path),
+                                  "--save", str(out), *extra, blend_file=SCENE)
+        assert process.returncode == 0, process.stdout[-2000:] + process.stderr[-2000:]
+        native_stats = json.loads(stats_path.read_text())["native"]["Suzanne"]
+        assert native_stats["faces"] == SUZANNE["faces"] and native_stats["searched_faces"] > 0
+        counts[name] = native_stats["blended_edges"]
+        check = ("import bpy, numpy as np\nm = bpy.data.objects['Suzanne'].data\n"
+                 "names = [l.name for l in m.uv_layers]\n"
+                 "assert names[-5:] == ['TexSynth'] + ['TexSynth_B%d' % k for k in range(4)], names\n"
+                 "a = m.attributes['TexSynth_EdgeBlended']\nassert (a.domain, a.data_type) == ('CORNER', 'FLOAT')\n"
+                 "v = np.empty(len(m.loops), np.float32)\na.data.foreach_get('value', v)\n"
+                 "print('BLENDED_CORNERS', int(v.sum()))\n"
+                 "assert m.attributes['TexSynth_EdgeError'].domain == 'CORNER'\n")
+        reopened = blender_run.blender("--python-expr", check, blend_file=str(out))
+        assert reopened.returncode == 0, reopened.stdout[-2000:] + reopened.stderr[-2000:]
+        corners = int(reopened.stdout.split("BLENDED_CORNERS")[1].split()[0])
+        assert corners == 2 * counts[name]  # each blended (manifold) edge is listed by its two corners
+    assert 0 < counts["threshold"] < counts["all"]

@@ -12,6 +12,7 @@ PACKAGES=(
   libnanoflann-dev libhnswlib-dev libfaiss-dev
   blender
   clang libclang-rt-14-dev
+  xvfb xauth
 )
 
 missing=()

@@ -12,6 +12,10 @@ void bind_preprocess(py::module_& m);
 void bind_mesh(py::module_& m);
 void bind_field(py::module_& m);
 void bind_synth(py::module_& m);
+void bind_texton(py::module_& m);
+void bind_raycast(py::module_& m);
+void bind_curvature(py::module_& m);
+void bind_field_mesh(py::module_& m);
 
 PYBIND11_MODULE(texsynth_native, m) {
   m.doc() = "TexSynth native core: sample preprocessing and texture synthesis on meshes.";
@@ -34,4 +38,8 @@ PYBIND11_MODULE(texsynth_native, m) {
   bind_mesh(m);
   bind_field(m);
   bind_synth(m);
+  bind_texton(m);
+  bind_raycast(m);
+  bind_curvature(m);
+  bind_field_mesh(m);
 }

@@ -66,3 +66,25 @@ def synthesize_jumpmap(pre, positions, corner_verts, poly_starts, poly_sizes, *,
     weights[np.arange(corners), corner_verts % sets] = 1.0
     result["blend_weights"] = weights
     return result
+
+
+def load_image(path):
+    width, height = _image_size(path)
+    return np.zeros((height, width, 4), np.float32)
+
+
+def synthesize_texton(pre, sample_pixels, positions, corner_verts, poly_starts, poly_sizes, *, scale, blend=True,
+                      seed=0, camera_position=None, blend_threshold=None, lambda_=1.0, **options):
+    """The jump-map double's maps plus per-corner edge data: every other corner blended, E_t = 0.001·corner."""
+    pixels = np.asarray(sample_pixels)
+    if pixels.ndim != 3 or pixels.shape[:2] != (pre.height, pre.width):
+        raise ValueError("sample_pixels must be the preprocessed image (H, W, C)")
+    if blend_threshold is not None and camera_position is None:
+        raise ValueError("blend_threshold needs camera_position")
+    result = synthesize_jumpmap(pre, positions, corner_verts, poly_starts, poly_sizes, scale=scale, blend=blend,
+                                seed=seed)
+    corners = len(corner_verts)
+    result["corner_edge_blended"] = np.arange(corners) % 2 == 0
+    result["corner_edge_error"] = (np.arange(corners) * 0.001).astype(np.float32)
+    result["stats"].update(blended_edges=corners // 2, searched_faces=len(poly_starts) - 1)
+    return result

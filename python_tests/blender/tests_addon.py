@@ -39,7 +39,7 @@ def configure(**overrides):
     props = bpy.context.scene.texsynth
     values = dict(sample_source="FILE", sample_path=BRICKS, method="JUMPMAP", scale=4.0, seed=7, jump_rate=20.0,
                   orientation="AXIS", axis=(0.0, 0.0, 1.0), direction_attribute="", blend=True,
-                  allow_oversized=False, material_mode="NEW")
+                  allow_oversized=False, material_mode="NEW", blend_threshold=0.0)
     values.update(overrides)
     for key, value in values.items():
         setattr(props, key, value)
@@ -376,14 +376,38 @@ def test_oversized_faces_refused_unless_allowed():
     check_written(obj, synthesize_one(obj, scale=1.0, allow_oversized=True))
 
 
-def test_texton_method_is_refused():
-    clean()
+def corner_floats(mesh, name):
+    values = np.empty(len(mesh.loops), dtype=np.float32)
+    mesh.attributes[name].data.foreach_get("value", values)
+    return values
+
+
+def test_texton_method_writes_edge_attributes_and_clear_removes_them():
+    clean()  # no camera left in the scene
     obj = harness.add_primitive("cube", "Cube")
-    before = harness.mesh_hash(obj.data)
-    configure(method="TEXTON")
+    synthesize_one(obj, method="TEXTON")
+    mesh = obj.data
+    assert [layer.name for layer in mesh.uv_layers][-5:] == ["TexSynth"] + ["TexSynth_B%d" % k for k in range(4)]
+    for name in ("TexSynth_EdgeBlended", "TexSynth_EdgeError", "TexSynth_Weights"):
+        assert mesh.attributes[name].domain == "CORNER", name
+    blended, error = corner_floats(mesh, "TexSynth_EdgeBlended"), corner_floats(mesh, "TexSynth_EdgeError")
+    if getattr(texsynth.native.get(), "__name__", "") == "fake_native":
+        assert np.array_equal(blended, (np.arange(24) % 2 == 0).astype(np.float32))
+        assert np.allclose(error, np.arange(24) * 0.001)
+    else:
+        assert np.all(blended == 1.0)  # a closed cube: every edge is interior, no threshold
+        assert np.all(error >= 0.0) and np.all(np.isfinite(error))
+    before = harness.mesh_hash(mesh)
+    configure(method="TEXTON", blend_threshold=1.0)
     harness.select_only([obj])
-    expect_error(run_operator, "not implemented")
-    assert harness.mesh_hash(obj.data) == before
+    expect_error(run_operator, "camera")
+    assert harness.mesh_hash(mesh) == before
+    synthesize_one(obj, method="JUMPMAP")  # the texton-only attributes do not survive another method
+    assert "TexSynth_EdgeBlended" not in mesh.attributes and "TexSynth_EdgeError" not in mesh.attributes
+    synthesize_one(obj, method="TEXTON")
+    harness.select_only([obj])
+    assert run_operator("clear") == {"FINISHED"}
+    assert not [a.name for a in mesh.attributes if a.name.startswith("TexSynth")]
 
 
 def test_material_group_created_idempotently():
@@ -535,7 +559,8 @@ def test_panel_draws_every_setting_and_the_native_reason():
     log = draw_panel(texsynth.ui.TEXSYNTH_PT_main)
     assert any(kind == "template_ID" for kind, _, _ in log)
     assert "direction_attribute" in {args[1] for kind, args, _ in log if kind == "prop"}
-    assert any("not implemented" in kw.get("text", "") for kind, _, kw in log if kind == "label")
+    shown = {args[1] for kind, args, _ in log if kind == "prop"}
+    assert "blend_threshold" in shown and "jump_rate" not in shown, shown
     saved = (native._module, native._reason, native._tried)
     try:
         native._module, native._reason, native._tried = None, "native module missing: no texsynth_native", True

@@ -222,6 +222,12 @@ def image_cases(out):
     inf[5, 5, 0] = np.inf
     add("inf_pixel.pfm", pfm_bytes(inf), "error")
     add("not_an_image.png", b"hello, I am text pretending to be a PNG\n" * 4, "error")
+    # fuzz_image's reproducer: made OpenImageIO's GIF reader call std::terminate (now refused unread).
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    gif = open(os.path.join(root, "cpp_tests", "fuzz", "regressions", "fuzz_image", "gif_reader_terminate"), "rb").read()[1:]
+    add("damaged.gif", gif, "error")
+    add("damaged_gif_named.png", gif, "error")
+    add("photoshop.psd", b"8BPS\x00\x01" + bytes(64), "error")
     # oiiotool-made formats (JPEG, EXR, CMYK TIFF, NaN EXR) and truncations of them.
     src = os.path.join(d, "sample.png")
     for name, args in (("sample.jpg", []), ("sample.exr", ["-d", "half"]), ("sample.tif", [])):

@@ -3,6 +3,7 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -35,14 +36,40 @@ void check_readable_file(const std::string& path) {
   if (!probe) fail(path, "file cannot be opened for reading (permissions?)");
 }
 
+// The OpenImageIO reader for a sample file, chosen from its leading bytes (TGA, which has none, from
+// its extension). OpenImageIO is never left to guess: its probe tries every plugin it has (GIF, PSD,
+// DPX, FITS, camera RAW, DICOM, ...), and some abort the process on damaged files (fuzz_image found
+// std::terminate inside the GIF reader), which inside Blender loses the artist's work.
+std::string sniff_format(const std::string& path) {
+  unsigned char head[12] = {0};
+  std::ifstream in(path, std::ios::binary);
+  in.read(reinterpret_cast<char*>(head), sizeof(head));
+  const size_t n = size_t(in.gcount());
+  auto starts = [&](const char* magic, size_t length) { return n >= length && std::memcmp(head, magic, length) == 0; };
+  if (starts("\x89PNG\r\n\x1a\n", 8)) return "png";
+  if (starts("\xFF\xD8\xFF", 3)) return "jpeg";
+  if (starts("\x76\x2F\x31\x01", 4)) return "openexr";
+  if (starts("II*\0", 4) || starts("MM\0*", 4) || starts("II+\0", 4) || starts("MM\0+", 4)) return "tiff";
+  if (starts("BM", 2)) return "bmp";
+  if (starts("#?", 2)) return "hdr";  // Radiance "#?RADIANCE" / "#?RGBE"
+  if (n >= 2 && head[0] == 'P' && std::strchr("123456fF", head[1]) && head[1] != 0) return "pnm";  // PBM..PPM, PFM
+  if (starts("RIFF", 4) && n >= 12 && std::memcmp(head + 8, "WEBP", 4) == 0) return "webp";
+  if (starts("GIF8", 4)) fail(path, "GIF samples are not supported (convert the image to PNG)");
+  std::string ext = fs::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".tga" || ext == ".tpic") return "targa";
+  fail(path, "not a supported image format (PNG, JPEG, OpenEXR, TIFF, BMP, Radiance HDR, PNM/PFM, WebP or TGA)");
+}
+
 std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
   check_readable_file(path);
   // Keep colour and alpha as stored (no premultiplication): features compare what the artist painted.
   OIIO::ImageSpec config;
   config.attribute("oiio:UnassociatedAlpha", 1);
-  auto input = OIIO::ImageInput::open(path, &config);
-  if (!input) {
-    std::string err = OIIO::geterror();
+  auto input = OIIO::ImageInput::create(sniff_format(path));
+  OIIO::ImageSpec spec;
+  if (!input || !input->open(path, spec, config)) {
+    std::string err = input ? input->geterror() : OIIO::geterror();
     fail(path, "not a readable image (corrupt or unsupported format)" + (err.empty() ? "" : ": " + err));
   }
   return input;
@@ -65,10 +92,12 @@ void check_dims(int width, int height, int channels, const std::string& where, i
 
 void check_finite(const std::vector<float>& pixels, int width, int channels, const std::string& where) {
   for (size_t i = 0; i < pixels.size(); ++i) {
-    if (!std::isfinite(pixels[i])) {
+    if (!(std::fabs(pixels[i]) <= kMaxPixelMagnitude)) {
       const size_t pixel = i / size_t(channels);
       throw std::invalid_argument(where + ": pixel (x=" + std::to_string(pixel % size_t(width)) +
-                                  ", y=" + std::to_string(pixel / size_t(width)) + ") is NaN or infinite");
+                                  ", y=" + std::to_string(pixel / size_t(width)) + ") is " +
+                                  (std::isfinite(pixels[i]) ? "beyond ±1e9 (" + std::to_string(pixels[i]) + ")"
+                                                            : std::string("NaN or infinite")));
     }
   }
 }
@@ -132,6 +161,10 @@ float half_to_float(uint16_t h) {
 ImageInfo read_image_info(const std::string& path) {
   auto input = open_input(path);
   const OIIO::ImageSpec& spec = input->spec();
+  // fuzz_image: a Radiance header "+X 0" opens as a 0-pixel-wide image.
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+    fail(path, "image has no pixels (" + std::to_string(spec.width) + "x" + std::to_string(spec.height) + ", " +
+                   std::to_string(spec.nchannels) + " channels)");
   ImageInfo info;
   info.width = spec.width;
   info.height = spec.height;

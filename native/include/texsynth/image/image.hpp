@@ -19,6 +19,9 @@ namespace texsynth {
 // 4096 x 4096 sample already needs ~1.7 GB; anything larger is refused with a clear error.
 constexpr int64_t kMaxImagePixels = int64_t(4096) * 4096;
 constexpr int kMaxImageSide = 65536;
+// Largest pixel magnitude accepted (float images): beyond it the L*a*b* conversion overflows to
+// NaN (fuzz_params found -2e36 turning textons into NaN). Real HDR radiance stays far below.
+constexpr float kMaxPixelMagnitude = 1e9f;
 
 enum class ColorEncoding { kSrgb, kLinear };
 
@@ -46,7 +49,7 @@ ImageInfo read_image_info(const std::string& path);
 // Decodes the first subimage of any OpenImageIO-readable file, with all its channels (up to 64;
 // preprocessing accepts 1-4).
 // Throws std::invalid_argument for missing/unreadable/zero-byte/corrupt files, directories,
-// images over the size limit and NaN/Inf pixels.
+// images over the size limit and NaN/Inf pixels or pixels beyond ±kMaxPixelMagnitude.
 Image load_image(const std::string& path);
 
 enum class PixelType { kUint8, kUint16, kFloat16, kFloat32 };

@@ -1,0 +1,437 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Field authoring operators: Comb (modal), Source/Sink, Presets, Field from Strokes.
+
+Each edit: bridge.read_field_state -> fields.* (native ray casts and relaxation) ->
+bridge.write_field_state -> overlay refresh -> optional live re-synthesis.
+"""
+import time
+
+import bpy
+import numpy as np
+
+from . import bridge, fields, operators, overlay, pipeline, properties, synthesis
+
+# Per object name: (fields.mesh_key, RayCaster, FieldMesh), rebuilt when the mesh changes.
+_native_meshes = {}
+# Preprocessed samples kept in memory for live updates: key -> Preprocessed.
+_live_samples = {}
+# Figures of the last edit / live update, shown by the panel and read by tests and benchmarks.
+last_timings = {}
+
+
+def _native_mesh(obj, arrays, which):
+    key = fields.mesh_key(arrays)
+    cached = _native_meshes.get(obj.name)
+    if cached is None or cached[0] != key:
+        cached = [key, None, None]
+        _native_meshes[obj.name] = cached
+    if cached[which] is None:
+        cached[which] = fields.ray_caster(arrays) if which == 1 else fields.field_mesh(arrays)
+    return cached[which]
+
+
+def caster_for(obj, arrays):
+    return _native_mesh(obj, arrays, 1)
+
+
+def field_mesh_for(obj, arrays):
+    return _native_mesh(obj, arrays, 2)
+
+
+def _active_mesh(context):
+    obj = context.active_object
+    if obj is None or obj.type != "MESH":
+        raise pipeline.SettingsError("select a mesh object first")
+    if obj.data.library is not None:
+        raise pipeline.SettingsError("mesh %r is linked from a library and cannot be edited" % obj.data.name)
+    return obj
+
+
+def field_state(context, obj):
+    state = bridge.read_field_state(obj, tuple(context.scene.texsynth.axis))
+    state.field_mesh = field_mesh_for(obj, state.arrays)
+    return state
+
+
+def commit_edit(context, obj, state):
+    """Writes the edited field, refreshes the overlay and re-synthesizes when Live Update is on.
+    Returns a warning when the live update failed (the field edit itself is kept), else None."""
+    bridge.write_field_state(obj, state)
+    overlay.invalidate(obj.name)
+    warning = None
+    if context.scene.texsynth.field_live_update:
+        try:
+            live_update(context, obj)
+        except (ValueError, RuntimeError) as error:
+            warning = "TexSynth live update failed: %s" % error
+    for area in getattr(context.screen, "areas", None) or ():
+        if area.type == "VIEW_3D":
+            area.tag_redraw()
+    return warning
+
+
+def _report_warning(operator, warning):
+    if warning:
+        operator.report({"WARNING"}, warning)
+
+
+def live_update(context, obj):
+    """Re-synthesizes obj with the sample kept in memory, reading the field just written.
+    Only rewrites the UV layers and weights (materials are left as they are)."""
+    props = context.scene.texsynth
+    settings = props.to_settings()
+    if settings.orientation == "AXIS":
+        settings.orientation, settings.direction_attribute = "FIELD", fields.DIRECTION_NAME
+    settings.validate()
+    sample = operators.sample_from_settings(props)
+    cache_dir = properties.cache_dir(context)
+    key = (sample.describe(), repr(sorted(settings.preprocess_params().items())), cache_dir)
+    pre = _live_samples.get(key)
+    if pre is None:
+        pre = synthesis.preprocess(sample, settings, cache_dir)
+        _live_samples.clear()
+        _live_samples[key] = pre
+    start = time.perf_counter()
+    report = synthesis.synthesize([obj], sample, settings, cache_dir, "NONE", preprocessed=pre)
+    last_timings["live_update"] = time.perf_counter() - start
+    last_timings["live_native"] = report.native_stats.get(obj.name, {}).get("seconds", 0.0)
+    if report.failures:
+        raise pipeline.SettingsError(report.summary())
+    return report
+
+
+def _ray_from_event(context, event):
+    """World-space (origin, direction) of the view ray under the mouse, or (None, None) when the
+    mouse is not over a 3D view's main region. The operators may be started from the sidebar, so the
+    region is found from the window mouse position, not taken from the context."""
+    from bpy_extras import view3d_utils
+    area = context.area
+    if area is None or area.type != "VIEW_3D":
+        return None, None
+    for region in area.regions:
+        if region.type != "WINDOW" or region.data is None:
+            continue
+        x, y = event.mouse_x - region.x, event.mouse_y - region.y
+        if 0 <= x < region.width and 0 <= y < region.height:
+            origin = view3d_utils.region_2d_to_origin_3d(region, region.data, (x, y))
+            direction = view3d_utils.region_2d_to_vector_3d(region, region.data, (x, y))
+            return np.array(origin, np.float64), np.array(direction, np.float64)
+    return None, None
+
+
+class TEXSYNTH_OT_comb(bpy.types.Operator):
+    """Comb the direction field: drag over the surface (Ctrl-drag or Erase removes anchors; [ ] radius;
+    Esc / right click to finish)"""
+    bl_idname = "texsynth.comb"
+    bl_label = "Comb Field"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return (context.mode == "OBJECT" and context.area is not None and context.area.type == "VIEW_3D"
+                and context.active_object is not None and context.active_object.type == "MESH")
+
+    def invoke(self, context, event):
+        try:
+            self.obj = _active_mesh(context)
+            self.state = field_state(context, self.obj)
+            props = context.scene.texsynth
+            self.brush = fields.CombBrush(self.state, caster_for(self.obj, self.state.arrays),
+                                          props.field_brush_radius, props.field_brush_strength)
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        # Started by the Comb workspace tool's click: this press is the stroke, the release ends it.
+        self.from_tool = event.type == "LEFTMOUSE" and event.value == "PRESS"
+        self.dragging = False
+        if self.from_tool:
+            self.dragging = True
+            self._dab(context, event)
+        bridge.write_field_state(self.obj, self.state)  # the overlay needs the direction attribute
+        overlay.active_editors.add(self.obj.name)
+        overlay.invalidate(self.obj.name)
+        context.window_manager.modal_handler_add(self)
+        context.area.header_text_set("Comb: drag to paint, Ctrl-drag to erase, [ ] radius, Esc/RMB to finish")
+        context.area.tag_redraw()
+        return {"RUNNING_MODAL"}
+
+    def _dab(self, context, event):
+        origin, direction = _ray_from_event(context, event)
+        if origin is not None:
+            props = context.scene.texsynth
+            self.brush.dab(origin, direction, erase_mode=event.ctrl or props.field_erase)
+
+    def _update_cursor(self, context, event):
+        origin, direction = _ray_from_event(context, event)
+        surface = None if origin is None else self.brush.hit(origin, direction)
+        overlay.brush_cursor = None if surface is None else (surface[0], surface[1], self.brush.radius)
+        context.area.tag_redraw()
+
+    def _finish(self, context):
+        overlay.brush_cursor = None
+        overlay.active_editors.discard(self.obj.name)
+        context.area.header_text_set(None)
+        context.area.tag_redraw()
+
+    def _end_stroke(self, context):
+        self.dragging = False
+        start = time.perf_counter()
+        if self.brush.end_stroke():
+            try:
+                _report_warning(self, commit_edit(context, self.obj, self.state))
+            except (ValueError, RuntimeError) as error:
+                self.report({"WARNING"}, str(error))
+        last_timings.update(stroke_hit_testing=self.brush.seconds["hit_testing"],
+                            stroke_relax=self.brush.seconds["relax"], stroke_commit=time.perf_counter() - start)
+        self.brush.seconds = {"hit_testing": 0.0, "relax": 0.0}
+
+    def modal(self, context, event):
+        props = context.scene.texsynth
+        if event.type in {"ESC", "RIGHTMOUSE"} and event.value == "PRESS":
+            if self.dragging:
+                self._end_stroke(context)
+            self._finish(context)
+            return {"FINISHED"}
+        if event.type in {"LEFT_BRACKET", "RIGHT_BRACKET"} and event.value == "PRESS":
+            props.field_brush_radius *= 0.8 if event.type == "LEFT_BRACKET" else 1.25
+            self.brush.radius = props.field_brush_radius
+            return {"RUNNING_MODAL"}
+        if event.type == "LEFTMOUSE":
+            if event.value == "PRESS":
+                if _ray_from_event(context, event)[0] is None:
+                    return {"PASS_THROUGH"}  # a click on the sidebar / header: let Blender handle it
+                self.dragging = True
+                self.brush.radius, self.brush.strength = props.field_brush_radius, props.field_brush_strength
+                self._dab(context, event)
+                return {"RUNNING_MODAL"}
+            if event.value == "RELEASE" and self.dragging:
+                self._end_stroke(context)
+                if self.from_tool:
+                    self._finish(context)
+                    return {"FINISHED"}
+                return {"RUNNING_MODAL"}
+        if event.type in {"MOUSEMOVE", "INBETWEEN_MOUSEMOVE"}:
+            self.brush.radius = props.field_brush_radius
+            self._update_cursor(context, event)
+            if self.dragging:
+                self._dab(context, event)
+                return {"RUNNING_MODAL"}
+        return {"PASS_THROUGH"}  # navigation keeps working
+
+
+class TEXSYNTH_OT_singularity(bpy.types.Operator):
+    """Place or remove a source (field points away) or sink (field points toward) at the clicked
+    vertex; the field is relaxed around it"""
+    bl_idname = "texsynth.singularity"
+    bl_label = "Source / Sink"
+    bl_options = {"REGISTER", "UNDO"}
+
+    mode: bpy.props.EnumProperty(name="Mode", items=(("SOURCE", "Source", "Field points away from here"),
+                                                      ("SINK", "Sink", "Field points toward here"),
+                                                      ("REMOVE", "Remove", "Remove a source or sink")),
+                                 default="SOURCE")
+    vertex: bpy.props.IntProperty(name="Vertex", default=-1, min=-1, options={"SKIP_SAVE"},
+                                  description="Vertex index (-1: pick it with a click on the surface)")
+
+    @classmethod
+    def poll(cls, context):
+        return context.mode == "OBJECT" and context.active_object is not None and context.active_object.type == "MESH"
+
+    def invoke(self, context, event):
+        """From the viewport or the sidebar: wait for a click on the surface (Esc cancels)."""
+        if self.vertex >= 0 or context.area is None or context.area.type != "VIEW_3D":
+            return self.execute(context)
+        context.window_manager.modal_handler_add(self)
+        context.window.cursor_modal_set("CROSSHAIR")
+        context.area.header_text_set("%s: click on the surface (Esc / right click to cancel)" % self.mode.title())
+        return {"RUNNING_MODAL"}
+
+    def _end(self, context):
+        context.window.cursor_modal_restore()
+        context.area.header_text_set(None)
+
+    def modal(self, context, event):
+        if event.type in {"ESC", "RIGHTMOUSE"} and event.value == "PRESS":
+            self._end(context)
+            return {"CANCELLED"}
+        if event.type != "LEFTMOUSE" or event.value != "PRESS":
+            return {"PASS_THROUGH"}
+        origin, direction = _ray_from_event(context, event)
+        if origin is None:
+            return {"PASS_THROUGH"}
+        self._end(context)
+        try:
+            obj = _active_mesh(context)
+            arrays = bridge.read_mesh(obj)
+            vertex = fields.nearest_vertex(caster_for(obj, arrays), arrays.positions, origin, direction)
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        if vertex < 0:
+            self.report({"WARNING"}, "TexSynth: click on the object's surface")
+            return {"CANCELLED"}
+        self.vertex = vertex
+        return self.execute(context)
+
+    def execute(self, context):
+        kind = {"SOURCE": fields.SOURCE, "SINK": fields.SINK, "REMOVE": 0}[self.mode]
+        if self.vertex < 0:
+            self.report({"ERROR"}, "TexSynth: no vertex given (click on the surface, or set vertex=)")
+            return {"CANCELLED"}
+        try:
+            obj = _active_mesh(context)
+            state = field_state(context, obj)
+            fields.set_singularity(state, self.vertex, kind)
+            _report_warning(self, commit_edit(context, obj, state))
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        self.report({"INFO"}, "TexSynth: %s at vertex %d" % (self.mode.lower(), self.vertex))
+        return {"FINISHED"}
+
+
+class TEXSYNTH_OT_field_preset(bpy.types.Operator):
+    """Set the direction field from a preset"""
+    bl_idname = "texsynth.field_preset"
+    bl_label = "Field Preset"
+    bl_options = {"REGISTER", "UNDO"}
+
+    preset: bpy.props.EnumProperty(
+        name="Preset",
+        items=(("AXIS", "Global Axis", "The panel's axis projected on the surface (clears combed anchors)"),
+               ("CURVATURE", "Curvature", "Along the direction of least curvature (e.g. along tubes)"),
+               ("SMOOTH", "Smooth", "Relax the current field")),
+        default="AXIS")
+    iterations: bpy.props.IntProperty(name="Iterations", default=10, min=1, max=1000)
+
+    @classmethod
+    def poll(cls, context):
+        return context.mode == "OBJECT" and context.active_object is not None and context.active_object.type == "MESH"
+
+    def execute(self, context):
+        try:
+            obj = _active_mesh(context)
+            state = field_state(context, obj)
+            if self.preset == "AXIS":
+                fields.preset_axis(state, tuple(context.scene.texsynth.axis))
+            elif self.preset == "CURVATURE":
+                fields.preset_curvature(state)
+            else:
+                fields.preset_smooth(state, self.iterations)
+            _report_warning(self, commit_edit(context, obj, state))
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        return {"FINISHED"}
+
+
+def _displayed_frame(layer, current):
+    """The frame a (Grease Pencil / annotation) layer shows at frame `current`: the last one at or
+    before it (active_frame is only set once the layer has been drawn)."""
+    frame = getattr(layer, "active_frame", None)
+    if frame is not None:
+        return frame
+    shown = [f for f in layer.frames if f.frame_number <= current]
+    return max(shown, key=lambda f: f.frame_number) if shown else None
+
+
+def guide_strokes(context):
+    """World-space polylines of the scene's annotation strokes and of selected Grease Pencil objects."""
+    strokes = []
+    annotation = getattr(context, "annotation_data", None) or context.scene.grease_pencil
+    datas = [(annotation, None)] if annotation is not None else []
+    datas += [(obj.data, np.array(obj.matrix_world, np.float64)) for obj in context.selected_objects
+              if obj.type == "GPENCIL"]
+    for data, matrix in datas:
+        for layer in data.layers:
+            frame = _displayed_frame(layer, context.scene.frame_current)
+            if frame is None or getattr(layer, "hide", False):
+                continue
+            for stroke in frame.strokes:
+                points = np.empty(len(stroke.points) * 3, np.float32)
+                stroke.points.foreach_get("co", points)
+                points = points.reshape(-1, 3).astype(np.float64)
+                if matrix is not None:
+                    points = points @ matrix[:3, :3].T + matrix[:3, 3]
+                strokes.append(points)
+    return strokes
+
+
+class TEXSYNTH_OT_field_from_strokes(bpy.types.Operator):
+    """Turn annotation (and selected Grease Pencil) strokes drawn on the surface into field anchors"""
+    bl_idname = "texsynth.field_from_strokes"
+    bl_label = "Field from Strokes"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.mode == "OBJECT" and context.active_object is not None and context.active_object.type == "MESH"
+
+    def execute(self, context):
+        props = context.scene.texsynth
+        try:
+            obj = _active_mesh(context)
+            strokes = guide_strokes(context)
+            if not strokes:
+                raise pipeline.SettingsError("no annotation or Grease Pencil strokes found: draw some on the surface")
+            state = field_state(context, obj)
+            used = fields.anchors_from_strokes(state, caster_for(obj, state.arrays), strokes,
+                                               props.field_brush_radius, props.field_brush_strength)
+            if not used:
+                raise pipeline.SettingsError("no stroke point lies within the brush radius of %r" % obj.name)
+            _report_warning(self, commit_edit(context, obj, state))
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        self.report({"INFO"}, "TexSynth: %d stroke point(s) became anchors" % used)
+        return {"FINISHED"}
+
+
+COMB_TOOL_ID = "texsynth.comb_tool"
+
+
+class TexSynthCombTool(bpy.types.WorkSpaceTool):
+    """Toolbar tool: each drag is one comb stroke (Ctrl-drag erases); the field overlay is shown
+    while the tool is active."""
+    bl_space_type = "VIEW_3D"
+    bl_context_mode = "OBJECT"
+    bl_idname = COMB_TOOL_ID
+    bl_label = "Comb Field"
+    bl_description = "Comb the TexSynth direction field: drag over the active mesh (Ctrl-drag erases)"
+    bl_icon = "ops.sculpt.border_hide"
+    bl_keymap = (("texsynth.comb", {"type": "LEFTMOUSE", "value": "PRESS"}, None),
+                 ("texsynth.comb", {"type": "LEFTMOUSE", "value": "PRESS", "ctrl": True}, None))
+
+    def draw_settings(context, layout, tool):
+        props = context.scene.texsynth
+        layout.prop(props, "field_brush_radius")
+        layout.prop(props, "field_brush_strength")
+        layout.prop(props, "field_erase")
+
+
+def comb_tool_active(context):
+    workspace = getattr(context, "workspace", None)
+    if workspace is None:
+        return False
+    try:
+        tool = workspace.tools.from_space_view3d_mode("OBJECT", create=False)
+    except (AttributeError, TypeError, RuntimeError):
+        return False
+    return tool is not None and tool.idname == COMB_TOOL_ID
+
+
+def register_tool():
+    try:
+        bpy.utils.register_tool(TexSynthCombTool, separator=True)
+    except (ValueError, RuntimeError, AttributeError):
+        pass  # no toolbar (e.g. some background setups): the operator and panel still work
+
+
+def unregister_tool():
+    try:
+        bpy.utils.unregister_tool(TexSynthCombTool)
+    except (ValueError, RuntimeError, AttributeError, KeyError):
+        pass
+
+
+classes = (TEXSYNTH_OT_comb, TEXSYNTH_OT_singularity, TEXSYNTH_OT_field_preset, TEXSYNTH_OT_field_from_strokes)

@@ -1,0 +1,215 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Texton-string synthesis benchmarks. Google Benchmark: faces/s on one core (256×256 brick sample,
+// preprocessed for real) for texton vs the jump-map synthesizer in the same run. Then two printed
+// reports: (1) quality: mean and 95th-percentile E_t over interior edges, texton vs jump map on the
+// same meshes, for a structured (bricks) and a stochastic (value noise) sample; (2) scaling
+// 10k -> 1M faces on one core (best-of-N process CPU time) with the fitted exponent.
+// Run: build/cpp_tests/bench/bench_texton [--benchmark_filter=...] [--no_reports]
+#include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <map>
+
+#include "../mesh_fixtures.hpp"
+#include "../synthetic_texture.hpp"
+#include "texsynth/field/orientation_field.hpp"
+#include "texsynth/preprocess/preprocess.hpp"
+#include "texsynth/synth/jumpmap_synth.hpp"
+#include "texsynth/synth/texton_synth.hpp"
+
+namespace {
+
+// Stochastic sample: three octaves of value noise, per-channel offsets.
+texsynth::Image noise_texture(int width, int height, uint64_t seed) {
+  texsynth::Image image;
+  image.width = width, image.height = height, image.channels = 3;
+  image.encoding = texsynth::ColorEncoding::kSrgb;
+  image.pixels.resize(size_t(width) * height * 3);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const float n = 0.5f * texsynth_test::value_noise(float(x), float(y), 9.f, seed) +
+                      0.3f * texsynth_test::value_noise(float(x), float(y), 4.f, seed + 1) +
+                      0.2f * texsynth_test::value_noise(float(x), float(y), 2.f, seed + 2);
+      const float rgb[3] = {0.2f + 0.6f * n, 0.3f + 0.4f * n, 0.1f + 0.3f * n};
+      for (int c = 0; c < 3; ++c) image.pixels[(size_t(y) * width + x) * 3 + c] = rgb[c];
+    }
+  return image;
+}
+
+struct Sample {
+  texsynth::Image image;
+  texsynth::Preprocessed pre;
+  texsynth::SampleImage view() const { return {image.pixels.data(), image.width, image.height, image.channels}; }
+};
+
+Sample make_sample(texsynth::Image image) {
+  Sample s;
+  s.image = std::move(image);
+  texsynth::PreprocessParams params;
+  params.jump_candidates = 4;
+  s.pre = texsynth::preprocess(s.image, params);
+  return s;
+}
+
+const Sample& bricks256() {
+  static Sample s = make_sample(texsynth_test::brick_texture(256, 256, 1));
+  return s;
+}
+
+struct Prepared {
+  fixtures::TestMesh t;
+  texsynth::Mesh mesh;
+  std::vector<float> up;
+};
+
+// Jittered triangle grid with about `faces` faces, 1 unit per cell.
+Prepared& prepared(int64_t faces) {
+  static std::map<int64_t, Prepared> cache;
+  auto it = cache.find(faces);
+  if (it != cache.end()) return it->second;
+  if (cache.size() > 1) cache.clear();
+  Prepared& p = cache[faces];
+  const int n = int(std::sqrt(double(faces) / 2.0));
+  p.t = fixtures::grid(n, n, 1.0, true, 0.4);
+  p.mesh = texsynth::build_mesh(p.t.input());
+  p.up = texsynth::compute_orientation_field(p.mesh, texsynth::FieldParams());
+  return p;
+}
+
+texsynth::TextonSynthResult texton(const Sample& s, const Prepared& p, double scale, uint64_t seed = 1) {
+  texsynth::TextonSynthParams params;
+  params.scale = scale;
+  params.seed = seed;
+  return texsynth::synthesize_texton(s.pre, p.mesh, p.up.data(), s.view(), params);
+}
+
+texsynth::JumpSynthResult jumpmap(const Sample& s, const Prepared& p, double scale, uint64_t seed = 1) {
+  texsynth::JumpSynthParams params;
+  params.scale = scale;
+  params.seed = seed;
+  return texsynth::synthesize_jumpmap(s.pre, p.mesh, p.up.data(), params);
+}
+
+constexpr double kSpeedScale = 4.0;  // texels per grid cell in the speed runs
+
+void BM_TextonOneCore(benchmark::State& state) {
+  tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+  const Sample& s = bricks256();
+  Prepared& p = prepared(state.range(0));
+  for (auto _ : state) benchmark::DoNotOptimize(texton(s, p, kSpeedScale));
+  state.SetItemsProcessed(state.iterations() * p.mesh.num_polys);
+}
+void BM_JumpmapOneCoreBaseline(benchmark::State& state) {
+  tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+  const Sample& s = bricks256();
+  Prepared& p = prepared(state.range(0));
+  for (auto _ : state) benchmark::DoNotOptimize(jumpmap(s, p, kSpeedScale));
+  state.SetItemsProcessed(state.iterations() * p.mesh.num_polys);
+}
+BENCHMARK(BM_TextonOneCore)->Arg(100000)->ArgName("faces")->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_JumpmapOneCoreBaseline)->Arg(100000)->ArgName("faces")->Unit(benchmark::kMillisecond);
+
+double cpu_seconds() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+struct Summary {
+  double mean = 0, p95 = 0;
+};
+Summary summarize(const std::vector<float>& error, const texsynth::MeshEdges& edges) {
+  std::vector<float> interior;
+  for (int32_t e = 0; e < edges.num_edges(); ++e)
+    if (edges.edge_corner_start[e + 1] - edges.edge_corner_start[e] >= 2) interior.push_back(error[e]);
+  Summary s;
+  for (float v : interior) s.mean += v;
+  s.mean /= double(interior.size());
+  std::sort(interior.begin(), interior.end());
+  s.p95 = interior[size_t(0.95 * double(interior.size() - 1))];
+  return s;
+}
+
+void quality_report() {
+  std::printf("\nquality: E_t over interior edges (mean / p95; lower = fewer seams), 5 seeds pooled by mean\n");
+  std::printf("  %-26s %-26s %8s %21s %21s\n", "sample (160x160)", "mesh", "texels/cell", "texton mean / p95",
+              "jump map mean / p95");
+  const Sample samples[2] = {make_sample(texsynth_test::brick_texture(160, 160, 4)), make_sample(noise_texture(160, 160, 4))};
+  const char* names[2] = {"bricks (structured)", "value noise (stochastic)"};
+  struct MeshCase {
+    const char* name;
+    fixtures::TestMesh t;
+    double scale;
+  };
+  MeshCase meshes[3] = {{"jittered grid 3.2k tris", fixtures::grid(40, 40, 1.0, true, 0.4), 8.0},
+                        {"jittered grid 3.2k tris", fixtures::grid(40, 40, 1.0, true, 0.4), 16.0},
+                        {"noisy sphere 3.4k tris", fixtures::uv_sphere(30, 58, 1.0, 0.05), 120.0}};
+  for (int si = 0; si < 2; ++si)
+    for (auto& mc : meshes) {
+      Prepared p;
+      p.mesh = texsynth::build_mesh(mc.t.input());
+      p.up = texsynth::compute_orientation_field(p.mesh, texsynth::FieldParams());
+      const texsynth::MeshEdges edges = texsynth::build_mesh_edges(p.mesh);
+      Summary t_sum, j_sum;
+      const int seeds = 5;
+      for (uint64_t seed = 1; seed <= seeds; ++seed) {
+        auto tr = texton(samples[si], p, mc.scale, seed);
+        auto jr = jumpmap(samples[si], p, mc.scale, seed);
+        const Summary a = summarize(tr.edge_error, tr.edges);
+        const Summary b = summarize(
+            texsynth::edge_continuity_error(p.mesh, edges, jr.maps.base_uv.data(), samples[si].view(), false), edges);
+        t_sum.mean += a.mean / seeds, t_sum.p95 += a.p95 / seeds, j_sum.mean += b.mean / seeds, j_sum.p95 += b.p95 / seeds;
+      }
+      std::printf("  %-26s %-26s %8.0f %10.4f / %8.4f %10.4f / %8.4f\n", names[si], mc.name, mc.scale, t_sum.mean,
+                  t_sum.p95, j_sum.mean, j_sum.p95);
+    }
+}
+
+void scaling_report() {
+  tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+  const Sample& s = bricks256();
+  const int64_t sizes[] = {10000, 31600, 100000, 316000, 1000000};
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  int count = 0;
+  std::printf("\nscaling (texton, 256x256 bricks, K=%d, jittered grid, %.0f texels/cell, one core, CPU time):\n",
+              s.pre.num_textons, kSpeedScale);
+  std::printf("  %9s %9s %12s %12s\n", "faces", "seconds", "faces/s", "jump map f/s");
+  for (int64_t target : sizes) {
+    Prepared& p = prepared(target);
+    double best = 1e30, best_j = 1e30;
+    const int reps = target <= 100000 ? 3 : 1;
+    for (int r = 0; r < reps; ++r) {
+      double t0 = cpu_seconds();
+      benchmark::DoNotOptimize(texton(s, p, kSpeedScale));
+      best = std::min(best, cpu_seconds() - t0);
+      t0 = cpu_seconds();
+      benchmark::DoNotOptimize(jumpmap(s, p, kSpeedScale));
+      best_j = std::min(best_j, cpu_seconds() - t0);
+    }
+    const double faces = p.mesh.num_polys;
+    std::printf("  %9.0f %9.4f %12.0f %12.0f\n", faces, best, faces / best, faces / best_j);
+    const double x = std::log(faces), y = std::log(best);
+    sx += x, sy += y, sxx += x * x, sxy += x * y, ++count;
+  }
+  std::printf("  fitted exponent t ~ faces^%.3f (1.0 = linear)\n", (count * sxy - sx * sy) / (count * sxx - sx * sx));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  bool reports = true;
+  for (int i = 1; i < argc; ++i)
+    if (std::strcmp(argv[i], "--no_reports") == 0) reports = false, argv[i] = argv[0];
+  benchmark::Initialize(&argc, argv);
+  benchmark::RunSpecifiedBenchmarks();
+  if (reports) {
+    quality_report();
+    scaling_report();
+  }
+  return 0;
+}

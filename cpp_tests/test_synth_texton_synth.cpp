@@ -1,0 +1,292 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Texton-string synthesis on meshes: similarity maps, planted continuation, blend sets, E_t,
+// thread-count determinism, input validation.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+#include "mesh_fixtures.hpp"
+#include "texton_fixtures.hpp"
+#include "texsynth/field/orientation_field.hpp"
+#include "texsynth/mesh/mesh.hpp"
+#include "texsynth/synth/texton_synth.hpp"
+
+namespace {
+
+struct SynthRun {
+  texsynth::Mesh mesh;
+  std::vector<float> up;
+  texsynth::TextonSynthResult result;
+};
+
+SynthRun run(const fixtures::TestMesh& tm, const texsynth::Preprocessed& pre, const std::vector<float>& pixels,
+        texsynth::TextonSynthParams p, texsynth::Vec3f axis = {0.f, 1.f, 0.f}) {
+  SynthRun r;
+  r.mesh = texsynth::build_mesh(tm.input());
+  texsynth::FieldParams fp;
+  fp.axis = axis;
+  r.up = texsynth::compute_orientation_field(r.mesh, fp);
+  texsynth::SampleImage s{pixels.data(), pre.width, pre.height, 3};
+  r.result = texsynth::synthesize_texton(pre, r.mesh, r.up.data(), s, p);
+  return r;
+}
+
+std::array<std::array<double, 3>, 3> corner_positions(const fixtures::TestMesh& tm, const int32_t* corners) {
+  std::array<std::array<double, 3>, 3> p;
+  for (int i = 0; i < 3; ++i)
+    for (int a = 0; a < 3; ++a) p[i][a] = tm.positions[3 * size_t(tm.corner_verts[corners[i]]) + a];
+  return p;
+}
+
+// Every polygon's base mapping and every blend set is a similarity (numeric Jacobian from the
+// corners: equal singular values, not mirrored); the base has exactly scale × mean multiplier.
+void expect_similarities(const fixtures::TestMesh& tm, const texsynth::Preprocessed& pre, const SynthRun& r,
+                         const std::vector<float>& mult, double scale) {
+  const auto& maps = r.result.maps;
+  const size_t L = size_t(maps.num_corners);
+  int checked = 0;
+  for (size_t poly = 0; poly < tm.poly_starts.size(); ++poly) {
+    const int32_t first = tm.poly_starts[poly], n = tm.poly_sizes[poly];
+    double mean = 0;
+    for (int i = 0; i < n; ++i) mean += mult[tm.corner_verts[first + i]];
+    mean /= n;
+    for (int32_t t = 1; t + 1 < n; ++t) {  // fan triangles (0, t, t+1) of planar polygons
+      const int32_t corners[3] = {first, first + t, first + t + 1};
+      const auto p = corner_positions(tm, corners);
+      for (int set = -1; set < maps.num_blend_sets; ++set) {
+        const float* uv = set < 0 ? maps.base_uv.data() : maps.blend_uv.data() + size_t(set) * L * 2;
+        std::array<std::array<double, 2>, 3> tri;
+        for (int i = 0; i < 3; ++i) tri[i] = {uv[2 * size_t(corners[i])], uv[2 * size_t(corners[i]) + 1]};
+        fixtures::FaceMap f;
+        ASSERT_TRUE(fixtures::face_map(p, tri, pre.width, pre.height, f));
+        const auto sv = fixtures::singular_values(f.J);
+        EXPECT_NEAR(sv[0] / sv[1], 1.0, 2e-3) << "poly " << poly << " set " << set;
+        EXPECT_LT(f.J[0][0] * f.J[1][1] - f.J[0][1] * f.J[1][0], 0.0);  // texel y down: det < 0 = unmirrored
+        if (set < 0) EXPECT_NEAR(sv[0], scale * mean, 2e-3 * scale * mean);
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 100);
+}
+
+TEST(TextonSynth, EveryMappingIsASimilarityOnACurvedMesh) {
+  const auto pre = fixtures::label_sample(128, 128, 30, false);
+  const auto pixels = fixtures::label_colours(pre);
+  const auto tm = fixtures::uv_sphere(10, 14, 1.0, 0.1);
+  std::vector<float> mult(size_t(tm.num_vertices()));
+  texsynth::Rng rng(4);
+  for (auto& m : mult) m = float(0.8 + 0.4 * rng.uniform());
+  texsynth::TextonSynthParams p;
+  p.scale = 20.0;
+  p.scale_multiplier = mult.data();
+  const SynthRun r = run(tm, pre, pixels, p, {0.f, 0.f, 1.f});
+  EXPECT_EQ(r.result.maps.num_blend_sets, 3);
+  EXPECT_GT(r.result.stats.searched_faces, 0);
+  expect_similarities(tm, pre, r, mult, p.scale);
+  for (float u : r.result.maps.base_uv) EXPECT_TRUE(u >= 0.f && u <= 1.f);
+}
+
+TEST(TextonSynth, QuadsAreSimilaritiesWithFourBlendSets) {
+  const auto pre = fixtures::label_sample(96, 96, 20, false);
+  const auto pixels = fixtures::label_colours(pre);
+  const auto tm = fixtures::grid(8, 8, 0.5, false, 0.3);
+  std::vector<float> mult(size_t(tm.num_vertices()), 1.f);
+  texsynth::TextonSynthParams p;
+  p.scale = 12.0;
+  const SynthRun r = run(tm, pre, pixels, p);
+  EXPECT_EQ(r.result.maps.num_blend_sets, 4);
+  expect_similarities(tm, pre, r, mult, p.scale);
+}
+
+// Random labels (K = 64) on a tileable sample: the continuing origin is the only zero of Eq. 2,
+// so on a flat grid with one frame every face continues its neighbours: shared vertices get the
+// same texel from both sides and E_t vanishes on every edge.
+TEST(TextonSynth, PlantedFlatGridContinuesEveryNeighbour) {
+  const auto pre = fixtures::label_sample(64, 64, 64, true, 31);
+  const auto pixels = fixtures::label_colours(pre);
+  const auto tm = fixtures::grid(6, 6, 1.0, true);
+  texsynth::TextonSynthParams p;
+  p.scale = 7.0;
+  p.seed = 3;
+  const SynthRun r = run(tm, pre, pixels, p);
+  EXPECT_EQ(r.result.stats.searched_faces, int64_t(tm.poly_starts.size()) - 1);
+  EXPECT_EQ(r.result.stats.fallback_faces, 0);
+  for (float e : r.result.edge_error) EXPECT_LT(e, 1e-3f);
+  // Shared vertices agree modulo the tile period.
+  const auto& uv = r.result.maps.base_uv;
+  std::vector<std::array<double, 2>> at(size_t(tm.num_vertices()), {NAN, NAN});
+  for (size_t c = 0; c < tm.corner_verts.size(); ++c) {
+    auto& a = at[tm.corner_verts[c]];
+    const double x = uv[2 * c] * 64, y = (1 - uv[2 * c + 1]) * 64;
+    if (std::isnan(a[0])) {
+      a = {x, y};
+      continue;
+    }
+    EXPECT_NEAR(std::remainder(x - a[0], 64.0), 0.0, 1e-3);
+    EXPECT_NEAR(std::remainder(y - a[1], 64.0), 0.0, 1e-3);
+  }
+}
+
+TEST(TextonSynth, RandomPlacementHasLargeEdgeErrorSoThePlantedTestCanFail) {
+  // Same set-up with one voting point and m = 1: Eq. 2 can no longer reject wrong origins.
+  const auto pre = fixtures::label_sample(64, 64, 64, true, 31);
+  const auto pixels = fixtures::label_colours(pre);
+  const auto tm = fixtures::grid(6, 6, 1.0, true);
+  texsynth::TextonSynthParams p;
+  p.scale = 7.0;
+  p.search.top_m = 1, p.search.max_vote_points = 1;
+  const SynthRun r = run(tm, pre, pixels, p);
+  double sum = 0;
+  for (float e : r.result.edge_error) sum += e;
+  EXPECT_GT(sum / r.result.edge_error.size(), 0.05);
+}
+
+TEST(TextonSynth, BlendSetsExtendTheNeighbourAcrossTheOppositeEdge) {
+  const auto pre = fixtures::label_sample(96, 96, 20, false);
+  const auto pixels = fixtures::label_colours(pre);
+  const auto tm = fixtures::grid(5, 5, 1.0, true, 0.4);
+  texsynth::TextonSynthParams p;
+  p.scale = 8.0;
+  const SynthRun r = run(tm, pre, pixels, p);
+  const auto& maps = r.result.maps;
+  const auto& edges = r.result.edges;
+  const size_t L = size_t(maps.num_corners);
+  int blended = 0, clipped = 0;
+  for (size_t poly = 0; poly < tm.poly_starts.size(); ++poly) {
+    const int32_t first = tm.poly_starts[poly];
+    for (int k = 0; k < 3; ++k) {
+      const int32_t ca = first + (k + 1) % 3, cb = first + (k + 2) % 3;  // edge opposite corner k
+      const int32_t e = edges.corner_edge[ca];
+      const float* set = maps.blend_uv.data() + size_t(k) * L * 2;
+      EXPECT_EQ(maps.blend_weights[size_t(first + k) * 3 + k], 0.f);
+      if (!r.result.edge_blended[e]) {
+        EXPECT_EQ(maps.blend_weights[size_t(ca) * 3 + k], 0.f);
+        for (int i = 0; i < 3; ++i) EXPECT_EQ(set[2 * (first + i)], maps.base_uv[2 * size_t(first + i)]);
+        continue;
+      }
+      if (maps.blend_weights[size_t(ca) * 3 + k] == 0.f) {  // extension left the sample: this side keeps its base
+        ++clipped;
+        EXPECT_EQ(maps.blend_weights[size_t(cb) * 3 + k], 0.f);
+        for (int i = 0; i < 3; ++i) EXPECT_EQ(set[2 * (first + i)], maps.base_uv[2 * size_t(first + i)]);
+        continue;
+      }
+      ++blended;
+      EXPECT_FLOAT_EQ(maps.blend_weights[size_t(ca) * 3 + k], 1.f / 3.f);
+      EXPECT_FLOAT_EQ(maps.blend_weights[size_t(cb) * 3 + k], 1.f / 3.f);
+      // The set matches the other polygon's base UVs at the two shared vertices.
+      for (int32_t j = edges.edge_corner_start[e]; j < edges.edge_corner_start[e + 1]; ++j) {
+        const int32_t other = edges.edge_corners[j];
+        if (edges.corner_poly[other] == int32_t(poly)) continue;
+        const int32_t g0 = tm.poly_starts[edges.corner_poly[other]];
+        for (int32_t c : {ca, cb})
+          for (int i = 0; i < 3; ++i)
+            if (tm.corner_verts[g0 + i] == tm.corner_verts[c]) {
+              EXPECT_NEAR(set[2 * c], maps.base_uv[2 * size_t(g0 + i)], 1e-5);
+              EXPECT_NEAR(set[2 * c + 1], maps.base_uv[2 * size_t(g0 + i) + 1], 1e-5);
+            }
+      }
+    }
+  }
+  EXPECT_EQ(blended + clipped, 2 * int(r.result.stats.blended_edges));
+  EXPECT_EQ(clipped, int(r.result.stats.clipped_blend_sets));
+  EXPECT_GT(blended, 50);
+}
+
+TEST(TextonSynth, DeterministicAcrossThreadCounts) {
+  const auto pre = fixtures::label_sample(128, 128, 40, false);
+  const auto pixels = fixtures::label_colours(pre);
+  const auto tm = fixtures::uv_sphere(40, 60, 1.0, 0.05);
+  texsynth::TextonSynthParams p;
+  p.scale = 60.0;
+  p.seed = 12;
+  p.has_camera = true;
+  p.camera[0] = 3, p.camera[1] = 1, p.camera[2] = 0.5;
+  SynthRun one, two;
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+    one = run(tm, pre, pixels, p);
+  }
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 4);
+    two = run(tm, pre, pixels, p);
+  }
+  EXPECT_EQ(one.result.maps.base_uv, two.result.maps.base_uv);
+  EXPECT_EQ(one.result.maps.blend_uv, two.result.maps.blend_uv);
+  EXPECT_EQ(one.result.maps.blend_weights, two.result.maps.blend_weights);
+  EXPECT_EQ(one.result.edge_error, two.result.edge_error);
+  EXPECT_EQ(0, std::memcmp(one.result.edge_phi.data(), two.result.edge_phi.data(), one.result.edge_phi.size() * 4));
+  p.seed = 13;
+  const SynthRun other = run(tm, pre, pixels, p);
+  EXPECT_NE(one.result.maps.base_uv, other.result.maps.base_uv);
+}
+
+TEST(TextonSynth, BadInputThrowsAndNamesTheProblem) {
+  auto pre = fixtures::label_sample(32, 32, 5, false);
+  const auto pixels = fixtures::label_colours(pre);
+  const auto tm = fixtures::grid(3, 3, 1.0, true);
+  const texsynth::Mesh mesh = texsynth::build_mesh(tm.input());
+  std::vector<float> up(size_t(mesh.num_vertices) * 3, 0.f);
+  for (int32_t v = 0; v < mesh.num_vertices; ++v) up[3 * size_t(v) + 1] = 1.f;
+  texsynth::SampleImage s{pixels.data(), 32, 32, 3};
+  texsynth::TextonSynthParams p;
+  p.scale = 4.0;
+  auto message = [&](const texsynth::Preprocessed& pr, const texsynth::SampleImage& si, const texsynth::TextonSynthParams& pp,
+                     const float* orient) -> std::string {
+    try {
+      texsynth::synthesize_texton(pr, mesh, orient, si, pp);
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(message(pre, s, p, up.data()), "");
+  texsynth::SampleImage wrong = s;
+  wrong.width = 31;
+  EXPECT_NE(message(pre, wrong, p, up.data()).find("sample_pixels"), std::string::npos);
+  auto q = p;
+  q.blend_threshold = 1.0;
+  EXPECT_NE(message(pre, s, q, up.data()).find("camera"), std::string::npos);
+  q = p;
+  q.scale = 100.0;
+  EXPECT_NE(message(pre, s, q, up.data()).find("larger than"), std::string::npos);
+  q.allow_oversized = true;
+  EXPECT_EQ(message(pre, s, q, up.data()), "");
+  auto bad_up = up;
+  bad_up[4] = NAN;
+  EXPECT_NE(message(pre, s, p, bad_up.data()).find("orientation"), std::string::npos);
+  auto broken = pre;
+  for (int32_t px = 0; px < 32 * 32; ++px)  // a pixel of another texton listed in bucket 0
+    if (broken.texton_map[px] != 0) broken.bucket_pixels[0] = px;
+  EXPECT_NE(message(broken, s, p, up.data()).find("bucket"), std::string::npos);
+  broken = pre;
+  broken.texton_map[3] = 99;
+  EXPECT_NE(message(broken, s, p, up.data()).find("texton map"), std::string::npos);
+  broken = pre;
+  broken.texton_distances[1] = NAN;
+  EXPECT_NE(message(broken, s, p, up.data()).find("distance"), std::string::npos);
+}
+
+// Faces many times the sample with allow_oversized: centred origins far outside the sample never
+// index the vote counters out of bounds, and every UV stays finite and inside [0, 1].
+TEST(TextonSynth, OversizedFacesAreMappedSafely) {
+  for (bool tileable : {false, true}) {
+    const auto pre = fixtures::label_sample(32, 24, 6, tileable);
+    const auto pixels = fixtures::label_colours(pre);
+    fixtures::TestMesh tm;  // a long thin strip of triangles, each ~10x the sample along x
+    for (int i = 0; i <= 6; ++i) tm.add_vertex(10.0 * i, 0, 0), tm.add_vertex(10.0 * i, 0.3, 0);
+    for (int i = 0; i < 6; ++i) tm.add_poly({2 * i, 2 * i + 2, 2 * i + 3}), tm.add_poly({2 * i, 2 * i + 3, 2 * i + 1});
+    texsynth::TextonSynthParams p;
+    p.scale = 30.0;
+    p.allow_oversized = true;
+    const SynthRun r = run(tm, pre, pixels, p);
+    EXPECT_EQ(r.result.stats.oversized_faces, 12);
+    for (float u : r.result.maps.base_uv) EXPECT_TRUE(std::isfinite(u) && (tileable || (u >= 0.f && u <= 1.f)));
+    for (float u : r.result.maps.blend_uv) EXPECT_TRUE(std::isfinite(u));
+  }
+}
+
+}  // namespace

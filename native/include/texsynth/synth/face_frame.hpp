@@ -1,0 +1,53 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+// Per-polygon texture frame shared by the synthesizers: the polygon's corners as texel offsets
+// from its corner 0, an exact similarity of the polygon's projection onto its plane.
+// Rotation: the averaged vertex "up" vectors projected on the polygon plane (Magda & Kriegman
+// §3.2.1); right = up × n (unmirrored, see jumpmap_synth.hpp); scale = scale × mean multiplier.
+// Texel y points down, so an offset e maps to (e·right, -e·up) × scale. Same computation as
+// Synthesizer::face_offsets in jumpmap_synth.cpp (which can call this instead).
+#include <cstdint>
+
+#include "texsynth/mesh/mesh.hpp"
+#include "texsynth/mesh/vec_math.hpp"
+
+namespace texsynth {
+
+// up_of(v) returns vertex v's unit tangent "up" (V3). xy receives poly_sizes[poly]*2 floats.
+template <class UpOf>
+void face_texel_offsets(const Mesh& m, int32_t poly, UpOf&& up_of, double scale, const float* multiplier, float* xy) {
+  const int32_t* cv = m.corner_verts + m.poly_starts[poly];
+  const int32_t n = m.poly_sizes[poly];
+  V3 up_sum;
+  double mult = 0;
+  for (int32_t i = 0; i < n; ++i) {
+    up_sum = up_sum + up_of(cv[i]);
+    mult += multiplier ? multiplier[cv[i]] : 1.0;
+  }
+  V3 nf = newell_vector(m.positions, cv, n);
+  const double area2 = norm(nf);
+  if (area2 > 1e-30 && std::isfinite(area2)) {
+    nf = nf * (1.0 / area2);
+  } else {  // zero-area polygon: its vertices' normals, which are always defined
+    V3 normal_sum;
+    for (int32_t i = 0; i < n; ++i) normal_sum = normal_sum + v3(&m.normals[3 * size_t(cv[i])]);
+    nf = normalized_or(normal_sum, V3{0, 0, 1});
+  }
+  V3 up = project_to_plane(up_sum, nf);
+  const double up_len = norm(up);
+  if (up_len > 1e-12 && std::isfinite(up_len)) {
+    up = up * (1.0 / up_len);
+  } else {  // vertex directions cancel out (next to a singularity): corner 0's, else any
+    up = normalized_or(project_to_plane(up_of(cv[0]), nf), any_perpendicular(nf));
+  }
+  V3 right = cross(up, nf);
+  const double s = scale * mult / n;
+  V3 origin = v3(m.positions + 3 * size_t(cv[0]));
+  for (int32_t i = 0; i < n; ++i) {
+    V3 e = v3(m.positions + 3 * size_t(cv[i])) - origin;
+    xy[2 * i] = float(dot(e, right) * s);
+    xy[2 * i + 1] = float(-dot(e, up) * s);
+  }
+}
+
+}  // namespace texsynth

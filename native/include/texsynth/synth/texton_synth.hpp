@@ -1,0 +1,166 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+// Texton-string patch synthesis per polygon (Magda & Kriegman 2003, §3.2–3.3).
+//
+// Every polygon gets one similarity map into the ORIGINAL sample: rotation and scale from the
+// shared face frame (face_frame.hpp: averaged orientation, scale × mean vertex multiplier),
+// translation found by search. Faces are grown breadth-first over shared edges from a seeded
+// random face per face-connected component, so each searched face touches a textured one.
+//
+// Search (§3.2.2): along every edge shared with a textured neighbour, points at texel spacing of
+// the new face's texture space are mapped into the neighbour's mapping (both maps are affine on
+// the edge, so that is linear interpolation of the edge's texel ends) and the label of the texel
+// there is recorded with its offset from the face's corner 0: the texton string S.
+// Origins are searched on the integer grid shifted by the fractional part of the origin the first
+// neighbour predicts, so exact continuation is one of the candidates. Offsets are stored as
+// floor(phase + offset), making label look-ups exact integer additions. Voting N[B[S_t[k]] - S_o[k]]
+// (Fig. 4) by at most max_vote_points string points, the rarest textons first (small buckets are
+// the most telling and the cheapest), within a budget of max_votes bucket entries (one point with a
+// strided bucket when even its bucket is larger), into sparse uint8 counters reset through a
+// touched list, gives the top_m origins (count ties broken by a seeded hash); Eq. 2 over the FULL
+// string picks among them, uniformly at random among near-ties (E <= E_min·(1 + tie_tolerance)).
+// Candidates keep the whole polygon inside the sample (wrap when tileable).
+//
+// Blend sets (edge blending, §3.3.1), in the CornerMaps contract (shader: Σ w_s·tex(uv_s) +
+// (1 - Σ w_s)·tex(base_uv)), S = 3 when all polygons are triangles, else 4:
+//  - triangle: set k = the neighbour's mapping across the edge OPPOSITE corner k, extended over
+//    this face (the similarity taking this face's edge to the neighbour's texel edge).
+//  - quad / n-gon: set k (k < 4) = the neighbour across edge k (corner k -> k+1); n-gon edges
+//    beyond the fourth are not blended (UV-map budget: base + 4 sets + Blender's 8 maps).
+//  - weight of a set: kBlendEdgeWeight (1/3) at the two corners of its edge, 0 at the others, so
+//    Blender's linear interpolation fades it from the edge toward the opposite corner. 1/3 makes
+//    the base and the across-edge mapping weigh the same (1/3 each) on the edge from both sides:
+//    those two terms then agree across the seam; the base keeps ≥ 1/3 everywhere.
+//  - unblended set (boundary edge, edge below the Φ threshold, or - non-tileable samples - the
+//    extension would leave the sample and be clamped, smearing it): uv = base, weight 0. With blend = false, S = 1 (the base mapping, weight 1), as the jump-map method.
+//
+// E_t per edge (§3.3.2): mean Euclidean colour distance between the two sides' base mappings at
+// points spaced one texel along the edge (bilinear sample look-up, texel centres at +0.5, clamped
+// or wrapped). Boundary edges: 0; non-manifold edges: max over (first face, other face) pairs.
+// Φ = λ·E_t·d/‖v − m‖ (Eq. 3–4), d = edge length, m = edge midpoint, v = camera (object space).
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include "texsynth/mesh/mesh.hpp"
+#include "texsynth/preprocess/preprocessed.hpp"
+#include "texsynth/synth/corner_maps.hpp"
+
+namespace texsynth {
+
+constexpr float kBlendEdgeWeight = 1.f / 3.f;
+
+// Undirected edges of a mesh and the corners that use them.
+struct MeshEdges {
+  std::vector<int32_t> vertices;      // num_edges*2, (a, b) with a < b, sorted
+  std::vector<int32_t> corner_edge;   // per corner: edge from this corner's vertex to the next corner's; -1 if equal
+  std::vector<int32_t> corner_poly;   // per corner: its polygon
+  std::vector<int32_t> edge_corner_start;  // num_edges + 1 (CSR)
+  std::vector<int32_t> edge_corners;       // corners c with corner_edge[c] == e
+  int32_t num_edges() const { return int32_t(vertices.size() / 2); }
+};
+MeshEdges build_mesh_edges(const Mesh& mesh);
+
+// A sample image as given to preprocess: height*width*channels floats, row 0 = top.
+struct SampleImage {
+  const float* pixels = nullptr;
+  int32_t width = 0, height = 0, channels = 0;
+};
+
+// E_t per edge for ANY per-corner base UVs (Blender UVs into the sample). Throws
+// std::invalid_argument on non-finite UVs or pixels.
+std::vector<float> edge_continuity_error(const Mesh& mesh, const MeshEdges& edges, const float* base_uv,
+                                         const SampleImage& sample, bool tileable);
+
+struct SearchParams {
+  int top_m = 16;            // candidates refined with Eq. 2 (1..64)
+  int max_vote_points = 16;  // string points that vote, rarest textons first (1..255); Eq. 2 uses all
+  int max_votes = 1024;      // vote budget per search (bucket entries visited); >= 1
+  double tie_tolerance = 0.05;  // relative Eq. 2 tolerance for the random near-tie choice (>= 0)
+};
+
+struct TextonSynthParams {
+  double scale = 0.0;  // texels per object unit (> 0)
+  uint64_t seed = 0;
+  bool blend = true;
+  const float* scale_multiplier = nullptr;  // optional, num_vertices floats > 0 (borrowed)
+  bool allow_oversized = false;
+  SearchParams search;
+  // Blending metric: with has_camera, edge_phi = λ·E_t·d/‖v − m‖; with a finite blend_threshold
+  // (needs the camera) only edges with Φ > threshold are blended.
+  bool has_camera = false;
+  double camera[3] = {0, 0, 0};
+  double blend_threshold = std::numeric_limits<double>::quiet_NaN();
+  double lambda = 1.0;
+};
+
+struct TextonSynthStats {
+  int64_t faces = 0, vertices = 0, corners = 0, components = 0;  // components: face-connected
+  int64_t searched_faces = 0;    // faces placed by the texton-string search
+  int64_t fallback_faces = 0;    // faces with textured neighbours but no valid voted origin
+  int64_t oversized_faces = 0;
+  double max_oversize_ratio = 0;
+  int64_t blended_edges = 0;
+  int64_t clipped_blend_sets = 0;  // blend sets left unblended on one side: the extension leaves the sample
+  double seconds = 0;
+};
+
+struct TextonSynthResult {
+  CornerMaps maps;
+  TextonSynthStats stats;
+  MeshEdges edges;
+  std::vector<float> edge_error;       // E_t per edge
+  std::vector<float> edge_phi;         // Φ per edge, NaN without a camera
+  std::vector<uint8_t> edge_blended;   // 1 when the edge is blended (interior, blend, Φ test passed)
+};
+
+// `orientation`: num_vertices*3 unit tangent "up" vectors (compute_orientation_field).
+// `sample`: the image given to preprocess (same width/height), for E_t.
+// Throws std::invalid_argument on bad parameters, an inconsistent Preprocessed or sample, or
+// oversized faces (unless allow_oversized).
+TextonSynthResult synthesize_texton(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
+                                    const SampleImage& sample, const TextonSynthParams& params);
+
+// ---- search primitives (exposed for tests and benchmarks)
+
+// Texton string with integer offsets relative to the searched integer origin.
+struct TextonString {
+  std::vector<int32_t> label, dx, dy;
+  void clear() { label.clear(), dx.clear(), dy.clear(); }
+  size_t size() const { return label.size(); }
+};
+
+// Appends the points of one edge: o_a, o_b = edge ends as offsets from the new face's corner 0
+// (its texture space), t_a, t_b = the same vertices in the neighbour's texel coordinates,
+// phase = fractional origin shift in [0, 1)². Labels are read at the nearest texel (clamped, or
+// wrapped when the Preprocessed is tileable).
+void append_edge_string(const Preprocessed& pre, const float o_a[2], const float o_b[2], const float t_a[2],
+                        const float t_b[2], const float phase[2], TextonString& out);
+
+// Inclusive integer origin range; wrap = tileable (the range is then the whole sample).
+struct OriginRange {
+  int32_t x0 = 0, x1 = -1, y0 = 0, y1 = -1;
+  bool wrap = false;
+};
+
+// Eq. 2: Σ_k dist(τ[origin + S_o[k]], S_t[k]) (look-ups clamped, or wrapped when range.wrap).
+double string_error(const Preprocessed& pre, const TextonString& s, int32_t x, int32_t y, bool wrap);
+
+// Voting + top-m + Eq. 2 search with reusable scratch (one per thread). Not thread-safe.
+class TextonSearch {
+ public:
+  explicit TextonSearch(const Preprocessed& pre);
+  // Returns false when no string point votes for an origin inside `range`.
+  bool search(const TextonString& s, const OriginRange& range, const SearchParams& params, uint64_t tie_seed,
+              int32_t& x, int32_t& y, double& error);
+
+ private:
+  const Preprocessed& pre_;
+  int32_t stride_ = 0;
+  std::vector<uint8_t> counts_;        // (W+2)*(H+2), origin (x, y) at (y+1)*stride + x+1 (<= 255 voters)
+  std::vector<int32_t> touched_;
+  std::vector<uint32_t> voters_;
+  std::vector<int16_t> bucket_x_, bucket_y_;  // per bucket_pixels entry
+};
+
+}  // namespace texsynth

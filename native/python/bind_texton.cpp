@@ -1,0 +1,163 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <cmath>
+
+#include "field_args.hpp"
+#include "texsynth/mesh/mesh.hpp"
+#include "texsynth/preprocess/preprocessed.hpp"
+#include "texsynth/synth/texton_synth.hpp"
+
+namespace py = pybind11;
+using namespace texsynth_py;
+
+namespace {
+
+// (H, W) or (H, W, C) float pixels; the array keeps them alive.
+texsynth::SampleImage sample_image(const FloatArray& a) {
+  if (a.ndim() != 2 && a.ndim() != 3)
+    throw std::invalid_argument("sample_pixels must have shape (H, W) or (H, W, C), got " + std::to_string(a.ndim()) + " dims");
+  texsynth::SampleImage s;
+  s.pixels = a.data();
+  s.height = checked_count(a.shape(0), "sample_pixels");
+  s.width = checked_count(a.shape(1), "sample_pixels");
+  s.channels = a.ndim() == 3 ? checked_count(a.shape(2), "sample_pixels") : 1;
+  return s;
+}
+
+py::array_t<int32_t> edge_vertex_array(std::vector<int32_t>&& v) {
+  const py::ssize_t E = py::ssize_t(v.size() / 2);
+  return to_numpy(std::move(v), {E, 2});
+}
+
+}  // namespace
+
+void bind_texton(py::module_& m) {
+  m.def(
+      "synthesize_texton",
+      [](const texsynth::Preprocessed& pre, py::object sample_pixels, py::object positions, py::object corner_verts,
+         py::object poly_starts, py::object poly_sizes, double scale, uint64_t seed, bool blend, int top_m,
+         int max_vote_points, int max_votes, double tie_tolerance, const std::string& orientation, py::object axis, py::object direction,
+         py::object anchor_vertices, py::object anchor_directions, py::object sources, py::object sinks,
+         py::object normals, py::object scale_multiplier, py::object camera_position, py::object blend_threshold,
+         double lambda, bool allow_oversized) {
+        MeshArrays arrays = mesh_arrays(positions, corner_verts, poly_starts, poly_sizes);
+        const int32_t nv = arrays.input.num_vertices;
+        FloatArray pixels = float_array(sample_pixels, "sample_pixels");
+        const texsynth::SampleImage sample = sample_image(pixels);
+        FloatArray normal_array = optional_vectors(normals, nv, "normals");
+        FieldArgs field = field_args(nv, orientation, axis, direction, anchor_vertices, anchor_directions, sources, sinks);
+        FloatArray multiplier;
+        if (!scale_multiplier.is_none()) {
+          multiplier = float_array(scale_multiplier, "scale_multiplier");
+          require_shape(multiplier, {nv}, "scale_multiplier");
+        }
+        texsynth::TextonSynthParams params;
+        params.scale = scale;
+        params.seed = seed;
+        params.blend = blend;
+        params.search.top_m = top_m;
+        params.search.max_vote_points = max_vote_points;
+        params.search.max_votes = max_votes;
+        params.search.tie_tolerance = tie_tolerance;
+        params.allow_oversized = allow_oversized;
+        params.lambda = lambda;
+        params.scale_multiplier = scale_multiplier.is_none() ? nullptr : multiplier.data();
+        if (!camera_position.is_none()) {
+          const texsynth::Vec3f c = vec3(camera_position, "camera_position");
+          params.has_camera = true;
+          params.camera[0] = c[0], params.camera[1] = c[1], params.camera[2] = c[2];
+        }
+        if (!blend_threshold.is_none()) {
+          params.blend_threshold = blend_threshold.cast<double>();
+          if (std::isnan(params.blend_threshold)) throw std::invalid_argument("blend_threshold must not be NaN");
+        }
+        texsynth::TextonSynthResult r;
+        {
+          py::gil_scoped_release release;
+          texsynth::Mesh mesh = texsynth::build_mesh(arrays.input, normals.is_none() ? nullptr : normal_array.data());
+          std::vector<float> up = texsynth::compute_orientation_field(mesh, field.params);
+          r = texsynth::synthesize_texton(pre, mesh, up.data(), sample, params);
+        }
+        const py::ssize_t L = r.maps.num_corners, S = r.maps.num_blend_sets, E = r.edges.num_edges();
+        // Per corner: the edge from this corner to the next (what the add-on shows as attributes).
+        std::vector<uint8_t> corner_blended(size_t(L), 0);
+        std::vector<float> corner_error(size_t(L), 0.f);
+        for (py::ssize_t c = 0; c < L; ++c) {
+          const int32_t e = r.edges.corner_edge[c];
+          if (e >= 0) corner_blended[c] = r.edge_blended[e], corner_error[c] = r.edge_error[e];
+        }
+        py::dict stats;
+        stats["faces"] = r.stats.faces;
+        stats["vertices"] = r.stats.vertices;
+        stats["corners"] = r.stats.corners;
+        stats["components"] = r.stats.components;
+        stats["searched_faces"] = r.stats.searched_faces;
+        stats["fallback_faces"] = r.stats.fallback_faces;
+        stats["oversized_faces"] = r.stats.oversized_faces;
+        stats["max_oversize_ratio"] = r.stats.max_oversize_ratio;
+        stats["blended_edges"] = r.stats.blended_edges;
+        stats["clipped_blend_sets"] = r.stats.clipped_blend_sets;
+        stats["seconds"] = r.stats.seconds;
+        py::dict out;
+        out["base_uv"] = to_numpy(std::move(r.maps.base_uv), {L, 2});
+        out["blend_uv"] = to_numpy(std::move(r.maps.blend_uv), {S, L, 2});
+        out["blend_weights"] = to_numpy(std::move(r.maps.blend_weights), {L, S});
+        out["num_blend_sets"] = r.maps.num_blend_sets;
+        out["stats"] = stats;
+        out["edge_vertices"] = edge_vertex_array(std::move(r.edges.vertices));
+        out["edge_error"] = to_numpy(std::move(r.edge_error), {E});
+        out["edge_phi"] = to_numpy(std::move(r.edge_phi), {E});
+        out["edge_blended"] = to_numpy(std::move(r.edge_blended), {E}).attr("astype")("bool");
+        out["corner_edge_blended"] = to_numpy(std::move(corner_blended), {L}).attr("astype")("bool");
+        out["corner_edge_error"] = to_numpy(std::move(corner_error), {L});
+        return out;
+      },
+      py::arg("pre"), py::arg("sample_pixels"), py::arg("positions"), py::arg("corner_verts"), py::arg("poly_starts"),
+      py::arg("poly_sizes"), py::kw_only(), py::arg("scale"), py::arg("seed") = 0, py::arg("blend") = true,
+      py::arg("top_m") = 16, py::arg("max_vote_points") = 16, py::arg("max_votes") = 1024,
+      py::arg("tie_tolerance") = 0.05,
+      py::arg("orientation") = "axis", py::arg("axis") = py::make_tuple(0.0, 0.0, 1.0), py::arg("direction") = py::none(),
+      py::arg("anchor_vertices") = py::none(), py::arg("anchor_directions") = py::none(), py::arg("sources") = py::none(),
+      py::arg("sinks") = py::none(), py::arg("normals") = py::none(), py::arg("scale_multiplier") = py::none(),
+      py::arg("camera_position") = py::none(), py::arg("blend_threshold") = py::none(), py::arg("lambda_") = 1.0,
+      py::arg("allow_oversized") = false,
+      "Texton-string patch synthesis (Magda & Kriegman 2003) on a Blender-layout mesh. sample_pixels: the (H, W[, C]) "
+      "float image given to preprocess (for E_t). scale = texels per object unit.\n"
+      "Returns dict with synthesize_jumpmap's keys (base_uv, blend_uv, blend_weights, num_blend_sets, stats) plus "
+      "edge_vertices (E, 2) int32, edge_error E_t (E,), edge_phi Φ = lambda_*E_t*d/|camera - midpoint| (E,; NaN "
+      "without camera_position), edge_blended (E,) bool, corner_edge_blended (L,) bool and corner_edge_error (L,) "
+      "for the edge from each corner to the next. blend_threshold (needs camera_position): blend only edges with "
+      "Φ > threshold. ValueError on bad input.");
+
+  m.def(
+      "edge_continuity_error",
+      [](py::object sample_pixels, py::object positions, py::object corner_verts, py::object poly_starts,
+         py::object poly_sizes, py::object base_uv, bool tileable) {
+        MeshArrays arrays = mesh_arrays(positions, corner_verts, poly_starts, poly_sizes);
+        FloatArray pixels = float_array(sample_pixels, "sample_pixels");
+        const texsynth::SampleImage sample = sample_image(pixels);
+        if (sample.channels < 1 || sample.channels > 4 || sample.width < 1 || sample.height < 1)
+          throw std::invalid_argument("sample_pixels must be a non-empty image with 1 to 4 channels");
+        for (py::ssize_t i = 0; i < pixels.size(); ++i)
+          if (!std::isfinite(pixels.data()[i])) throw std::invalid_argument("sample_pixels has NaN or infinite values");
+        FloatArray uv = float_array(base_uv, "base_uv");
+        require_shape(uv, {arrays.input.num_corners, 2}, "base_uv");
+        texsynth::MeshEdges edges;
+        std::vector<float> error;
+        {
+          py::gil_scoped_release release;
+          texsynth::Mesh mesh = texsynth::build_mesh(arrays.input);
+          edges = texsynth::build_mesh_edges(mesh);
+          error = texsynth::edge_continuity_error(mesh, edges, uv.data(), sample, tileable);
+        }
+        const py::ssize_t E = edges.num_edges();
+        return py::make_tuple(edge_vertex_array(std::move(edges.vertices)), to_numpy(std::move(error), {E}));
+      },
+      py::arg("sample_pixels"), py::arg("positions"), py::arg("corner_verts"), py::arg("poly_starts"),
+      py::arg("poly_sizes"), py::arg("base_uv"), py::kw_only(), py::arg("tileable") = false,
+      "Texture continuity error E_t per mesh edge for any method's base_uv (L, 2): mean colour distance along the edge "
+      "between the two faces' mappings (bilinear, texel spacing; boundary edges 0, non-manifold: worst pair). "
+      "Returns (edge_vertices (E, 2) int32 sorted, edge_error (E,) float32).");
+}

@@ -1,0 +1,540 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Texton-string patch synthesis per face, edge blending and the blending metric (Magda & Kriegman
+// §3.2–3.3). See texton_synth.hpp for the conventions.
+#include "texsynth/synth/texton_synth.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "texsynth/common/rng.hpp"
+#include "texsynth/mesh/vec_math.hpp"
+#include "texsynth/synth/face_frame.hpp"
+
+namespace texsynth {
+namespace {
+
+constexpr double kMaxOffset = 1e9;
+
+void validate_textons(const Preprocessed& pre) {
+  if (pre.width <= 0 || pre.height <= 0 || int64_t(pre.width) * pre.height > std::numeric_limits<int32_t>::max())
+    throw std::invalid_argument("preprocessed sample has an invalid size " + std::to_string(pre.width) + "x" +
+                                std::to_string(pre.height));
+  const int64_t pixels = int64_t(pre.width) * pre.height;
+  const int64_t K = pre.num_textons;
+  if (K < 1 || K > 65535) throw std::invalid_argument("preprocessed sample has " + std::to_string(K) + " textons");
+  if (int64_t(pre.texton_map.size()) != pixels || int64_t(pre.texton_distances.size()) != K * K ||
+      int64_t(pre.bucket_start.size()) != K + 1 || int64_t(pre.bucket_pixels.size()) != pixels)
+    throw std::invalid_argument("preprocessed texton data has inconsistent sizes (texton map, distance table, buckets)");
+  for (float d : pre.texton_distances)
+    if (!std::isfinite(d) || d < 0.f) throw std::invalid_argument("preprocessed texton distance table has a negative or non-finite entry");
+  if (pre.bucket_start[0] != 0 || pre.bucket_start[K] != pixels)
+    throw std::invalid_argument("preprocessed bucket array does not cover every pixel");
+  for (int64_t t = 0; t < K; ++t)
+    if (pre.bucket_start[t + 1] < pre.bucket_start[t]) throw std::invalid_argument("preprocessed bucket starts decrease");
+  for (int64_t p = 0; p < pixels; ++p)
+    if (pre.texton_map[p] < 0 || pre.texton_map[p] >= K)
+      throw std::invalid_argument("preprocessed texton map has label " + std::to_string(pre.texton_map[p]) +
+                                  " at pixel " + std::to_string(p) + ", outside [0, " + std::to_string(K) + ")");
+  for (int64_t t = 0; t < K; ++t) {
+    for (int32_t i = pre.bucket_start[t]; i < pre.bucket_start[t + 1]; ++i) {
+      const int32_t p = pre.bucket_pixels[i];
+      if (p < 0 || p >= pixels || pre.texton_map[p] != t)
+        throw std::invalid_argument("preprocessed bucket " + std::to_string(t) + " lists pixel " + std::to_string(p) +
+                                    " whose texton label differs");
+    }
+  }
+}
+
+void validate_sample(const Preprocessed& pre, const SampleImage& s) {
+  if (s.width != pre.width || s.height != pre.height)
+    throw std::invalid_argument("sample_pixels is " + std::to_string(s.width) + "x" + std::to_string(s.height) +
+                                " but the preprocessed sample is " + std::to_string(pre.width) + "x" +
+                                std::to_string(pre.height) + " (pass the image given to preprocess)");
+  if (s.channels < 1 || s.channels > 4) throw std::invalid_argument("sample_pixels must have 1 to 4 channels");
+  if (!s.pixels) throw std::invalid_argument("sample_pixels is missing");
+  const size_t n = size_t(s.width) * s.height * s.channels;
+  for (size_t i = 0; i < n; ++i)
+    if (!std::isfinite(s.pixels[i])) throw std::invalid_argument("sample_pixels has NaN or infinite values");
+}
+
+void validate_params(const Mesh& m, const float* orientation, const TextonSynthParams& p) {
+  if (!std::isfinite(p.scale) || p.scale <= 0 || p.scale > 1e30)
+    throw std::invalid_argument("scale (texels per object unit) must be finite, > 0 and <= 1e30");
+  if (p.search.top_m < 1 || p.search.top_m > 64) throw std::invalid_argument("top_m must be in [1, 64]");
+  if (p.search.max_vote_points < 1 || p.search.max_vote_points > 255)
+    throw std::invalid_argument("max_vote_points must be in [1, 255]");
+  if (p.search.max_votes < 1) throw std::invalid_argument("max_votes must be >= 1");
+  if (!(p.search.tie_tolerance >= 0 && p.search.tie_tolerance <= 1e6))
+    throw std::invalid_argument("tie_tolerance must be in [0, 1e6]");
+  if (!std::isfinite(p.lambda) || p.lambda < 0) throw std::invalid_argument("lambda_ must be finite and >= 0");
+  if (p.has_camera && !(std::isfinite(p.camera[0]) && std::isfinite(p.camera[1]) && std::isfinite(p.camera[2])))
+    throw std::invalid_argument("camera_position must be finite");
+  if (!std::isnan(p.blend_threshold)) {
+    if (!std::isfinite(p.blend_threshold)) throw std::invalid_argument("blend_threshold must be finite");
+    if (!p.has_camera) throw std::invalid_argument("blend_threshold needs camera_position");
+  }
+  if (m.num_vertices > 0 && !orientation) throw std::invalid_argument("orientation field is missing");
+  for (int64_t i = 0; i < int64_t(m.num_vertices) * 3; ++i)
+    if (!std::isfinite(orientation[i]))
+      throw std::invalid_argument("orientation of vertex " + std::to_string(i / 3) + " is NaN or infinite");
+  if (p.scale_multiplier)
+    for (int32_t v = 0; v < m.num_vertices; ++v)
+      if (!std::isfinite(p.scale_multiplier[v]) || p.scale_multiplier[v] <= 0.f)
+        throw std::invalid_argument("scale_multiplier of vertex " + std::to_string(v) + " must be finite and > 0");
+}
+
+// Bilinear colour at texel coordinate (x, y); texel centres at +0.5; clamped or wrapped.
+void bilinear(const SampleImage& s, bool wrap, double x, double y, float* out) {
+  const double fx = x - 0.5, fy = y - 0.5;
+  const double x0 = std::floor(fx), y0 = std::floor(fy);
+  const double tx = fx - x0, ty = fy - y0;
+  const int C = s.channels;
+  for (int c = 0; c < C; ++c) out[c] = 0.f;
+  for (int corner = 0; corner < 4; ++corner) {
+    double qx = x0 + (corner & 1), qy = y0 + (corner >> 1);
+    const double w = ((corner & 1) ? tx : 1 - tx) * ((corner >> 1) ? ty : 1 - ty);
+    if (wrap) {
+      qx -= s.width * std::floor(qx / s.width), qy -= s.height * std::floor(qy / s.height);
+      if (qx >= s.width) qx = 0;
+      if (qy >= s.height) qy = 0;
+    } else {
+      qx = std::clamp(qx, 0.0, double(s.width - 1)), qy = std::clamp(qy, 0.0, double(s.height - 1));
+    }
+    const float* px = s.pixels + (size_t(qy) * s.width + size_t(qx)) * C;
+    for (int c = 0; c < C; ++c) out[c] += float(w * px[c]);
+  }
+}
+
+// Texel coordinates of a corner from a Blender UV.
+inline void uv_to_texel(const float* uv, const SampleImage& s, double& x, double& y) {
+  x = double(uv[0]) * s.width;
+  y = (1.0 - double(uv[1])) * s.height;
+}
+
+// Corner of polygon `poly` (its first occurrence) at vertex v, or -1.
+inline int32_t corner_at(const Mesh& m, int32_t poly, int32_t v) {
+  const int32_t first = m.poly_starts[poly];
+  for (int32_t i = 0; i < m.poly_sizes[poly]; ++i)
+    if (m.corner_verts[first + i] == v) return first + i;
+  return -1;
+}
+
+}  // namespace
+
+MeshEdges build_mesh_edges(const Mesh& m) {
+  MeshEdges e;
+  // Edge ids: the CSR slots (a -> b) with a < b, numbered in order (so sorted by (a, b)).
+  std::vector<int32_t> slot_edge(m.neighbours.size(), -1);
+  for (int32_t a = 0; a < m.num_vertices; ++a)
+    for (int32_t k = m.neighbour_start[a]; k < m.neighbour_start[a + 1]; ++k)
+      if (m.neighbours[k] > a) {
+        slot_edge[k] = int32_t(e.vertices.size() / 2);
+        e.vertices.push_back(a), e.vertices.push_back(m.neighbours[k]);
+      }
+  const int32_t E = e.num_edges();
+  e.corner_edge.assign(size_t(m.num_corners), -1);
+  e.corner_poly.assign(size_t(m.num_corners), -1);
+  e.edge_corner_start.assign(size_t(E) + 1, 0);
+  for (int32_t poly = 0; poly < m.num_polys; ++poly) {
+    const int32_t first = m.poly_starts[poly], n = m.poly_sizes[poly];
+    for (int32_t i = 0; i < n; ++i) {
+      const int32_t c = first + i;
+      e.corner_poly[c] = poly;
+      int32_t a = m.corner_verts[c], b = m.corner_verts[first + (i + 1) % n];
+      if (a == b) continue;
+      if (a > b) std::swap(a, b);
+      const int32_t* begin = m.neighbours.data() + m.neighbour_start[a];
+      const int32_t* end = m.neighbours.data() + m.neighbour_start[a + 1];
+      const int32_t* it = std::lower_bound(begin, end, b);
+      e.corner_edge[c] = slot_edge[it - m.neighbours.data()];
+      ++e.edge_corner_start[e.corner_edge[c] + 1];
+    }
+  }
+  for (int32_t i = 0; i < E; ++i) e.edge_corner_start[i + 1] += e.edge_corner_start[i];
+  e.edge_corners.resize(size_t(e.edge_corner_start[E]));
+  std::vector<int32_t> fill(e.edge_corner_start.begin(), e.edge_corner_start.end() - 1);
+  for (int32_t c = 0; c < m.num_corners; ++c)
+    if (e.corner_edge[c] >= 0) e.edge_corners[fill[e.corner_edge[c]]++] = c;
+  return e;
+}
+
+std::vector<float> edge_continuity_error(const Mesh& m, const MeshEdges& edges, const float* base_uv,
+                                         const SampleImage& s, bool tileable) {
+  for (int64_t i = 0; i < int64_t(m.num_corners) * 2; ++i)
+    if (!std::isfinite(base_uv[i]) || std::fabs(base_uv[i]) > 1e6f)
+      throw std::invalid_argument("base_uv of corner " + std::to_string(i / 2) + " is NaN, infinite or beyond 1e6");
+  const int32_t E = edges.num_edges();
+  std::vector<float> error(size_t(E), 0.f);
+  const int32_t max_points = 4 * std::max(s.width, s.height);
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, E, 1024), [&](const tbb::blocked_range<int32_t>& r) {
+    float ca[4], cb[4];
+    for (int32_t e = r.begin(); e < r.end(); ++e) {
+      const int32_t begin = edges.edge_corner_start[e], end = edges.edge_corner_start[e + 1];
+      if (end - begin < 2) continue;
+      const int32_t va = edges.vertices[2 * size_t(e)], vb = edges.vertices[2 * size_t(e) + 1];
+      auto ends = [&](int32_t corner, double* xy) {
+        const int32_t poly = edges.corner_poly[corner];
+        uv_to_texel(base_uv + 2 * size_t(corner_at(m, poly, va)), s, xy[0], xy[1]);
+        uv_to_texel(base_uv + 2 * size_t(corner_at(m, poly, vb)), s, xy[2], xy[3]);
+      };
+      double p[4], q[4];
+      ends(edges.edge_corners[begin], p);
+      float worst = 0.f;
+      for (int32_t j = begin + 1; j < end; ++j) {
+        ends(edges.edge_corners[j], q);
+        const double len = std::max(std::hypot(p[2] - p[0], p[3] - p[1]), std::hypot(q[2] - q[0], q[3] - q[1]));
+        const int32_t count = len < 1 ? 1 : len < max_points ? int32_t(std::ceil(len)) : max_points;
+        double sum = 0;
+        for (int32_t i = 0; i < count; ++i) {
+          const double t = (i + 0.5) / count;
+          bilinear(s, tileable, p[0] + t * (p[2] - p[0]), p[1] + t * (p[3] - p[1]), ca);
+          bilinear(s, tileable, q[0] + t * (q[2] - q[0]), q[1] + t * (q[3] - q[1]), cb);
+          double d2 = 0;
+          for (int c = 0; c < s.channels; ++c) d2 += double(ca[c] - cb[c]) * (ca[c] - cb[c]);
+          sum += std::sqrt(d2);
+        }
+        worst = std::max(worst, float(sum / count));
+      }
+      error[e] = worst;
+    }
+  });
+  return error;
+}
+
+namespace {
+
+class TextonSynthesizer {
+ public:
+  TextonSynthesizer(const Preprocessed& pre, const Mesh& m, const float* orientation, const SampleImage& sample,
+                    const TextonSynthParams& p)
+      : pre_(pre), m_(m), orientation_(orientation), sample_(sample), p_(p), W_(float(pre.width)),
+        H_(float(pre.height)), tileable_(pre.params.tileable) {}
+
+  TextonSynthResult run() {
+    TextonSynthResult r;
+    r.edges = build_mesh_edges(m_);
+    measure_faces(r.stats);
+    if (r.stats.oversized_faces > 0 && !p_.allow_oversized) {
+      std::ostringstream msg;
+      msg << r.stats.oversized_faces << " of " << m_.num_polys << " faces are larger than the " << pre_.width << "x"
+          << pre_.height << " sample at scale " << p_.scale << " texels/unit (worst face " << r.stats.max_oversize_ratio
+          << "x the sample); lower the scale by at least that factor, subdivide those faces, or pass allow_oversized=True";
+      throw std::invalid_argument(msg.str());
+    }
+    grow(r.edges, r.stats);
+    write_base(r.maps);
+    r.edge_error = edge_continuity_error(m_, r.edges, r.maps.base_uv.data(), sample_, tileable_);
+    blending_metric(r);
+    write_blend_sets(r);
+    r.stats.faces = m_.num_polys;
+    r.stats.vertices = m_.num_vertices;
+    r.stats.corners = m_.num_corners;
+    return r;
+  }
+
+ private:
+  // Pass 1 (parallel): per-corner offsets in the face frame, per-face bounding boxes.
+  void measure_faces(TextonSynthStats& st) {
+    offset_.resize(size_t(m_.num_corners) * 2);
+    box_.resize(size_t(m_.num_polys) * 4);
+    auto up_of = [&](int32_t v) {
+      V3 n = v3(&m_.normals[3 * size_t(v)]);
+      return normalized_or(project_to_plane(v3(orientation_ + 3 * size_t(v)), n), any_perpendicular(n));
+    };
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+      for (int32_t poly = r.begin(); poly < r.end(); ++poly) {
+        float* xy = &offset_[2 * size_t(m_.poly_starts[poly])];
+        face_texel_offsets(m_, poly, up_of, p_.scale, p_.scale_multiplier, xy);
+        float* b = &box_[4 * size_t(poly)];
+        b[0] = b[1] = b[2] = b[3] = 0.f;
+        for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i) {
+          b[0] = std::min(b[0], xy[2 * i]), b[1] = std::min(b[1], xy[2 * i + 1]);
+          b[2] = std::max(b[2], xy[2 * i]), b[3] = std::max(b[3], xy[2 * i + 1]);
+        }
+      }
+    });
+    for (int32_t poly = 0; poly < m_.num_polys; ++poly) {
+      const float* b = &box_[4 * size_t(poly)];
+      if (!(std::fabs(b[0]) <= kMaxOffset && std::fabs(b[1]) <= kMaxOffset && std::fabs(b[2]) <= kMaxOffset &&
+            std::fabs(b[3]) <= kMaxOffset))
+        throw std::invalid_argument("scale " + std::to_string(p_.scale) + " makes face " + std::to_string(poly) +
+                                    " span more than 1e9 texels");
+      const double ratio = std::max((b[2] - b[0]) / W_, (b[3] - b[1]) / H_);
+      st.max_oversize_ratio = std::max(st.max_oversize_ratio, ratio);
+      if (ratio > 1.0) ++st.oversized_faces;
+    }
+  }
+
+  // Integer origins keeping the face inside the sample for origin phase `ph` (centred when it can't).
+  OriginRange origin_range(int32_t poly, const float ph[2]) const {
+    OriginRange r;
+    if (tileable_) {
+      r.wrap = true, r.x1 = pre_.width - 1, r.y1 = pre_.height - 1;
+      return r;
+    }
+    const float* b = &box_[4 * size_t(poly)];
+    auto axis = [](float lo, float hi, float size, float phase, int32_t& a0, int32_t& a1) {
+      a0 = int32_t(std::ceil(-lo - phase)), a1 = int32_t(std::floor(size - hi - phase));
+      if (a1 < a0) a0 = a1 = int32_t(std::floor(0.5f * (size - hi - lo) - phase));
+    };
+    axis(b[0], b[2], W_, ph[0], r.x0, r.x1);
+    axis(b[1], b[3], H_, ph[1], r.y0, r.y1);
+    return r;
+  }
+
+  // Pass 2 (sequential, one RNG stream per face): breadth-first growth and search.
+  void grow(const MeshEdges& edges, TextonSynthStats& st) {
+    texel_.assign(size_t(m_.num_corners) * 2, 0.f);
+    textured_.assign(size_t(m_.num_polys), 0);
+    std::vector<uint8_t> state(size_t(m_.num_polys), 0);  // 0 new, 1 queued/visited, 2 textured
+    std::vector<int32_t> queue, component;
+    queue.reserve(size_t(m_.num_polys));
+    TextonSearch search(pre_);
+    TextonString string;
+    Rng component_rng(p_.seed, 0x636f6d70);  // "comp"
+    auto for_each_neighbour = [&](int32_t poly, auto&& fn) {
+      const int32_t first = m_.poly_starts[poly];
+      for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i) {
+        const int32_t e = edges.corner_edge[first + i];
+        if (e < 0) continue;
+        for (int32_t j = edges.edge_corner_start[e]; j < edges.edge_corner_start[e + 1]; ++j) {
+          const int32_t c = edges.edge_corners[j];
+          if (edges.corner_poly[c] != poly) fn(i, c);
+        }
+      }
+    };
+    std::vector<uint8_t> seen(size_t(m_.num_polys), 0);
+    for (int32_t start = 0; start < m_.num_polys; ++start) {
+      if (seen[start]) continue;
+      // Collect the face-connected component, then grow from a seeded random face in it.
+      component.assign(1, start);
+      seen[start] = 1;
+      for (size_t h = 0; h < component.size(); ++h)
+        for_each_neighbour(component[h], [&](int32_t, int32_t c) {
+          const int32_t g = edges.corner_poly[c];
+          if (!seen[g]) seen[g] = 1, component.push_back(g);
+        });
+      ++st.components;
+      queue.assign(1, component[component_rng.below(uint32_t(component.size()))]);
+      state[queue[0]] = 1;
+      for (size_t h = 0; h < queue.size(); ++h) {
+        const int32_t poly = queue[h];
+        place(poly, edges, search, string, st);
+        state[poly] = 2;
+        for_each_neighbour(poly, [&](int32_t, int32_t c) {
+          const int32_t g = edges.corner_poly[c];
+          if (state[g] == 0) state[g] = 1, queue.push_back(g);
+        });
+      }
+    }
+  }
+
+  void place(int32_t poly, const MeshEdges& edges, TextonSearch& search, TextonString& string, TextonSynthStats& st) {
+    const int32_t first = m_.poly_starts[poly], n = m_.poly_sizes[poly];
+    const float* off = &offset_[2 * size_t(first)];
+    const uint64_t face_seed = splitmix64(splitmix64(p_.seed ^ 0x7465787430000000ull) + uint64_t(poly));
+    string.clear();
+    bool predicted = false;
+    float phase[2] = {0.f, 0.f}, guess[2] = {0.f, 0.f};
+    for (int32_t i = 0; i < n; ++i) {
+      const int32_t e = edges.corner_edge[first + i];
+      if (e < 0) continue;
+      const int32_t va = m_.corner_verts[first + i];
+      const float* oa = off + 2 * i;
+      const float* ob = off + 2 * ((i + 1) % n);
+      for (int32_t j = edges.edge_corner_start[e]; j < edges.edge_corner_start[e + 1]; ++j) {
+        const int32_t c = edges.edge_corners[j];
+        const int32_t g = edges.corner_poly[c];
+        if (g == poly || !textured(g)) continue;
+        const int32_t c_next = m_.poly_starts[g] + (c - m_.poly_starts[g] + 1) % m_.poly_sizes[g];
+        const bool same = m_.corner_verts[c] == va;
+        const float* ta = &texel_[2 * size_t(same ? c : c_next)];
+        const float* tb = &texel_[2 * size_t(same ? c_next : c)];
+        if (!predicted) {  // origin the neighbour predicts: its edge similarity applied to offset 0
+          float q[2];
+          edge_similarity(oa, ob, ta, tb, q);
+          guess[0] = ta[0] - (q[0] * oa[0] - q[1] * oa[1]);
+          guess[1] = ta[1] - (q[1] * oa[0] + q[0] * oa[1]);
+          phase[0] = guess[0] - std::floor(guess[0]), phase[1] = guess[1] - std::floor(guess[1]);
+          if (!(phase[0] >= 0.f && phase[0] < 1.f)) phase[0] = 0.f;
+          if (!(phase[1] >= 0.f && phase[1] < 1.f)) phase[1] = 0.f;
+          predicted = true;
+        }
+        append_edge_string(pre_, oa, ob, ta, tb, phase, string);
+      }
+    }
+    const OriginRange range = origin_range(poly, phase);
+    int32_t ox = 0, oy = 0;
+    double err = 0;
+    if (predicted && search.search(string, range, p_.search, face_seed, ox, oy, err)) {
+      ++st.searched_faces;
+    } else if (predicted) {  // nothing voted inside the range: continue the neighbour, clamped into the sample
+      ++st.fallback_faces;
+      ox = int32_t(std::floor(std::clamp(guess[0], -1e9f, 1e9f))), oy = int32_t(std::floor(std::clamp(guess[1], -1e9f, 1e9f)));
+      if (!range.wrap) ox = std::clamp(ox, range.x0, range.x1), oy = std::clamp(oy, range.y0, range.y1);
+    } else {  // first face of a component: a random origin
+      Rng rng(face_seed, 0x73656564);  // "seed"
+      ox = range.x0 + int32_t(rng.below(uint32_t(range.x1 - range.x0 + 1)));
+      oy = range.y0 + int32_t(rng.below(uint32_t(range.y1 - range.y0 + 1)));
+    }
+    float X = float(ox) + phase[0], Y = float(oy) + phase[1];
+    if (tileable_) X -= W_ * std::floor(X / W_), Y -= H_ * std::floor(Y / H_);
+    for (int32_t i = 0; i < n; ++i) {
+      texel_[2 * size_t(first + i)] = X + off[2 * i];
+      texel_[2 * size_t(first + i) + 1] = Y + off[2 * i + 1];
+    }
+    textured_[poly] = 1;
+  }
+
+  bool textured(int32_t poly) const { return textured_[poly] != 0; }
+
+  // Complex ratio q = (tb - ta) / (ob - oa): the similarity taking this face's edge onto the
+  // neighbour's texel edge (identity for degenerate edges).
+  static void edge_similarity(const float* oa, const float* ob, const float* ta, const float* tb, float* q) {
+    const double ex = ob[0] - oa[0], ey = ob[1] - oa[1], fx = tb[0] - ta[0], fy = tb[1] - ta[1];
+    const double len2 = ex * ex + ey * ey;
+    if (!(len2 > 1e-12)) {
+      q[0] = 1.f, q[1] = 0.f;
+      return;
+    }
+    q[0] = float((fx * ex + fy * ey) / len2);
+    q[1] = float((fy * ex - fx * ey) / len2);
+  }
+
+  void texel_to_uv(float x, float y, float* uv) const {
+    if (!tileable_) x = std::clamp(x, 0.f, W_), y = std::clamp(y, 0.f, H_);
+    uv[0] = x / W_;
+    uv[1] = 1.f - y / H_;
+  }
+
+  void write_base(CornerMaps& out) const {
+    const size_t L = size_t(m_.num_corners);
+    out.num_corners = m_.num_corners;
+    out.base_uv.resize(L * 2);
+    for (size_t c = 0; c < L; ++c) texel_to_uv(texel_[2 * c], texel_[2 * c + 1], &out.base_uv[2 * c]);
+  }
+
+  void blending_metric(TextonSynthResult& r) const {
+    const int32_t E = r.edges.num_edges();
+    r.edge_phi.assign(size_t(E), std::numeric_limits<float>::quiet_NaN());
+    r.edge_blended.assign(size_t(E), 0);
+    const bool threshold = !std::isnan(p_.blend_threshold);
+    const V3 camera{p_.camera[0], p_.camera[1], p_.camera[2]};
+    for (int32_t e = 0; e < E; ++e) {
+      const V3 a = v3(m_.positions + 3 * size_t(r.edges.vertices[2 * size_t(e)]));
+      const V3 b = v3(m_.positions + 3 * size_t(r.edges.vertices[2 * size_t(e) + 1]));
+      double phi = std::numeric_limits<double>::quiet_NaN();
+      if (p_.has_camera) {
+        const double dist = norm(camera - (a + b) * 0.5);
+        const double num = p_.lambda * double(r.edge_error[e]) * norm(b - a);
+        phi = num == 0 ? 0.0 : dist > 0 ? num / dist : std::numeric_limits<double>::infinity();
+        r.edge_phi[e] = float(phi);
+      }
+      const bool interior = r.edges.edge_corner_start[e + 1] - r.edges.edge_corner_start[e] >= 2;
+      // Compare in float, as reported, so the flag agrees exactly with edge_phi > threshold.
+      r.edge_blended[e] = p_.blend && interior && (!threshold || r.edge_phi[e] > float(p_.blend_threshold));
+      r.stats.blended_edges += r.edge_blended[e];
+    }
+  }
+
+  // Pass 3 (parallel, each polygon writes its own corners): blend sets, see texton_synth.hpp.
+  void write_blend_sets(TextonSynthResult& r) const {
+    CornerMaps& out = r.maps;
+    const MeshEdges& edges = r.edges;
+    const int32_t S = !p_.blend ? 1 : m_.all_triangles() ? 3 : 4;
+    const size_t L = size_t(m_.num_corners);
+    out.num_blend_sets = S;
+    out.blend_uv.resize(size_t(S) * L * 2);
+    out.blend_weights.assign(L * S, 0.f);
+    std::atomic<int64_t> clipped_sets{0};
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 2048), [&](const tbb::blocked_range<int32_t>& range) {
+      for (int32_t poly = range.begin(); poly < range.end(); ++poly) {
+        const int32_t first = m_.poly_starts[poly], n = m_.poly_sizes[poly];
+        const float* off = &offset_[2 * size_t(first)];
+        for (int32_t set = 0; set < S; ++set) {
+          float* uv = out.blend_uv.data() + (size_t(set) * L + first) * 2;
+          std::copy(&out.base_uv[2 * size_t(first)], &out.base_uv[2 * size_t(first + n)], uv);
+          if (S == 1) {
+            for (int32_t i = 0; i < n; ++i) out.blend_weights[(first + i) * size_t(S)] = 1.f;
+            continue;
+          }
+          // The edge this set blends: opposite corner `set` (triangles), else edge `set`.
+          if (set >= n) continue;
+          const int32_t i = n == 3 ? (set + 1) % 3 : set;
+          const int32_t e = edges.corner_edge[first + i];
+          if (e < 0 || !r.edge_blended[e]) continue;
+          int32_t c = -1;  // the first other polygon on the edge
+          for (int32_t j = edges.edge_corner_start[e]; j < edges.edge_corner_start[e + 1] && c < 0; ++j)
+            if (edges.corner_poly[edges.edge_corners[j]] != poly) c = edges.edge_corners[j];
+          if (c < 0) continue;
+          const int32_t g = edges.corner_poly[c];
+          const int32_t c_next = m_.poly_starts[g] + (c - m_.poly_starts[g] + 1) % m_.poly_sizes[g];
+          const bool same = m_.corner_verts[c] == m_.corner_verts[first + i];
+          const float* ta = &texel_[2 * size_t(same ? c : c_next)];
+          const float* tb = &texel_[2 * size_t(same ? c_next : c)];
+          const float* oa = off + 2 * i;
+          float q[2];
+          edge_similarity(oa, off + 2 * ((i + 1) % n), ta, tb, q);
+          auto extended = [&](int32_t k, float& x, float& y) {
+            const float dx = off[2 * k] - oa[0], dy = off[2 * k + 1] - oa[1];
+            x = ta[0] + q[0] * dx - q[1] * dy, y = ta[1] + q[1] * dx + q[0] * dy;
+          };
+          bool inside = true;
+          for (int32_t k = 0; k < n && inside && !tileable_; ++k) {
+            float x, y;
+            extended(k, x, y);
+            inside = x >= 0.f && x <= W_ && y >= 0.f && y <= H_;
+          }
+          // An extension leaving a non-tileable sample would be clamped (smeared): this side keeps its base.
+          if (!inside) {
+            clipped_sets.fetch_add(1, std::memory_order_relaxed);
+            continue;
+          }
+          for (int32_t k = 0; k < n; ++k) {
+            float x, y;
+            extended(k, x, y);
+            texel_to_uv(x, y, uv + 2 * k);
+          }
+          out.blend_weights[(first + i) * size_t(S) + set] = kBlendEdgeWeight;
+          out.blend_weights[(first + (i + 1) % n) * size_t(S) + set] = kBlendEdgeWeight;
+        }
+      }
+    });
+    r.stats.clipped_blend_sets = clipped_sets.load();
+  }
+
+  const Preprocessed& pre_;
+  const Mesh& m_;
+  const float* orientation_;
+  const SampleImage& sample_;
+  const TextonSynthParams& p_;
+  const float W_, H_;
+  const bool tileable_;
+  std::vector<float> offset_;   // per corner: texel offset from its polygon's corner 0 (face frame)
+  std::vector<float> box_;      // per polygon: min x, min y, max x, max y of the offsets
+  std::vector<float> texel_;    // per corner: texel coordinate once its polygon is textured
+  std::vector<uint8_t> textured_;
+};
+
+}  // namespace
+
+TextonSynthResult synthesize_texton(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
+                                    const SampleImage& sample, const TextonSynthParams& params) {
+  const auto start = std::chrono::steady_clock::now();
+  validate_textons(pre);
+  validate_sample(pre, sample);
+  validate_params(mesh, orientation, params);
+  TextonSynthResult r = TextonSynthesizer(pre, mesh, orientation, sample, params).run();
+  r.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+}  // namespace texsynth
