@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # Builds the libFuzzer targets (clang, ASan+UBSan, build-asan/) and runs each for a bounded time.
 # Usage: scripts/fuzz.sh [SECONDS_PER_TARGET=25] [target ...]   (default: every fuzz_* target)
 # New inputs go to build-asan/fuzz-corpus/<target>/ (seeds: cpp_tests/fuzz/corpus/<target>/);

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
 # AddressSanitizer + UndefinedBehaviorSanitizer build (clang) of the native core, cpp_tests and the
 # libFuzzer targets in build-asan/ (no Python module, no benchmarks), then runs ctest there.
 # Usage: scripts/sanitize.sh [--build-only]

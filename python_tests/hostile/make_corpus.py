@@ -352,6 +352,9 @@ def mesh_cases(out):
         for scale in (4.0, 1e-3):  # 1e-3: every face is far below a texel
             cases.append(dict(id="mesh/%s@scale=%g" % (name, scale), kind="mesh", mesh="meshes/%s.npz" % name,
                               params=dict(scale=scale), expect=expect))
+        # The texton method (Magda & Kriegman) on the same meshes.
+        cases.append(dict(id="texton/%s" % name, kind="texton", mesh="meshes/%s.npz" % name,
+                          params=dict(scale=4.0), expect=expect))
     for name, arrays in shape_mismatches().items():
         np.savez(os.path.join(d, name + ".npz"), **arrays)
         cases.append(dict(id="mesh/" + name, kind="mesh", mesh="meshes/%s.npz" % name, params=dict(scale=4.0),

@@ -129,9 +129,9 @@ class Runner:
             return "loaded"
         if kind == "cache_dir":
             return self.cache_dir_case(case)
-        if kind in ("mesh", "synth"):
+        if kind in ("mesh", "synth", "texton"):
             arrays = dict(np.load(self.path(case["mesh"])))
-            return self.synthesize(arrays, dict(case["params"]))
+            return self.synthesize(arrays, dict(case["params"]), texton=kind == "texton")
         if kind == "huge_mesh":
             return self.huge(case)
         if os.environ.get("TEXSYNTH_HOSTILE_SELF_TEST") == "1":  # proves the parent detects these
@@ -154,7 +154,10 @@ class Runner:
             raise PartialWrite("stray files %s" % listing(folder))
         return pre.cache_status
 
-    def synthesize(self, arrays, params):
+    def sample_pixels(self):
+        return self.native.load_image(self.path("images/sample.png"))
+
+    def synthesize(self, arrays, params, texton=False):
         nv = arrays["positions"].shape[0] if arrays["positions"].ndim == 2 else 0
         for key in ("direction", "scale_multiplier", "normals"):
             if isinstance(params.get(key), str):
@@ -163,12 +166,15 @@ class Runner:
         before = digest(*inputs, *[v for v in params.values() if isinstance(v, np.ndarray)])
         try:
             info = self.native.mesh_info(*inputs)
-            result = self.native.synthesize_jumpmap(self.sample(), *inputs, **params)
+            if texton:
+                result = self.native.synthesize_texton(self.sample(), self.sample_pixels(), *inputs, **params)
+            else:
+                result = self.native.synthesize_jumpmap(self.sample(), *inputs, **params)
         finally:
             if digest(*inputs, *[v for v in params.values() if isinstance(v, np.ndarray)]) != before:
                 raise PartialWrite("input arrays were modified")
         check_synth(result, info["corners"])
-        return "%d faces, %d jumps" % (info["faces"], result["stats"]["jumps"])
+        return "%d faces, %d jumps" % (info["faces"], result["stats"].get("jumps", -1))
 
     def huge(self, case):
         faces = case["faces"]
