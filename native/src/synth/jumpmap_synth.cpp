@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Jump-map synthesis on meshes (Zelinka & Garland §4.2–4.4). See jumpmap_synth.hpp for conventions.
 #include "texsynth/synth/jumpmap_synth.hpp"
+#include "texsynth/synth/face_frame.hpp"
 
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
@@ -147,41 +148,9 @@ class Synthesizer {
     });
   }
 
-  // Texel offsets of a polygon's corners relative to its corner 0, in the polygon's own frame:
-  // an exact similarity of the polygon's projection onto its plane.
+  // Texel offsets of a polygon's corners relative to its corner 0 (shared with the texton synthesizer).
   void face_offsets(int32_t poly, float* xy) const {
-    const int32_t* cv = m_.corner_verts + m_.poly_starts[poly];
-    const int32_t n = m_.poly_sizes[poly];
-    V3 up_sum;
-    double mult = 0;
-    for (int32_t i = 0; i < n; ++i) {
-      up_sum = up_sum + v3(state_[cv[i]].up);
-      mult += multiplier(cv[i]);
-    }
-    V3 nf = newell_vector(m_.positions, cv, n);
-    const double area2 = norm(nf);
-    if (area2 > 1e-30 && std::isfinite(area2)) {
-      nf = nf * (1.0 / area2);
-    } else {  // zero-area polygon: its vertices' normals, which are always defined
-      V3 normal_sum;
-      for (int32_t i = 0; i < n; ++i) normal_sum = normal_sum + v3(&m_.normals[3 * size_t(cv[i])]);
-      nf = normalized_or(normal_sum, V3{0, 0, 1});
-    }
-    V3 up = project_to_plane(up_sum, nf);
-    const double up_len = norm(up);
-    if (up_len > 1e-12 && std::isfinite(up_len)) {
-      up = up * (1.0 / up_len);
-    } else {  // vertex directions cancel out (next to a singularity): corner 0's, else any
-      up = normalized_or(project_to_plane(v3(state_[cv[0]].up), nf), any_perpendicular(nf));
-    }
-    V3 right = cross(up, nf);
-    const double s = p_.scale * mult / n;
-    V3 origin = pos(cv[0]);
-    for (int32_t i = 0; i < n; ++i) {
-      V3 e = pos(cv[i]) - origin;
-      xy[2 * i] = float(dot(e, right) * s);
-      xy[2 * i + 1] = float(-dot(e, up) * s);
-    }
+    face_texel_offsets(m_, poly, [this](int32_t v) { return v3(state_[v].up); }, p_.scale, p_.scale_multiplier, xy);
   }
 
   // Texel-space bounds of polygon `poly`'s corner offsets, including corner 0's (0, 0).
