@@ -12,6 +12,7 @@ created is removed and every layer overwritten is restored, leaving the mesh byt
 """
 import os
 
+import bpy
 import numpy as np
 
 from . import pipeline
@@ -30,18 +31,29 @@ class MeshWriteError(RuntimeError):
     """Writing failed; the mesh has been restored."""
 
 
+# Blender before 3.6 stores corner vertices and polygon offsets as unsigned ints (MLoop, MPoly):
+# foreach_get copies them in one block only into a uint32 buffer; an int32 buffer takes the
+# per-item path, 20-40x slower (0.23 s vs 0.01 s for 3.4M corners). Later versions store int32.
+INDEX_READ_DTYPE = np.uint32 if bpy.app.version < (3, 6, 0) else np.int32
+
+
+def read_indices(collection, name, count):
+    """An index property of every item as int32 (a uint32 buffer viewed as int32, no copy: a value
+    above 2**31 - 1 turns negative and the native validation refuses it)."""
+    values = np.empty(count, dtype=INDEX_READ_DTYPE)
+    collection.foreach_get(name, values)
+    return values.view(np.int32)
+
+
 def read_mesh(obj, direction_attribute=""):
     """MeshArrays of obj's base mesh in world space (positions transformed by matrix_world)."""
     mesh = obj.data
     num_vertices, num_corners, num_polys = len(mesh.vertices), len(mesh.loops), len(mesh.polygons)
     local = np.empty(num_vertices * 3, dtype=np.float32)
     mesh.vertices.foreach_get("co", local)
-    corner_verts = np.empty(num_corners, dtype=np.int32)
-    mesh.loops.foreach_get("vertex_index", corner_verts)
-    poly_starts = np.empty(num_polys, dtype=np.int32)
-    mesh.polygons.foreach_get("loop_start", poly_starts)
-    poly_sizes = np.empty(num_polys, dtype=np.int32)
-    mesh.polygons.foreach_get("loop_total", poly_sizes)
+    corner_verts = read_indices(mesh.loops, "vertex_index", num_corners)
+    poly_starts = read_indices(mesh.polygons, "loop_start", num_polys)
+    poly_sizes = read_indices(mesh.polygons, "loop_total", num_polys)
 
     matrix = np.array(obj.matrix_world, dtype=np.float64)
     positions = local.reshape(-1, 3)

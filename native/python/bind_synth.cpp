@@ -37,15 +37,21 @@ void bind_synth(py::module_& m) {
         params.allow_oversized = allow_oversized;
         params.scale_multiplier = scale_multiplier.is_none() ? nullptr : multiplier.data();
         params.cancel = field.params.cancel = cancel_flag(cancel);
+        // Outputs allocated here (uninitialised) and written once by the core, no copies.
+        const py::ssize_t L = arrays.input.num_corners;
+        const int32_t S = texsynth::jumpmap_blend_sets(arrays.input.poly_sizes, arrays.input.num_polys, blend);
+        py::array_t<float> base_uv({L, py::ssize_t(2)}), blend_uv({py::ssize_t(S), L, py::ssize_t(2)}),
+            blend_weights({L, py::ssize_t(S)});
+        const texsynth::CornerMapsView view{arrays.input.num_corners, S, base_uv.mutable_data(), blend_uv.mutable_data(),
+                                            blend_weights.mutable_data()};
         texsynth::JumpSynthResult r;
         {
           py::gil_scoped_release release;
           texsynth::Mesh mesh =
               texsynth::build_mesh(arrays.input, normals.is_none() ? nullptr : normal_array.data(), params.cancel);
           std::vector<float> up = texsynth::compute_orientation_field(mesh, field.params);
-          r = texsynth::synthesize_jumpmap(pre, mesh, up.data(), params);
+          r = texsynth::synthesize_jumpmap(pre, mesh, up.data(), params, view);
         }
-        const py::ssize_t L = r.maps.num_corners, S = r.maps.num_blend_sets;
         py::dict stats;
         stats["faces"] = r.stats.faces;
         stats["vertices"] = r.stats.vertices;
@@ -58,10 +64,10 @@ void bind_synth(py::module_& m) {
         stats["max_oversize_ratio"] = r.stats.max_oversize_ratio;
         stats["seconds"] = r.stats.seconds;
         py::dict out;
-        out["base_uv"] = to_numpy(std::move(r.maps.base_uv), {L, 2});
-        out["blend_uv"] = to_numpy(std::move(r.maps.blend_uv), {S, L, 2});
-        out["blend_weights"] = to_numpy(std::move(r.maps.blend_weights), {L, S});
-        out["num_blend_sets"] = r.maps.num_blend_sets;
+        out["base_uv"] = base_uv;
+        out["blend_uv"] = blend_uv;
+        out["blend_weights"] = blend_weights;
+        out["num_blend_sets"] = S;
         out["stats"] = stats;
         return out;
       },

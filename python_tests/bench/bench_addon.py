@@ -101,13 +101,17 @@ def main():
     synthesis.preprocess(synthesis.Sample(path=props.sample_path), settings, cache_dir)
     texsynth.properties.cache_dir = lambda context: cache_dir  # the operator uses the warm bench cache
 
-    operator_runs, breakdowns, smart_runs = [], [], []
+    operator_runs, undo_runs, breakdowns, smart_runs = [], [], [], []
     for run in range(args.repeat):
         target = copy_of(source, "Operator%d" % run)
         harness.select_only([target])
         start = time.perf_counter()
         assert bpy.ops.texsynth.synthesize() == {"FINISHED"}
         operator_runs.append(time.perf_counter() - start)
+        # What the operator's UNDO flag costs on top of the job: one more global undo step of the scene.
+        start = time.perf_counter()
+        bpy.ops.ed.undo_push(message="bench")
+        undo_runs.append(time.perf_counter() - start)
 
         target = copy_of(source, "Breakdown%d" % run)
         report = synthesis.synthesize([target], synthesis.Sample(path=props.sample_path), settings, cache_dir)
@@ -123,6 +127,8 @@ def main():
     print("  breakdown (direct call): read %.3f s, native %.3f s, write %.3f s, material %.3f s, "
           "preprocess (cache hit) %.3f s, total %.3f s" % (last["read"], last["synthesis"], last["write"],
                                                            last["material"], last["preprocess"], last["total"]))
+    print("  undo push after the operator (part of the operator time, Blender's): %.3f s (median)"
+          % statistics.median(undo_runs))
     print("  all runs: operator %s, smart %s" % (["%.3f" % t for t in operator_runs], ["%.3f" % t for t in smart_runs]))
     del pipeline
 

@@ -138,6 +138,8 @@ def test_read_mesh_is_world_space():
     assert np.array_equal(arrays.corner_verts, [l.vertex_index for l in obj.data.loops])
     assert np.array_equal(arrays.poly_starts, [p.loop_start for p in obj.data.polygons])
     assert np.array_equal(arrays.poly_sizes, [p.loop_total for p in obj.data.polygons])
+    # The fast raw reads (uint32 buffers on Blender 3.x) must still hand int32 to the native module.
+    assert all(a.dtype == np.int32 for a in (arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes))
 
 
 def test_synthesize_cube():

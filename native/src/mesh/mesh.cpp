@@ -56,67 +56,89 @@ void validate(const PolyMeshInput& in, const float* normals) {
 }
 
 template <class F>
-void for_each_poly_edge(const Mesh& m, F&& f, const std::atomic<bool>* cancel) {
-  for (int32_t p = 0; p < m.num_polys; ++p) {
-    if ((p & 0xFFFF) == 0) throw_if_cancelled(cancel);
-    const int32_t* cv = m.corner_verts + m.poly_starts[p];
-    const int32_t n = m.poly_sizes[p];
-    for (int32_t i = 0; i < n; ++i) {
-      int32_t a = cv[i], b = cv[i + 1 == n ? 0 : i + 1];
-      if (a != b) f(a, b);
-    }
-  }
+void parallel_range(int32_t n, int32_t grain, const std::atomic<bool>* cancel, F&& f) {
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, n, grain), [&](const tbb::blocked_range<int32_t>& r) {
+    throw_if_cancelled(cancel);
+    for (int32_t i = r.begin(); i < r.end(); ++i) f(i);
+  });
 }
 
+// corner_poly (parallel per polygon) and the vertex -> corners CSR (a serial counting sort, so
+// each vertex's corners stay in ascending order whatever the thread count).
+void build_corner_tables(Mesh& m, const std::atomic<bool>* cancel) {
+  const int32_t nv = m.num_vertices, nc = m.num_corners;
+  m.corner_poly.resize(size_t(nc));
+  parallel_range(m.num_polys, 4096, cancel, [&](int32_t p) {
+    std::fill_n(m.corner_poly.begin() + m.poly_starts[p], m.poly_sizes[p], p);
+  });
+  m.vertex_corner_start.assign(size_t(nv) + 1, 0);
+  for (int32_t c = 0; c < nc; ++c) ++m.vertex_corner_start[m.corner_verts[c] + 1];
+  for (int32_t v = 0; v < nv; ++v) m.vertex_corner_start[v + 1] += m.vertex_corner_start[v];
+  throw_if_cancelled(cancel);
+  m.vertex_corners.resize(size_t(nc));
+  std::vector<int32_t> fill(m.vertex_corner_start.begin(), m.vertex_corner_start.end() - 1);
+  for (int32_t c = 0; c < nc; ++c) m.vertex_corners[fill[m.corner_verts[c]]++] = c;
+}
+
+// Distinct neighbours of v, sorted: each corner of v contributes its polygon's previous and next
+// vertex (unless they are v). Returns the count; ring holds at least 2 entries per corner of v.
+int32_t gather_ring(const Mesh& m, int32_t v, std::vector<int32_t>& ring) {
+  ring.resize(2 * size_t(m.vertex_corner_start[v + 1] - m.vertex_corner_start[v]));
+  int32_t* b = ring.data();
+  int32_t* e = b;
+  for (int32_t k = m.vertex_corner_start[v]; k < m.vertex_corner_start[v + 1]; ++k) {
+    const int32_t c = m.vertex_corners[k], p = m.corner_poly[c];
+    const int32_t first = m.poly_starts[p], n = m.poly_sizes[p], i = c - first;
+    const int32_t prev = m.corner_verts[first + (i == 0 ? n - 1 : i - 1)];
+    const int32_t next = m.corner_verts[first + (i + 1 == n ? 0 : i + 1)];
+    if (prev != v) *e++ = prev;
+    if (next != v) *e++ = next;
+  }
+  std::sort(b, e);
+  return int32_t(std::unique(b, e) - b);
+}
+
+// Two parallel gathers (count, then fill the CSR): recomputing the few entries per vertex is
+// cheaper than a temporary of 2 entries per corner that the kernel must hand out and zero.
 void build_one_rings(Mesh& m, const std::atomic<bool>* cancel) {
   const int32_t nv = m.num_vertices;
-  // Directed half-edges in both directions, bucketed by source vertex, then deduplicated per vertex.
-  std::vector<int32_t> start(size_t(nv) + 1, 0);
-  for_each_poly_edge(m, [&](int32_t a, int32_t b) { ++start[a + 1], ++start[b + 1]; }, cancel);
-  for (int32_t v = 0; v < nv; ++v) start[v + 1] += start[v];
-  std::vector<int32_t> ring(start[nv]);
-  {
-    std::vector<int32_t> fill(start.begin(), start.end() - 1);
-    for_each_poly_edge(m, [&](int32_t a, int32_t b) { ring[fill[a]++] = b, ring[fill[b]++] = a; }, cancel);
-  }
-  throw_if_cancelled(cancel);
-  std::vector<int32_t> unique_count(nv);
+  m.neighbour_start.resize(size_t(nv) + 1);
+  m.neighbour_start[0] = 0;
   tbb::parallel_for(tbb::blocked_range<int32_t>(0, nv, 4096), [&](const tbb::blocked_range<int32_t>& r) {
     throw_if_cancelled(cancel);
+    std::vector<int32_t> ring;
+    for (int32_t v = r.begin(); v < r.end(); ++v) m.neighbour_start[v + 1] = gather_ring(m, v, ring);
+  });
+  for (int32_t v = 0; v < nv; ++v) m.neighbour_start[v + 1] += m.neighbour_start[v];
+  m.neighbours.resize(m.neighbour_start[nv]);
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, nv, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+    throw_if_cancelled(cancel);
+    std::vector<int32_t> ring;
     for (int32_t v = r.begin(); v < r.end(); ++v) {
-      int32_t* b = ring.data() + start[v];
-      int32_t* e = ring.data() + start[v + 1];
-      std::sort(b, e);
-      unique_count[v] = int32_t(std::unique(b, e) - b);
+      const int32_t count = gather_ring(m, v, ring);
+      std::copy(ring.begin(), ring.begin() + count, m.neighbours.begin() + m.neighbour_start[v]);
     }
   });
-  m.neighbour_start.assign(size_t(nv) + 1, 0);
-  for (int32_t v = 0; v < nv; ++v) m.neighbour_start[v + 1] = m.neighbour_start[v] + unique_count[v];
-  m.neighbours.resize(m.neighbour_start[nv]);
-  for (int32_t v = 0; v < nv; ++v)
-    std::copy(ring.begin() + start[v], ring.begin() + start[v] + unique_count[v], m.neighbours.begin() + m.neighbour_start[v]);
 }
 
 void build_normals(Mesh& m, const float* given, const std::atomic<bool>* cancel) {
   const int32_t nv = m.num_vertices;
-  std::vector<double> acc(size_t(nv) * 3, 0.0);
-  for (int32_t p = 0; p < m.num_polys; ++p) {
-    if ((p & 0xFFFF) == 0) throw_if_cancelled(cancel);
-    // Newell's vector = 2 × area × unit normal: summing it weights faces by area.
-    const int32_t* cv = m.corner_verts + m.poly_starts[p];
-    const int32_t n = m.poly_sizes[p];
-    const V3 newell = newell_vector(m.positions, cv, n);
-    for (int32_t i = 0; i < n; ++i) {
-      double* a = &acc[3 * size_t(cv[i])];
-      a[0] += newell.x, a[1] += newell.y, a[2] += newell.z;
-    }
-  }
+  // Newell's vector = 2 × area × unit normal: summing it weights faces by area.
+  std::vector<V3> newell(size_t(m.num_polys));
+  parallel_range(m.num_polys, 4096, cancel, [&](int32_t p) {
+    newell[p] = newell_vector(m.positions, m.corner_verts + m.poly_starts[p], m.poly_sizes[p]);
+  });
   m.normals.resize(size_t(nv) * 3);
-  for (int32_t v = 0; v < nv; ++v) {
-    V3 computed = normalized_or(V3{acc[3 * v], acc[3 * v + 1], acc[3 * v + 2]}, V3{0, 0, 1}, 1e-30);
+  parallel_range(nv, 4096, cancel, [&](int32_t v) {
+    V3 acc;  // summed in ascending corner order: the same doubles whatever the thread count
+    for (int32_t k = m.vertex_corner_start[v]; k < m.vertex_corner_start[v + 1]; ++k) {
+      const V3& n = newell[m.corner_poly[m.vertex_corners[k]]];
+      acc.x += n.x, acc.y += n.y, acc.z += n.z;
+    }
+    V3 computed = normalized_or(acc, V3{0, 0, 1}, 1e-30);
     V3 nrm = given ? normalized_or(v3(given + 3 * size_t(v)), computed, 1e-30) : computed;
     store(&m.normals[3 * size_t(v)], nrm);
-  }
+  });
 }
 
 void build_components(Mesh& m, const std::atomic<bool>* cancel) {
@@ -170,6 +192,7 @@ Mesh build_mesh(const PolyMeshInput& in, const float* normals, const std::atomic
   m.corner_verts = in.corner_verts;
   m.poly_starts = in.poly_starts;
   m.poly_sizes = in.poly_sizes;
+  build_corner_tables(m, cancel);
   build_one_rings(m, cancel);
   throw_if_cancelled(cancel);
   build_normals(m, normals, cancel);

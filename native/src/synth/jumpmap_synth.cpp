@@ -1,17 +1,23 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Jump-map synthesis on meshes (Zelinka & Garland §4.2–4.4). See jumpmap_synth.hpp for conventions.
 #include "texsynth/synth/jumpmap_synth.hpp"
+#include "texsynth/synth/face_frame.hpp"
 
 #include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <new>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
@@ -21,6 +27,29 @@ namespace texsynth {
 namespace {
 
 constexpr double kMaxOffset = 1e9;
+
+// resize() without zero-filling: for buffers that a parallel pass overwrites completely, so the
+// pages are first touched (and zeroed by the kernel) by the worker threads, not by a serial memset.
+template <class T>
+struct UninitializedAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = UninitializedAllocator<U>;
+  };
+  UninitializedAllocator() = default;
+  template <class U>
+  UninitializedAllocator(const UninitializedAllocator<U>&) {}
+  template <class U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+template <class T>
+using UninitializedVector = std::vector<T, UninitializedAllocator<T>>;
 
 struct Box {  // texel-space offsets reachable from a vertex's address through its polygons
   float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
@@ -71,9 +100,8 @@ class Synthesizer {
     build_frames(orientation);
   }
 
-  JumpSynthResult run() {
+  JumpSynthResult run(const CornerMapsView& out) {
     JumpSynthResult r;
-    reach_.assign(m_.num_vertices, Box{});
     throw_if_cancelled(p_.cancel);
     measure_faces(r.stats);
     throw_if_cancelled(p_.cancel);
@@ -88,7 +116,7 @@ class Synthesizer {
     throw_if_cancelled(p_.cancel);
     walk(order, r.stats);
     throw_if_cancelled(p_.cancel);
-    write_corners(r.maps);
+    write_corners(out);
     throw_if_cancelled(p_.cancel);
     r.vertex_address.resize(size_t(m_.num_vertices) * 2);
     for (int32_t v = 0; v < m_.num_vertices; ++v)
@@ -120,74 +148,75 @@ class Synthesizer {
     });
   }
 
-  // Texel offsets of a polygon's corners relative to its corner 0, in the polygon's own frame:
-  // an exact similarity of the polygon's projection onto its plane.
+  // Texel offsets of a polygon's corners relative to its corner 0 (shared with the texton synthesizer).
   void face_offsets(int32_t poly, float* xy) const {
-    const int32_t* cv = m_.corner_verts + m_.poly_starts[poly];
-    const int32_t n = m_.poly_sizes[poly];
-    V3 up_sum;
-    double mult = 0;
-    for (int32_t i = 0; i < n; ++i) {
-      up_sum = up_sum + v3(state_[cv[i]].up);
-      mult += multiplier(cv[i]);
-    }
-    V3 nf = newell_vector(m_.positions, cv, n);
-    const double area2 = norm(nf);
-    if (area2 > 1e-30 && std::isfinite(area2)) {
-      nf = nf * (1.0 / area2);
-    } else {  // zero-area polygon: its vertices' normals, which are always defined
-      V3 normal_sum;
-      for (int32_t i = 0; i < n; ++i) normal_sum = normal_sum + v3(&m_.normals[3 * size_t(cv[i])]);
-      nf = normalized_or(normal_sum, V3{0, 0, 1});
-    }
-    V3 up = project_to_plane(up_sum, nf);
-    const double up_len = norm(up);
-    if (up_len > 1e-12 && std::isfinite(up_len)) {
-      up = up * (1.0 / up_len);
-    } else {  // vertex directions cancel out (next to a singularity): corner 0's, else any
-      up = normalized_or(project_to_plane(v3(state_[cv[0]].up), nf), any_perpendicular(nf));
-    }
-    V3 right = cross(up, nf);
-    const double s = p_.scale * mult / n;
-    V3 origin = pos(cv[0]);
-    for (int32_t i = 0; i < n; ++i) {
-      V3 e = pos(cv[i]) - origin;
-      xy[2 * i] = float(dot(e, right) * s);
-      xy[2 * i + 1] = float(-dot(e, up) * s);
-    }
+    face_texel_offsets(m_, poly, [this](int32_t v) { return v3(state_[v].up); }, p_.scale, p_.scale_multiplier, xy);
   }
 
-  // Pass 1: in-face corner offsets (parallel, per polygon), then per-vertex reach boxes
-  // (validity, §4.2.4) and oversized-face statistics.
+  // Texel-space bounds of polygon `poly`'s corner offsets, including corner 0's (0, 0).
+  Box face_box(int32_t poly) const {
+    const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
+    Box b;
+    for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i) {
+      b.min_x = std::min(b.min_x, xy[2 * i]), b.max_x = std::max(b.max_x, xy[2 * i]);
+      b.min_y = std::min(b.min_y, xy[2 * i + 1]), b.max_y = std::max(b.max_y, xy[2 * i + 1]);
+    }
+    return b;
+  }
+
+  // Pass 1: in-face corner offsets (parallel, per polygon), then per-vertex reach boxes (validity,
+  // §4.2.4; parallel, per vertex over its corners in ascending order, so the float min/max are the
+  // same whatever the thread count) and oversized-face statistics (exact max and count).
   void measure_faces(SynthStats& st) {
     corner_offset_.resize(size_t(m_.num_corners) * 2);
+    std::atomic<int32_t> first_huge_face{std::numeric_limits<int32_t>::max()};
+    const double w = pre_.width, h = pre_.height;
+    struct Oversize {
+      double max_ratio = 0;
+      int64_t count = 0;
+    };
+    tbb::combinable<Oversize> oversize;
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 4096), [&](const tbb::blocked_range<int32_t>& r) {
       throw_if_cancelled(p_.cancel);
-      for (int32_t poly = r.begin(); poly < r.end(); ++poly) face_offsets(poly, &corner_offset_[2 * size_t(m_.poly_starts[poly])]);
+      Oversize& local = oversize.local();
+      for (int32_t poly = r.begin(); poly < r.end(); ++poly) {
+        const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
+        face_offsets(poly, &corner_offset_[2 * size_t(m_.poly_starts[poly])]);
+        for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i)
+          // Beyond ~1e9 texels float addresses are meaningless; refuse even with allow_oversized.
+          if (!(std::fabs(xy[2 * i]) <= kMaxOffset && std::fabs(xy[2 * i + 1]) <= kMaxOffset)) {
+            int32_t seen = first_huge_face.load();
+            while (poly < seen && !first_huge_face.compare_exchange_weak(seen, poly)) {
+            }
+          }
+        const Box b = face_box(poly);
+        const double ratio = std::max((double(b.max_x) - b.min_x) / w, (double(b.max_y) - b.min_y) / h);
+        local.max_ratio = std::max(local.max_ratio, ratio);
+        if (ratio > 1.0) ++local.count;
+      }
     });
-    const double w = pre_.width, h = pre_.height;
-    for (int32_t poly = 0; poly < m_.num_polys; ++poly) {
-      if ((poly & 0xFFFF) == 0) throw_if_cancelled(p_.cancel);
-      const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
-      const int32_t n = m_.poly_sizes[poly];
-      double lo_x = 0, hi_x = 0, lo_y = 0, hi_y = 0;
-      for (int32_t i = 0; i < n; ++i) {
-        // Beyond ~1e9 texels float addresses are meaningless; refuse even with allow_oversized.
-        if (!(std::fabs(xy[2 * i]) <= kMaxOffset && std::fabs(xy[2 * i + 1]) <= kMaxOffset))
-          throw std::invalid_argument("scale " + std::to_string(p_.scale) + " makes face " + std::to_string(poly) +
-                                      " span more than 1e9 texels");
-        lo_x = std::min(lo_x, double(xy[2 * i])), hi_x = std::max(hi_x, double(xy[2 * i]));
-        lo_y = std::min(lo_y, double(xy[2 * i + 1])), hi_y = std::max(hi_y, double(xy[2 * i + 1]));
+    if (first_huge_face.load() < m_.num_polys)  // the lowest such face, as a serial loop would report
+      throw std::invalid_argument("scale " + std::to_string(p_.scale) + " makes face " +
+                                  std::to_string(first_huge_face.load()) + " span more than 1e9 texels");
+    oversize.combine_each([&](const Oversize& o) {
+      st.max_oversize_ratio = std::max(st.max_oversize_ratio, o.max_ratio);
+      st.oversized_faces += o.count;
+    });
+    reach_.resize(size_t(m_.num_vertices));
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+      throw_if_cancelled(p_.cancel);
+      for (int32_t v = r.begin(); v < r.end(); ++v) {
+        Box reach;
+        for (int32_t k = m_.vertex_corner_start[v]; k < m_.vertex_corner_start[v + 1]; ++k) {
+          const int32_t c = m_.vertex_corners[k];
+          const Box b = face_box(m_.corner_poly[c]);
+          const double x = corner_offset_[2 * size_t(c)], y = corner_offset_[2 * size_t(c) + 1];
+          reach.min_x = std::min(reach.min_x, float(b.min_x - x)), reach.max_x = std::max(reach.max_x, float(b.max_x - x));
+          reach.min_y = std::min(reach.min_y, float(b.min_y - y)), reach.max_y = std::max(reach.max_y, float(b.max_y - y));
+        }
+        reach_[v] = reach;
       }
-      double ratio = std::max((hi_x - lo_x) / w, (hi_y - lo_y) / h);
-      st.max_oversize_ratio = std::max(st.max_oversize_ratio, ratio);
-      if (ratio > 1.0) ++st.oversized_faces;
-      for (int32_t i = 0; i < n; ++i) {
-        Box& b = reach_[m_.corner_verts[m_.poly_starts[poly] + i]];
-        b.min_x = std::min(b.min_x, float(lo_x - xy[2 * i])), b.max_x = std::max(b.max_x, float(hi_x - xy[2 * i]));
-        b.min_y = std::min(b.min_y, float(lo_y - xy[2 * i + 1])), b.max_y = std::max(b.max_y, float(hi_y - xy[2 * i + 1]));
-      }
-    }
+    });
   }
 
   // Distance (texels) from the reach box placed at (x, y) to the nearest sample border; < 0 = invalid.
@@ -394,14 +423,9 @@ class Synthesizer {
 
   // Pass 3: consistent per-polygon coordinates and blend sets (§4.3–4.4). Each polygon writes only
   // its own corners, so this is order-independent and runs in parallel.
-  void write_corners(CornerMaps& out) const {
-    const int32_t S = !p_.blend ? 1 : m_.all_triangles() ? 3 : 4;
+  void write_corners(const CornerMapsView& out) const {
+    const int32_t S = out.num_blend_sets;
     const size_t L = size_t(m_.num_corners);
-    out.num_corners = m_.num_corners;
-    out.num_blend_sets = S;
-    out.base_uv.resize(L * 2);
-    out.blend_uv.resize(size_t(S) * L * 2);
-    out.blend_weights.assign(L * S, 0.f);
     const uint64_t poly_seed = splitmix64(p_.seed ^ 0x62617365ull);  // "base"
     const float inv_w = 1.f / W_, inv_h = 1.f / H_;
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 2048), [&](const tbb::blocked_range<int32_t>& range) {
@@ -422,9 +446,9 @@ class Synthesizer {
           }
         };
         const int32_t base = int32_t(((splitmix64(poly_seed + uint64_t(poly)) >> 32) * uint64_t(n)) >> 32);
-        grow(base, out.base_uv.data());
+        grow(base, out.base_uv);
         for (int32_t set = 0; set < S; ++set) {
-          float* uv = out.blend_uv.data() + size_t(set) * L * 2;
+          float* uv = out.blend_uv + size_t(set) * L * 2;
           if (S == 1) {
             grow(base, uv);
           } else if (n <= S) {
@@ -434,8 +458,9 @@ class Synthesizer {
           }
         }
         for (int32_t i = 0; i < n; ++i) {
-          const int32_t set = S == 1 ? 0 : n <= S ? i : int32_t(int64_t(i) * S / n);
-          out.blend_weights[(first + i) * S + set] = 1.f;
+          const int32_t one = S == 1 ? 0 : n <= S ? i : int32_t(int64_t(i) * S / n);
+          float* w = out.blend_weights + (first + i) * S;
+          for (int32_t set = 0; set < S; ++set) w[set] = set == one ? 1.f : 0.f;
         }
       }
     });
@@ -453,20 +478,49 @@ class Synthesizer {
     float address[2];  // texel address; NaN until synthesized
     bool synthesized() const { return address[0] == address[0]; }
   };
-  std::vector<VertexState> state_;
-  std::vector<float> corner_offset_;  // per corner: texel offset from its polygon's corner 0 (face frame)
+  UninitializedVector<VertexState> state_;     // written for every vertex by build_frames
+  UninitializedVector<float> corner_offset_;  // per corner: texel offset from its polygon's corner 0 (face frame)
   std::vector<Box> reach_;
 };
 
 }  // namespace
 
+int32_t jumpmap_blend_sets(const int32_t* poly_sizes, int32_t num_polys, bool blend) {
+  if (!blend) return 1;
+  for (int32_t p = 0; p < num_polys; ++p)
+    if (poly_sizes[p] != 3) return 4;
+  return 3;
+}
+
 JumpSynthResult synthesize_jumpmap(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
-                                   const JumpSynthParams& params) {
+                                   const JumpSynthParams& params, const CornerMapsView& out) {
   const auto start = std::chrono::steady_clock::now();
   validate_preprocessed(pre);
   validate_params(mesh, orientation, params);
-  JumpSynthResult r = Synthesizer(pre, mesh, orientation, params).run();
+  const int32_t S = jumpmap_blend_sets(mesh.poly_sizes, mesh.num_polys, params.blend);
+  if (out.num_corners != mesh.num_corners || out.num_blend_sets != S ||
+      (mesh.num_corners > 0 && (!out.base_uv || !out.blend_uv || !out.blend_weights)))
+    throw std::invalid_argument("synthesize_jumpmap: output buffers are missing or sized for " +
+                                std::to_string(out.num_corners) + " corners and " + std::to_string(out.num_blend_sets) +
+                                " blend sets, expected " + std::to_string(mesh.num_corners) + " and " + std::to_string(S));
+  JumpSynthResult r = Synthesizer(pre, mesh, orientation, params).run(out);
   r.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+JumpSynthResult synthesize_jumpmap(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
+                                   const JumpSynthParams& params) {
+  CornerMaps maps;
+  maps.num_corners = mesh.num_corners;
+  maps.num_blend_sets = jumpmap_blend_sets(mesh.poly_sizes, mesh.num_polys, params.blend);
+  const size_t L = size_t(mesh.num_corners), S = size_t(maps.num_blend_sets);
+  maps.base_uv.resize(L * 2);
+  maps.blend_uv.resize(S * L * 2);
+  maps.blend_weights.resize(L * S);
+  JumpSynthResult r = synthesize_jumpmap(
+      pre, mesh, orientation, params,
+      CornerMapsView{maps.num_corners, maps.num_blend_sets, maps.base_uv.data(), maps.blend_uv.data(), maps.blend_weights.data()});
+  r.maps = std::move(maps);
   return r;
 }
 

@@ -30,6 +30,12 @@ struct Mesh {
   std::vector<int32_t> neighbour_start;  // num_vertices + 1
   std::vector<int32_t> neighbours;
 
+  // Corners of each vertex, ascending (= polygon order): the per-vertex gathers that replace
+  // scatter loops, so vertex quantities are built in parallel with a fixed summation order.
+  std::vector<int32_t> vertex_corner_start;  // num_vertices + 1
+  std::vector<int32_t> vertex_corners;       // num_corners
+  std::vector<int32_t> corner_poly;          // num_corners: the polygon each corner belongs to
+
   std::vector<float> normals;       // num_vertices*3, unit length
   std::vector<int32_t> component;   // per vertex: connected component id, -1 for loose vertices
   int32_t num_components = 0;       // components with at least one corner

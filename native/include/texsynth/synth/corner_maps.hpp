@@ -17,4 +17,14 @@ struct CornerMaps {
   std::vector<float> blend_weights;    // num_corners*S, one-hot per corner
 };
 
+// The same outputs in caller-owned buffers (e.g. numpy arrays allocated by the bindings), so a
+// synthesizer writes every value once, straight into its final place. Every element is written.
+struct CornerMapsView {
+  int32_t num_corners = 0;
+  int32_t num_blend_sets = 0;
+  float* base_uv = nullptr;        // num_corners*2
+  float* blend_uv = nullptr;       // S*num_corners*2 (set-major)
+  float* blend_weights = nullptr;  // num_corners*S
+};
+
 }  // namespace texsynth

@@ -4,8 +4,7 @@
 // from its corner 0, an exact similarity of the polygon's projection onto its plane.
 // Rotation: the averaged vertex "up" vectors projected on the polygon plane (Magda & Kriegman
 // §3.2.1); right = up × n (unmirrored, see jumpmap_synth.hpp); scale = scale × mean multiplier.
-// Texel y points down, so an offset e maps to (e·right, -e·up) × scale. Same computation as
-// Synthesizer::face_offsets in jumpmap_synth.cpp (which can call this instead).
+// Texel y points down, so an offset e maps to (e·right, -e·up) × scale.
 #include <cstdint>
 
 #include "texsynth/mesh/mesh.hpp"

@@ -65,6 +65,14 @@ struct JumpSynthResult {
 // texsynth::Cancelled when *params.cancel is raised (checked every few thousand vertices/faces).
 JumpSynthResult synthesize_jumpmap(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
                                    const JumpSynthParams& params);
+// Same, writing the corner outputs into `out` (result.maps stays empty). out.num_corners must be
+// mesh.num_corners and out.num_blend_sets jumpmap_blend_sets(...), with non-null buffers
+// (when there are corners).
+JumpSynthResult synthesize_jumpmap(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
+                                   const JumpSynthParams& params, const CornerMapsView& out);
+// S for a mesh whose polygon sizes are poly_sizes[0..num_polys): 1 without blending, 3 when every
+// polygon is a triangle, else 4.
+int32_t jumpmap_blend_sets(const int32_t* poly_sizes, int32_t num_polys, bool blend);
 
 // §4.1 region-growing order over vertices that have corners: per component (in id order), from a
 // seed vertex picked deterministically from `seed`, repeatedly the unsynthesized vertex with the
