@@ -123,4 +123,12 @@ py::array_t<T> to_numpy(std::vector<T>&& v, std::vector<py::ssize_t> shape) {
   return py::array_t<T>(shape, heap->data(), owner);
 }
 
+// Optional per-vertex scale multiplier (N,) float32; an empty array when obj is None (check None, not data()).
+inline FloatArray optional_scale_multiplier(py::handle obj, int32_t num_vertices) {
+  if (obj.is_none()) return FloatArray();
+  FloatArray a = float_array(obj, "scale_multiplier");
+  require_shape(a, {num_vertices}, "scale_multiplier");
+  return a;
+}
+
 }  // namespace texsynth_py

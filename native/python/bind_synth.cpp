@@ -24,11 +24,7 @@ void bind_synth(py::module_& m) {
         const int32_t nv = arrays.input.num_vertices;
         FloatArray normal_array = optional_vectors(normals, nv, "normals");
         FieldArgs field = field_args(nv, orientation, axis, direction, anchor_vertices, anchor_directions, sources, sinks);
-        FloatArray multiplier;
-        if (!scale_multiplier.is_none()) {
-          multiplier = float_array(scale_multiplier, "scale_multiplier");
-          require_shape(multiplier, {nv}, "scale_multiplier");
-        }
+        FloatArray multiplier = optional_scale_multiplier(scale_multiplier, nv);
         texsynth::JumpSynthParams params;
         params.scale = scale;
         params.jump_rate = jump_rate;

@@ -48,11 +48,7 @@ void bind_texton(py::module_& m) {
         const texsynth::SampleImage sample = sample_image(pixels);
         FloatArray normal_array = optional_vectors(normals, nv, "normals");
         FieldArgs field = field_args(nv, orientation, axis, direction, anchor_vertices, anchor_directions, sources, sinks);
-        FloatArray multiplier;
-        if (!scale_multiplier.is_none()) {
-          multiplier = float_array(scale_multiplier, "scale_multiplier");
-          require_shape(multiplier, {nv}, "scale_multiplier");
-        }
+        FloatArray multiplier = optional_scale_multiplier(scale_multiplier, nv);
         texsynth::TextonSynthParams params;
         params.scale = scale;
         params.seed = seed;

@@ -81,14 +81,7 @@ void validate_params(const Mesh& m, const float* orientation, const TextonSynthP
     if (!std::isfinite(p.blend_threshold)) throw std::invalid_argument("blend_threshold must be finite");
     if (!p.has_camera) throw std::invalid_argument("blend_threshold needs camera_position");
   }
-  if (m.num_vertices > 0 && !orientation) throw std::invalid_argument("orientation field is missing");
-  for (int64_t i = 0; i < int64_t(m.num_vertices) * 3; ++i)
-    if (!std::isfinite(orientation[i]))
-      throw std::invalid_argument("orientation of vertex " + std::to_string(i / 3) + " is NaN or infinite");
-  if (p.scale_multiplier)
-    for (int32_t v = 0; v < m.num_vertices; ++v)
-      if (!std::isfinite(p.scale_multiplier[v]) || p.scale_multiplier[v] <= 0.f)
-        throw std::invalid_argument("scale_multiplier of vertex " + std::to_string(v) + " must be finite and > 0");
+  validate_vertex_inputs(m, orientation, p.scale_multiplier);
 }
 
 // Bilinear colour at texel coordinate (x, y); texel centres at +0.5; clamped or wrapped.

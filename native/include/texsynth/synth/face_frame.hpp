@@ -5,12 +5,28 @@
 // Rotation: the averaged vertex "up" vectors projected on the polygon plane (Magda & Kriegman
 // §3.2.1); right = up × n (unmirrored, see jumpmap_synth.hpp); scale = scale × mean multiplier.
 // Texel y points down, so an offset e maps to (e·right, -e·up) × scale.
+#include <cmath>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 
 #include "texsynth/mesh/mesh.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 
 namespace texsynth {
+
+// Per-vertex inputs every synthesizer takes: the orientation field (N×3, finite) and the
+// optional scale multiplier (N, finite and > 0).
+inline void validate_vertex_inputs(const Mesh& m, const float* orientation, const float* scale_multiplier) {
+  if (m.num_vertices > 0 && !orientation) throw std::invalid_argument("orientation field is missing");
+  for (int64_t i = 0; i < int64_t(m.num_vertices) * 3; ++i)
+    if (!std::isfinite(orientation[i]))
+      throw std::invalid_argument("orientation of vertex " + std::to_string(i / 3) + " is NaN or infinite");
+  if (scale_multiplier)
+    for (int32_t v = 0; v < m.num_vertices; ++v)
+      if (!std::isfinite(scale_multiplier[v]) || scale_multiplier[v] <= 0.f)
+        throw std::invalid_argument("scale_multiplier of vertex " + std::to_string(v) + " must be finite and > 0");
+}
 
 // up_of(v) returns vertex v's unit tangent "up" (V3). xy receives poly_sizes[poly]*2 floats.
 template <class UpOf>
