@@ -8,24 +8,11 @@
 #include <memory>
 
 #include "texsynth/raycast/raycaster.hpp"
+#include "../mesh_fixtures.hpp"
 
 namespace {
 
-struct Torus {
-  std::vector<float> positions;
-  std::vector<int32_t> corner_verts, poly_starts, poly_sizes;
-  texsynth::PolyMeshInput input() const {
-    texsynth::PolyMeshInput in;
-    in.positions = positions.data();
-    in.num_vertices = int32_t(positions.size() / 3);
-    in.corner_verts = corner_verts.data();
-    in.num_corners = int32_t(corner_verts.size());
-    in.poly_starts = poly_starts.data();
-    in.poly_sizes = poly_sizes.data();
-    in.num_polys = int32_t(poly_starts.size());
-    return in;
-  }
-};
+using Torus = fixtures::TestMesh;
 
 const Torus& torus() {
   static Torus t = [] {

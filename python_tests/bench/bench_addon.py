@@ -18,31 +18,26 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "blender"))
+sys.path.insert(0, HERE)  # bench_native_torus: the shared benchmark mesh
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
+import bench_native_torus  # noqa: E402
 import harness  # noqa: E402
 
 
-def bumpy_torus(segments=1296, rings=648):
-    """A closed all-quad torus with radial bumps, built with foreach_set (primitive operators are
-    far too slow at this size): segments * rings faces."""
-    u = np.linspace(0, 2 * np.pi, segments, endpoint=False)[:, None]
-    v = np.linspace(0, 2 * np.pi, rings, endpoint=False)[None, :]
-    tube = 0.35 + 0.03 * np.sin(7 * u) * np.sin(5 * v) + 0.02 * np.sin(23 * u + 3 * v)
-    positions = np.stack([(1 + tube * np.cos(v)) * np.cos(u), (1 + tube * np.cos(v)) * np.sin(u),
-                          tube * np.sin(v) + 0 * u], axis=-1).reshape(-1, 3).astype(np.float32)
-    i, j = np.meshgrid(np.arange(segments), np.arange(rings), indexing="ij")
-    i1, j1 = (i + 1) % segments, (j + 1) % rings
-    quads = np.stack([i * rings + j, i1 * rings + j, i1 * rings + j1, i * rings + j1], axis=-1).reshape(-1)
+def bumpy_torus():
+    """The bumpy quad torus of bench_native_torus (same arrays), built with foreach_set (primitive
+    operators are far too slow at this size)."""
+    positions, corner_verts, poly_starts, poly_sizes = bench_native_torus.bumpy_torus()
     mesh = bpy.data.meshes.new("Bench")
     mesh.vertices.add(len(positions))
     mesh.vertices.foreach_set("co", positions.ravel())
-    mesh.loops.add(len(quads))
-    mesh.loops.foreach_set("vertex_index", quads.astype(np.int32))
-    mesh.polygons.add(segments * rings)
-    mesh.polygons.foreach_set("loop_start", np.arange(0, len(quads), 4, dtype=np.int32))
-    mesh.polygons.foreach_set("loop_total", np.full(segments * rings, 4, dtype=np.int32))
+    mesh.loops.add(len(corner_verts))
+    mesh.loops.foreach_set("vertex_index", corner_verts)
+    mesh.polygons.add(len(poly_starts))
+    mesh.polygons.foreach_set("loop_start", poly_starts)
+    mesh.polygons.foreach_set("loop_total", poly_sizes)
     mesh.update(calc_edges=True)
     obj = bpy.data.objects.new("Bench", mesh)
     bpy.context.scene.collection.objects.link(obj)
