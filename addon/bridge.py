@@ -164,7 +164,8 @@ def write_result(mesh, result):
 
     Foreign UV maps keep their data and flags; the active/render UV map is not changed unless the
     mesh had none. Raises SettingsError (too many UV maps) or MeshWriteError (restored) and then
-    leaves the mesh as it was. Returns the snapshot taken before writing, for restore().
+    leaves the mesh as it was. Returns the snapshot taken before writing, for restore(). Consumes
+    result["blend_weights"] (converted to RGBA in place, to save a corner-sized copy).
     """
     num_corners = len(mesh.loops)
     base = pipeline.check_result(result, num_corners)
@@ -176,7 +177,7 @@ def write_result(mesh, result):
     if sets:
         blend_uv = np.ascontiguousarray(result["blend_uv"], dtype=np.float32)
         data += [blend_uv[k].ravel() for k in range(sets)]
-    weights = pipeline.weights_rgba(result, num_corners) if sets else None
+    weights = pipeline.weights_rgba(result, num_corners, consume=True) if sets else None
 
     snapshot = _snapshot(mesh)
     had_uv = len(mesh.uv_layers) > 0

@@ -387,9 +387,15 @@ def check_result(result, num_corners):
         if array.shape != shape or array.dtype != np.float32:
             raise SettingsError("native result %s has shape %s %s, expected %s float32"
                                 % (key, array.shape, array.dtype, shape))
-        if not np.all(np.isfinite(array)):
+        if not all_finite(array):
             raise SettingsError("native result %s contains NaN or infinite values" % key)
     return base
+
+
+def all_finite(array):
+    """True if no NaN/inf: min and max propagate NaN and expose inf, with no temporary the size of
+    the array (np.isfinite would allocate one: hundreds of MB of fresh pages on big meshes)."""
+    return array.size == 0 or bool(np.isfinite(array.min()) and np.isfinite(array.max()))
 
 
 def corner_attributes(result, num_corners):
@@ -398,20 +404,26 @@ def corner_attributes(result, num_corners):
     for name, values in extras.items():
         if name not in EXTRA_ATTRIBUTE_NAMES:
             raise SettingsError("native result has an unknown corner attribute %r" % name)
-        if values.shape != (num_corners,) or values.dtype != np.float32 or not np.all(np.isfinite(values)):
+        if values.shape != (num_corners,) or values.dtype != np.float32 or not all_finite(values):
             raise SettingsError("native result %s must be finite float32 of shape (%d,)" % (name, num_corners))
     return extras
 
 
-def weights_rgba(result, num_corners):
+def weights_rgba(result, num_corners, consume=False):
     """The blend weights as a flat float32 RGBA corner buffer: R, G, B = w0, w1, w2 and A = 1 - w3.
 
     Alpha holds 1 - w3 (not w3) because shaders read a missing attribute as (0, 0, 0, 1): a mesh
     without weights then gets all-zero weights and the node group falls back to the base mapping.
-    Unused channels are 0 (alpha 1)."""
+    Unused channels are 0 (alpha 1). consume=True (4 sets) converts result["blend_weights"] in place
+    and takes it out of `result`, saving a corner-sized copy on big meshes."""
     sets = int(result["num_blend_sets"])
-    if sets == 4:  # the common case: one contiguous copy, then flip the alpha column
-        rgba = np.array(result["blend_weights"], dtype=np.float32, order="C", copy=True)
+    weights = result["blend_weights"]
+    if sets == 4 and consume and weights.dtype == np.float32 and weights.flags.c_contiguous and weights.flags.writeable:
+        result["blend_weights"] = None  # now RGBA: must not be read as weights again
+        np.subtract(1.0, weights[:, 3], out=weights[:, 3])
+        return weights.ravel()
+    if sets == 4:  # one contiguous copy, then flip the alpha column
+        rgba = np.array(weights, dtype=np.float32, order="C", copy=True)
         np.subtract(1.0, rgba[:, 3], out=rgba[:, 3])
         return rgba.ravel()
     rgba = np.zeros((num_corners, 4), dtype=np.float32)

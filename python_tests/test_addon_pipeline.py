@@ -102,6 +102,21 @@ def test_check_result_rejects_wrong_shapes_types_and_nan():
         pipeline.check_result(with_nan, 6)
     with pytest.raises(pipeline.SettingsError, match="blend sets"):
         pipeline.check_result(_result(6, 5), 6)
+    for bad in (np.inf, -np.inf):
+        with_inf = _result(6, 4)
+        with_inf["base_uv"][5, 0] = bad
+        with pytest.raises(pipeline.SettingsError, match="base_uv contains NaN or infinite"):
+            pipeline.check_result(with_inf, 6)
+
+
+def test_all_finite_sees_nan_and_inf_anywhere():
+    values = np.zeros((7, 3), np.float32)
+    assert pipeline.all_finite(values) and pipeline.all_finite(np.zeros((0, 2), np.float32))
+    for index in [(0, 0), (3, 1), (6, 2)]:
+        for bad in (np.nan, np.inf, -np.inf):
+            broken = values.copy()
+            broken[index] = bad
+            assert not pipeline.all_finite(broken), (index, bad)
 
 
 def test_weights_rgba_stores_w0_w1_w2_and_one_minus_w3():
@@ -112,6 +127,12 @@ def test_weights_rgba_stores_w0_w1_w2_and_one_minus_w3():
     rgba = pipeline.weights_rgba(four, 6).reshape(6, 4)
     assert np.array_equal(rgba[:, :3], four["blend_weights"][:, :3])
     assert np.array_equal(rgba[:, 3], [1, 1, 1, 0, 1, 1])
+    # consume=True: the same buffer, converted in place and taken out of the result.
+    consumed = _result(6, 4)
+    source = consumed["blend_weights"]
+    in_place = pipeline.weights_rgba(consumed, 6, consume=True)
+    assert np.array_equal(in_place, rgba.ravel()) and np.shares_memory(in_place, source)
+    assert consumed["blend_weights"] is None
     # Without weights the buffer reads like a missing attribute: (0, 0, 0, 1).
     assert np.array_equal(pipeline.weights_rgba(_result(5, 0), 5).reshape(5, 4), np.tile([0, 0, 0, 1], (5, 1)))
 
