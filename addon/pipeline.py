@@ -322,7 +322,7 @@ class View:
 def synthesize(preprocessed, mesh_arrays, settings, seed, scale, pixels=None, view=None, cancel=None):
     """Runs the native synthesizer on one mesh; returns its dict after checking every shape.
     TEXTON needs `pixels` (sample_pixels) and, with a blend threshold, `view`. cancel: a
-    texsynth_native.CancelToken, as for preprocess() (the texton synthesizer does not check it yet)."""
+    texsynth_native.CancelToken, as for preprocess()."""
     module = native.require()
     if mesh_arrays.num_faces == 0:
         raise SettingsError("mesh has no faces")
@@ -342,6 +342,8 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale, pixels=None, vi
     if mesh_arrays.scale_multiplier is not None:
         kwargs.update(scale_multiplier=mesh_arrays.scale_multiplier)
     mesh = (mesh_arrays.positions, mesh_arrays.corner_verts, mesh_arrays.poly_starts, mesh_arrays.poly_sizes)
+    if cancel is not None:
+        kwargs.update(cancel=cancel)
     if settings.method == "TEXTON":
         if pixels is None:
             raise SettingsError("the texton method needs the sample pixels")
@@ -358,8 +360,6 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale, pixels=None, vi
             EDGE_ERROR_NAME: np.asarray(result.pop("corner_edge_error"), dtype=np.float32)}
     else:
         kwargs.update(jump_rate=float(settings.jump_rate))
-        if cancel is not None:
-            kwargs.update(cancel=cancel)
         result = dict(module.synthesize_jumpmap(preprocessed, *mesh, **kwargs))
     if not settings.blend:
         # Without blending the native single set is the base mapping with weight 1: write the base only.

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Cancellation: a raised flag makes every long stage (mesh build, orientation field, vertex order,
-// synthesis, preprocessing) throw texsynth::Cancelled instead of returning; raising it from another
-// thread stops a running synthesis. (Latency is measured in python_tests/bench/bench_cancel.py.)
+// jump-map and texton synthesis, preprocessing) throw texsynth::Cancelled instead of returning;
+// raising it from another thread stops a running synthesis. (Latency is measured in python_tests/bench/bench_cancel.py.)
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -15,10 +15,16 @@
 #include "texsynth/mesh/mesh.hpp"
 #include "texsynth/preprocess/preprocess.hpp"
 #include "texsynth/synth/jumpmap_synth.hpp"
+#include "texsynth/synth/texton_synth.hpp"
 
 namespace {
 
 using texsynth::Cancelled;
+
+const texsynth::Image& small_image() {
+  static const texsynth::Image image = texsynth_test::brick_texture(64, 64, 2);
+  return image;
+}
 
 const texsynth::Preprocessed& small_sample() {
   static const texsynth::Preprocessed pre = [] {
@@ -26,9 +32,14 @@ const texsynth::Preprocessed& small_sample() {
     p.neighbourhood = 5;
     p.num_textons = 8;
     p.feature_dims = 8;
-    return texsynth::preprocess(texsynth_test::brick_texture(64, 64, 2), p);
+    return texsynth::preprocess(small_image(), p);
   }();
   return pre;
+}
+
+texsynth::SampleImage small_sample_pixels() {
+  const texsynth::Image& image = small_image();
+  return {image.pixels.data(), image.width, image.height, image.channels};
 }
 
 std::vector<float> up_field(const texsynth::Mesh& mesh) {
@@ -59,6 +70,36 @@ TEST(Cancel, RaisedFlagStopsEveryStage) {
   p.cancel = &lowered;
   EXPECT_EQ(texsynth::synthesize_jumpmap(small_sample(), mesh, up.data(), p).maps.num_corners, mesh.num_corners);
   EXPECT_EQ(texsynth::region_growing_order(mesh, 1, &lowered).order.size(), size_t(mesh.num_vertices));
+}
+
+TEST(Cancel, RaisedFlagStopsTextonSynthesis) {
+  const auto grid = fixtures::grid(40, 40, 0.5, false);
+  const texsynth::Mesh mesh = texsynth::build_mesh(grid.input());
+  const std::vector<float> up = up_field(mesh);
+  std::atomic<bool> raised{true}, lowered{false};
+  texsynth::TextonSynthParams p;
+  p.scale = 2.0;
+  p.cancel = &raised;
+  EXPECT_THROW(texsynth::synthesize_texton(small_sample(), mesh, up.data(), small_sample_pixels(), p), Cancelled);
+  p.cancel = &lowered;
+  EXPECT_EQ(texsynth::synthesize_texton(small_sample(), mesh, up.data(), small_sample_pixels(), p).maps.num_corners,
+            mesh.num_corners);
+}
+
+TEST(Cancel, FlagRaisedFromAnotherThreadStopsARunningTextonSynthesis) {
+  const auto grid = fixtures::grid(400, 400, 0.05, false);  // 160k quads: most of a second of searching
+  const texsynth::Mesh mesh = texsynth::build_mesh(grid.input());
+  const std::vector<float> up = up_field(mesh);
+  std::atomic<bool> flag{false};
+  texsynth::TextonSynthParams p;
+  p.scale = 2.0;
+  p.cancel = &flag;
+  auto running = std::async(std::launch::async, [&] {
+    return texsynth::synthesize_texton(small_sample(), mesh, up.data(), small_sample_pixels(), p);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  flag.store(true);
+  EXPECT_THROW(running.get(), Cancelled);
 }
 
 TEST(Cancel, OrderStopsOnLargeMeshes) {

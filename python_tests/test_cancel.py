@@ -57,6 +57,34 @@ def test_cancel_from_another_thread_stops_a_running_synthesis(sample):
     assert "cancelled" in outcome and "result" not in outcome
 
 
+def test_token_stops_texton_synthesis_before_and_during_the_run(sample):
+    pixels = make_corpus.sample_pixels()
+    raised = tn.CancelToken()
+    raised.cancel()
+    small = worker.huge_triangle_grid(20)
+    with pytest.raises(tn.Cancelled):
+        tn.synthesize_texton(sample, pixels, *small, scale=1.0, cancel=raised)
+    assert tn.synthesize_texton(sample, pixels, *small, scale=1.0)["base_uv"].shape == (len(small[1]), 2)
+
+    mesh = worker.huge_triangle_grid(300)  # 180k triangles: about a second of searching
+    token, outcome, started = tn.CancelToken(), {}, threading.Event()
+
+    def run():
+        started.set()
+        try:
+            outcome["result"] = tn.synthesize_texton(sample, pixels, *mesh, scale=0.05, cancel=token)
+        except tn.Cancelled as error:
+            outcome["cancelled"] = error
+
+    thread = threading.Thread(target=run)
+    thread.start()
+    started.wait()
+    token.cancel()
+    thread.join(timeout=60)
+    assert not thread.is_alive()
+    assert "cancelled" in outcome and "result" not in outcome
+
+
 def test_bad_token_is_a_clear_error(sample):
     with pytest.raises(ValueError, match="CancelToken"):
         tn.synthesize_jumpmap(sample, *worker.huge_triangle_grid(2), scale=1.0, cancel=object())

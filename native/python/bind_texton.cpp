@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "cancel_arg.hpp"
 #include "field_args.hpp"
 #include "texsynth/mesh/mesh.hpp"
 #include "texsynth/preprocess/preprocessed.hpp"
@@ -41,7 +42,7 @@ void bind_texton(py::module_& m) {
          int max_vote_points, int max_votes, double tie_tolerance, const std::string& orientation, py::object axis, py::object direction,
          py::object anchor_vertices, py::object anchor_directions, py::object sources, py::object sinks,
          py::object normals, py::object scale_multiplier, py::object camera_position, py::object blend_threshold,
-         double lambda, bool allow_oversized) {
+         double lambda, bool allow_oversized, py::object cancel) {
         MeshArrays arrays = mesh_arrays(positions, corner_verts, poly_starts, poly_sizes);
         const int32_t nv = arrays.input.num_vertices;
         FloatArray pixels = float_array(sample_pixels, "sample_pixels");
@@ -60,6 +61,7 @@ void bind_texton(py::module_& m) {
         params.allow_oversized = allow_oversized;
         params.lambda = lambda;
         params.scale_multiplier = scale_multiplier.is_none() ? nullptr : multiplier.data();
+        params.cancel = field.params.cancel = cancel_flag(cancel);
         if (!camera_position.is_none()) {
           const texsynth::Vec3f c = vec3(camera_position, "camera_position");
           params.has_camera = true;
@@ -72,7 +74,8 @@ void bind_texton(py::module_& m) {
         texsynth::TextonSynthResult r;
         {
           py::gil_scoped_release release;
-          texsynth::Mesh mesh = texsynth::build_mesh(arrays.input, normals.is_none() ? nullptr : normal_array.data());
+          texsynth::Mesh mesh =
+              texsynth::build_mesh(arrays.input, normals.is_none() ? nullptr : normal_array.data(), params.cancel);
           std::vector<float> up = texsynth::compute_orientation_field(mesh, field.params);
           r = texsynth::synthesize_texton(pre, mesh, up.data(), sample, params);
         }
@@ -118,14 +121,15 @@ void bind_texton(py::module_& m) {
       py::arg("anchor_vertices") = py::none(), py::arg("anchor_directions") = py::none(), py::arg("sources") = py::none(),
       py::arg("sinks") = py::none(), py::arg("normals") = py::none(), py::arg("scale_multiplier") = py::none(),
       py::arg("camera_position") = py::none(), py::arg("blend_threshold") = py::none(), py::arg("lambda_") = 1.0,
-      py::arg("allow_oversized") = false,
+      py::arg("allow_oversized") = false, py::arg("cancel") = py::none(),
       "Texton-string patch synthesis (Magda & Kriegman 2003) on a Blender-layout mesh. sample_pixels: the (H, W[, C]) "
       "float image given to preprocess (for E_t). scale = texels per object unit.\n"
       "Returns dict with synthesize_jumpmap's keys (base_uv, blend_uv, blend_weights, num_blend_sets, stats) plus "
       "edge_vertices (E, 2) int32, edge_error E_t (E,), edge_phi Φ = lambda_*E_t*d/|camera - midpoint| (E,; NaN "
       "without camera_position), edge_blended (E,) bool, corner_edge_blended (L,) bool and corner_edge_error (L,) "
       "for the edge from each corner to the next. blend_threshold (needs camera_position): blend only edges with "
-      "Φ > threshold. ValueError on bad input.");
+      "Φ > threshold. ValueError on bad input. cancel: a CancelToken; raising it from another thread stops the call "
+      "with Cancelled within milliseconds.");
 
   m.def(
       "edge_continuity_error",

@@ -1,9 +1,9 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Cancellation latency of the native calls: time from CancelToken.cancel() (main thread) to the
-Cancelled exception in the worker thread, cancelling at several points of a large synthesis and of a
-preprocessing run. Not a test.
+Cancelled exception in the worker thread, cancelling at several points of a large jump-map synthesis,
+a texton synthesis and a preprocessing run. Not a test.
 
-  /usr/bin/python3.11 python_tests/bench/bench_cancel.py [--faces 2000000]
+  /usr/bin/python3.11 python_tests/bench/bench_cancel.py [--faces 2000000] [--texton-faces 400000]
 """
 import argparse
 import os
@@ -52,6 +52,7 @@ def report(name, call, full_seconds):
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--faces", type=int, default=2_000_000)
+    parser.add_argument("--texton-faces", type=int, default=400_000)
     args = parser.parse_args()
     pre = tn.preprocess(make_corpus.sample_pixels(), **make_corpus.SMALL_PARAMS)
     mesh = worker.huge_triangle_grid(int(np.sqrt(args.faces / 2)))
@@ -59,6 +60,12 @@ def main():
     start = time.perf_counter()
     synth(None)
     report("synthesis", synth, time.perf_counter() - start)
+    texton_mesh = worker.huge_triangle_grid(int(np.sqrt(args.texton_faces / 2)))
+    pixels = make_corpus.sample_pixels()
+    texton = lambda token: tn.synthesize_texton(pre, pixels, *texton_mesh, scale=0.05, cancel=token)  # noqa: E731
+    start = time.perf_counter()
+    texton(None)
+    report("texton", texton, time.perf_counter() - start)
     image = np.ascontiguousarray(np.tile(make_corpus.sample_pixels(size=64), (8, 8, 1)))  # 512 x 512
     prep = lambda token: tn.preprocess(image, neighbourhood=7, cancel=token)  # noqa: E731
     start = time.perf_counter()

@@ -56,18 +56,31 @@ def settings():
     return props
 
 
-def new_job(obj):
+def new_job(obj, method="JUMPMAP"):
     props = settings()
+    props.method = method
     return synthesis.Job([obj], synthesis.Sample(path=BRICKS), props.to_settings(), None, "NEW").prepare()
 
 
 def test_cancelled_job_stops_fast_and_writes_nothing():
+    check_cancelled_job("JUMPMAP", 0.02)
+
+
+def test_cancelled_texton_job_stops_fast_and_writes_nothing():
+    check_cancelled_job("TEXTON", 0.5)  # past the mesh build: inside the texton search (~2 s here)
+
+
+def check_cancelled_job(method, delay):
+    """Cancels `delay` seconds after the synthesis started (preprocessing is a cache hit)."""
     obj = big_grid()
     before = harness.mesh_hash(obj.data)
-    new_job(obj).compute()  # warm the preprocessing cache: the timed run below is pure synthesis
-    job = new_job(obj)
+    new_job(obj).compute()  # warms the preprocessing cache (jump map: quick): the run below is pure synthesis
+    job = new_job(obj, method)
     state = operators.ModalSynthesis(job).start()
-    time.sleep(0.05)
+    deadline = time.perf_counter() + 30
+    while state.fraction < 0.1 and state.running() and time.perf_counter() < deadline:
+        time.sleep(0.001)  # until preprocessing (a cache hit) is done and the synthesis has started
+    time.sleep(delay)
     assert state.running(), "the synthesis finished before it could be cancelled: use a larger mesh"
     cancelled_at = time.perf_counter()
     job.cancel()
@@ -77,8 +90,11 @@ def test_cancelled_job_stops_fast_and_writes_nothing():
     except synthesis.Cancelled:
         pass
     latency = time.perf_counter() - cancelled_at
-    print("CANCEL latency_ms=%.1f faces=%d" % (1e3 * latency, len(obj.data.polygons)), flush=True)
+    print("CANCEL %s latency_ms=%.1f faces=%d" % (method, 1e3 * latency, len(obj.data.polygons)), flush=True)
     assert not state.running()
+    # The native call itself stopped: it never produced a result (a call that ran to the end and was
+    # only discarded afterwards would have left one here).
+    assert job.items[0][2] is None, "the %s synthesis ran to completion instead of stopping" % method
     try:
         job.apply()
         raise AssertionError("apply() after cancel must raise")
@@ -135,5 +151,6 @@ def test_modal_run_to_completion_writes_and_one_undo_restores():
     assert harness.mesh_hash(bpy.data.objects["Big"].data) == before
 
 
-harness.Checks().run([test_cancelled_job_stops_fast_and_writes_nothing, test_modal_escape_cancels_and_changes_nothing,
+harness.Checks().run([test_cancelled_job_stops_fast_and_writes_nothing, test_cancelled_texton_job_stops_fast_and_writes_nothing,
+                      test_modal_escape_cancels_and_changes_nothing,
                       test_modal_run_to_completion_writes_and_one_undo_restores], harness.script_args())

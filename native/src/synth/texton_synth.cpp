@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 #include "texsynth/synth/face_frame.hpp"
@@ -213,7 +214,9 @@ class TextonSynthesizer {
 
   TextonSynthResult run() {
     TextonSynthResult r;
+    throw_if_cancelled(p_.cancel);
     r.edges = build_mesh_edges(m_);
+    throw_if_cancelled(p_.cancel);
     measure_faces(r.stats);
     if (r.stats.oversized_faces > 0 && !p_.allow_oversized) {
       std::ostringstream msg;
@@ -223,10 +226,13 @@ class TextonSynthesizer {
       throw std::invalid_argument(msg.str());
     }
     grow(r.edges, r.stats);
+    throw_if_cancelled(p_.cancel);
     write_base(r.maps);
     r.edge_error = edge_continuity_error(m_, r.edges, r.maps.base_uv.data(), sample_, tileable_);
+    throw_if_cancelled(p_.cancel);
     blending_metric(r);
     write_blend_sets(r);
+    throw_if_cancelled(p_.cancel);
     r.stats.faces = m_.num_polys;
     r.stats.vertices = m_.num_vertices;
     r.stats.corners = m_.num_corners;
@@ -243,6 +249,7 @@ class TextonSynthesizer {
       return normalized_or(project_to_plane(v3(orientation_ + 3 * size_t(v)), n), any_perpendicular(n));
     };
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+      throw_if_cancelled(p_.cancel);
       for (int32_t poly = r.begin(); poly < r.end(); ++poly) {
         float* xy = &offset_[2 * size_t(m_.poly_starts[poly])];
         face_texel_offsets(m_, poly, up_of, p_.scale, p_.scale_multiplier, xy);
@@ -305,20 +312,25 @@ class TextonSynthesizer {
       }
     };
     std::vector<uint8_t> seen(size_t(m_.num_polys), 0);
+    uint32_t placed = 0;
     for (int32_t start = 0; start < m_.num_polys; ++start) {
       if (seen[start]) continue;
       // Collect the face-connected component, then grow from a seeded random face in it.
       component.assign(1, start);
       seen[start] = 1;
-      for (size_t h = 0; h < component.size(); ++h)
+      for (size_t h = 0; h < component.size(); ++h) {
+        if ((h & 65535) == 65535) throw_if_cancelled(p_.cancel);
         for_each_neighbour(component[h], [&](int32_t, int32_t c) {
           const int32_t g = edges.corner_poly[c];
           if (!seen[g]) seen[g] = 1, component.push_back(g);
         });
+      }
       ++st.components;
       queue.assign(1, component[component_rng.below(uint32_t(component.size()))]);
       state[queue[0]] = 1;
       for (size_t h = 0; h < queue.size(); ++h) {
+        // ~200k faces/s: a check every 256 faces is about a millisecond apart.
+        if ((++placed & 255) == 0) throw_if_cancelled(p_.cancel);
         const int32_t poly = queue[h];
         place(poly, edges, search, string, st);
         state[poly] = 2;
@@ -449,6 +461,7 @@ class TextonSynthesizer {
     out.blend_weights.assign(L * S, 0.f);
     std::atomic<int64_t> clipped_sets{0};
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 2048), [&](const tbb::blocked_range<int32_t>& range) {
+      throw_if_cancelled(p_.cancel);
       for (int32_t poly = range.begin(); poly < range.end(); ++poly) {
         const int32_t first = m_.poly_starts[poly], n = m_.poly_sizes[poly];
         const float* off = &offset_[2 * size_t(first)];

@@ -38,6 +38,7 @@
 // points spaced one texel along the edge (bilinear sample look-up, texel centres at +0.5, clamped
 // or wrapped). Boundary edges: 0; non-manifold edges: max over (first face, other face) pairs.
 // Φ = λ·E_t·d/‖v − m‖ (Eq. 3–4), d = edge length, m = edge midpoint, v = camera (object space).
+#include <atomic>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -92,6 +93,7 @@ struct TextonSynthParams {
   double camera[3] = {0, 0, 0};
   double blend_threshold = std::numeric_limits<double>::quiet_NaN();
   double lambda = 1.0;
+  const std::atomic<bool>* cancel = nullptr;  // raised -> texsynth::Cancelled (checked every few ms)
 };
 
 struct TextonSynthStats {
@@ -117,7 +119,7 @@ struct TextonSynthResult {
 // `orientation`: num_vertices*3 unit tangent "up" vectors (compute_orientation_field).
 // `sample`: the image given to preprocess (same width/height), for E_t.
 // Throws std::invalid_argument on bad parameters, an inconsistent Preprocessed or sample, or
-// oversized faces (unless allow_oversized).
+// oversized faces (unless allow_oversized); texsynth::Cancelled when params.cancel is raised.
 TextonSynthResult synthesize_texton(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
                                     const SampleImage& sample, const TextonSynthParams& params);
 
