@@ -152,6 +152,13 @@ TEST(Raycast, RejectsBadInput) {
   EXPECT_THROW(caster.cast(o, d, 1), std::invalid_argument);
   const float ok[] = {0.5f, 0.5f, 1.f};
   EXPECT_THROW(caster.cast(ok, d, 1, 1.f, 0.5f), std::invalid_argument);
+  // Finite but beyond Embree's valid range: Debian's Embree asserts (aborts the process) on these.
+  const float far_origin[] = {0.5f, 0.5f, 1e30f}, huge_direction[] = {0.f, 0.f, -3e38f};
+  EXPECT_THROW(caster.cast(far_origin, d, 1), std::invalid_argument);
+  EXPECT_THROW(caster.cast(ok, huge_direction, 1), std::invalid_argument);
+  bad = m;
+  bad.positions[5] = 1e30f;
+  EXPECT_THROW(texsynth::RayCaster{bad.input()}, std::invalid_argument);
   std::vector<int32_t> ids;
   std::vector<float> dist;
   EXPECT_THROW(caster.vertices_within(ok, -1.f, ids, dist), std::invalid_argument);

@@ -4,7 +4,7 @@
 // polygon sizes) and arbitrary field/synthesis parameters. Each stage must either throw
 // std::invalid_argument or return complete, finite output.
 #include "../synthetic_texture.hpp"
-#include "fuzz_common.hpp"
+#include "fuzz_meshes.hpp"
 #include "texsynth/field/orientation_field.hpp"
 #include "texsynth/mesh/mesh.hpp"
 #include "texsynth/preprocess/preprocess.hpp"
@@ -42,18 +42,9 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   FuzzedDataProvider in(data, size);
-  const int32_t nv = in.ConsumeIntegralInRange<int32_t>(0, 48);
-  std::vector<float> positions(size_t(nv) * 3);
-  for (auto& x : positions) x = fuzz::hostile_float(in, -4, 4);
-  const int32_t np = in.ConsumeIntegralInRange<int32_t>(0, 40);
-  std::vector<int32_t> starts(np), sizes(np), corners;
-  const bool consistent_starts = in.ConsumeIntegralInRange<int>(0, 7) != 0;
-  for (int32_t f = 0; f < np; ++f) {
-    sizes[f] = in.ConsumeIntegralInRange<int32_t>(0, 7) ? in.ConsumeIntegralInRange<int32_t>(3, 5)
-                                                         : in.ConsumeIntegralInRange<int32_t>(-3, 24);
-    starts[f] = consistent_starts ? int32_t(corners.size()) : in.ConsumeIntegralInRange<int32_t>(-3, 200);
-    for (int32_t c = 0; c < std::max(sizes[f], 0); ++c) corners.push_back(in.ConsumeIntegralInRange<int32_t>(-1, nv));
-  }
+  fuzz::FuzzMesh fuzz_mesh = fuzz::random_mesh(in, 48, 40);
+  const int32_t nv = fuzz_mesh.num_vertices;
+  std::vector<int32_t>& corners = fuzz_mesh.corners;
   if (in.ConsumeIntegralInRange<int>(0, 7) == 0) corners.resize(in.ConsumeIntegralInRange<size_t>(0, corners.size()));
   std::vector<float> normals;
   if (in.ConsumeIntegralInRange<int>(0, 3) == 0)
@@ -86,8 +77,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     for (int32_t i = 0; i < nv; ++i) multiplier.push_back(fuzz::hostile_float(in, 0.1f, 4));
   params.scale_multiplier = multiplier.empty() ? nullptr : multiplier.data();
 
-  texsynth::PolyMeshInput input{positions.data(), nv, corners.data(), int32_t(corners.size()),
-                                starts.data(),    sizes.data(), np};
+  const texsynth::PolyMeshInput input = fuzz_mesh.input();
   texsynth::Mesh mesh;
   try {
     mesh = texsynth::build_mesh(input, normals.empty() ? nullptr : normals.data());

@@ -47,7 +47,7 @@ def main():
     put("fuzz_image", "gray16_png", bytes([0]) + make_corpus.png_from_array(
         (pixels[..., :1].astype(np.uint16) * 257)))
     rng = random.Random(7)
-    for target in ("fuzz_mesh", "fuzz_params"):
+    for target in ("fuzz_mesh", "fuzz_params", "fuzz_texton", "fuzz_geometry"):
         for i in range(4):
             put(target, "random_%d" % i, bytes(rng.randrange(256) for _ in range(64 << i)))
     print("seeds written to", os.path.join(HERE, "corpus"))

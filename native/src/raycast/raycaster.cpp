@@ -105,6 +105,14 @@ void RayCaster::Impl::build_grid() {
   cell_start.push_back(num_vertices);
 }
 
+namespace {
+// Debian's Embree asserts (aborts the process) on ray components beyond its FLT_LARGE (1.8e18);
+// vertices are held to the same bound so hits and bounds stay in Embree's valid range.
+constexpr float kMaxCoordinate = 1e18f;
+
+bool usable(float x) { return std::isfinite(x) && std::fabs(x) <= kMaxCoordinate; }
+}  // namespace
+
 RayCaster::RayCaster(const PolyMeshInput& in) : impl_(std::make_unique<Impl>()) {
   if (in.num_vertices < 0 || in.num_corners < 0 || in.num_polys < 0)
     throw std::invalid_argument("mesh sizes must be non-negative");
@@ -116,8 +124,9 @@ RayCaster::RayCaster(const PolyMeshInput& in) : impl_(std::make_unique<Impl>()) 
   m.num_polys = in.num_polys;
   m.positions.assign(in.positions, in.positions + 3 * size_t(in.num_vertices));
   for (size_t i = 0; i < m.positions.size(); ++i)
-    if (!std::isfinite(m.positions[i]))
-      throw std::invalid_argument("positions of vertex " + std::to_string(i / 3) + " are NaN or infinite");
+    if (!usable(m.positions[i]))
+      throw std::invalid_argument("positions of vertex " + std::to_string(i / 3) +
+                                  " are NaN, infinite or beyond +-1e18");
   for (int32_t c = 0; c < in.num_corners; ++c)
     if (in.corner_verts[c] < 0 || in.corner_verts[c] >= in.num_vertices)
       throw std::invalid_argument("corner_verts[" + std::to_string(c) + "] = " + std::to_string(in.corner_verts[c]) +
@@ -177,8 +186,9 @@ std::vector<RayHit> RayCaster::cast(const float* origins, const float* direction
   if (!std::isfinite(t_near) || std::isnan(t_far) || t_near < 0 || t_far < t_near)
     throw std::invalid_argument("need 0 <= t_near <= t_far (t_far may be +inf)");
   for (int64_t i = 0; i < 3 * count; ++i)
-    if (!std::isfinite(origins[i]) || !std::isfinite(directions[i]))
-      throw std::invalid_argument("ray " + std::to_string(i / 3) + " has a NaN or infinite origin or direction");
+    if (!usable(origins[i]) || !usable(directions[i]))
+      throw std::invalid_argument("ray " + std::to_string(i / 3) +
+                                  " has a NaN, infinite or beyond +-1e18 origin or direction");
   std::vector<RayHit> hits(static_cast<size_t>(count));
   const Impl& m = *impl_;
   if (!m.scene) return hits;

@@ -23,7 +23,7 @@ struct RayHit {
 
 class RayCaster {
  public:
-  // Validates the mesh (finite positions, corner/polygon ranges) and builds the BVH.
+  // Validates the mesh (finite positions within +-1e18, corner/polygon ranges) and builds the BVH.
   // Throws std::invalid_argument on bad input, std::runtime_error if Embree fails.
   explicit RayCaster(const PolyMeshInput& mesh);
   ~RayCaster();
@@ -34,7 +34,8 @@ class RayCaster {
   int32_t num_polys() const;
   int64_t num_triangles() const;
 
-  // Nearest hit of each ray origin + t·direction, t in [t_near, t_far]. Non-finite inputs throw;
+  // Nearest hit of each ray origin + t·direction, t in [t_near, t_far]. Non-finite inputs or
+  // components beyond +-1e18 throw (Embree would abort on them);
   // zero directions miss.
   std::vector<RayHit> cast(const float* origins, const float* directions, int64_t count, float t_near = 0.f,
                            float t_far = 1e30f) const;
