@@ -34,22 +34,9 @@ import bench_native_torus  # noqa: E402
 import harness  # noqa: E402
 
 
-def bumpy_torus():
-    """The bumpy quad torus of bench_native_torus (same arrays), built with foreach_set (primitive
-    operators are far too slow at this size)."""
-    positions, corner_verts, poly_starts, poly_sizes = bench_native_torus.bumpy_torus()
-    mesh = bpy.data.meshes.new("Bench")
-    mesh.vertices.add(len(positions))
-    mesh.vertices.foreach_set("co", positions.ravel())
-    mesh.loops.add(len(corner_verts))
-    mesh.loops.foreach_set("vertex_index", corner_verts)
-    mesh.polygons.add(len(poly_starts))
-    mesh.polygons.foreach_set("loop_start", poly_starts)
-    mesh.polygons.foreach_set("loop_total", poly_sizes)
-    mesh.update(calc_edges=True)
-    obj = bpy.data.objects.new("Bench", mesh)
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
+def bumpy_torus(segments=1296, rings=648):
+    """The bumpy quad torus of bench_native_torus (same arrays) as a Blender object."""
+    return harness.mesh_from_arrays("Bench", *bench_native_torus.bumpy_torus(segments, rings))
 
 
 def read_off(path):
@@ -66,22 +53,6 @@ def read_off(path):
     return positions, faces[:, 1:]
 
 
-def mesh_from_arrays(positions, corner_verts, poly_starts, poly_sizes):
-    """A linked object built with foreach_set (primitive operators are far too slow at this size)."""
-    mesh = bpy.data.meshes.new("Bench")
-    mesh.vertices.add(len(positions))
-    mesh.vertices.foreach_set("co", positions.ravel())
-    mesh.loops.add(len(corner_verts))
-    mesh.loops.foreach_set("vertex_index", corner_verts)
-    mesh.polygons.add(len(poly_starts))
-    mesh.polygons.foreach_set("loop_start", poly_starts)
-    mesh.polygons.foreach_set("loop_total", poly_sizes)
-    mesh.update(calc_edges=True)
-    obj = bpy.data.objects.new("Bench", mesh)
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
-
-
 def subdivide(obj, levels):
     harness.select_only([obj])
     modifier = obj.modifiers.new("Subdivision", "SUBSURF")
@@ -95,14 +66,14 @@ def subdivide(obj, levels):
 def build_mesh(kind, stanford_path):
     harness.reset_scene()
     if kind == "torus":
-        return mesh_from_arrays(*bench_native_torus.bumpy_torus())
+        return bumpy_torus()
     if kind == "stanford":
         if not os.path.isfile(stanford_path):
             raise SystemExit("bench_addon: %s is missing; run scripts/fetch_bench_mesh.sh first" % stanford_path)
         positions, triangles = read_off(stanford_path)
         count = len(triangles)
-        obj = mesh_from_arrays(positions, triangles.ravel(), np.arange(count, dtype=np.int32) * 3,
-                               np.full(count, 3, dtype=np.int32))
+        obj = harness.mesh_from_arrays("Bench", positions, triangles.ravel(), np.arange(count, dtype=np.int32) * 3,
+                                       np.full(count, 3, dtype=np.int32))
         return subdivide(obj, 2)
     return subdivide(harness.add_primitive("monkey", "Bench"), 5)
 

@@ -48,6 +48,23 @@ def add_primitive(kind, name, **kwargs):
     return obj
 
 
+def mesh_from_arrays(name, positions, corner_verts, poly_starts, poly_sizes):
+    """A linked object from Blender-layout arrays, built with foreach_set (primitive operators are
+    far too slow for the large meshes of benchmarks and cancellation tests)."""
+    mesh = bpy.data.meshes.new(name)
+    mesh.vertices.add(len(positions))
+    mesh.vertices.foreach_set("co", np.ascontiguousarray(positions, dtype=np.float32).ravel())
+    mesh.loops.add(len(corner_verts))
+    mesh.loops.foreach_set("vertex_index", corner_verts)
+    mesh.polygons.add(len(poly_starts))
+    mesh.polygons.foreach_set("loop_start", poly_starts)
+    mesh.polygons.foreach_set("loop_total", poly_sizes)
+    mesh.update(calc_edges=True)
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
 def mixed_grid(name="Mixed"):
     """A flat mesh mixing quads, triangles and a pentagon that share edges."""
     verts = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0), (0, 1, 0), (1, 1, 0), (2, 1, 0), (3, 1, 0),

@@ -35,18 +35,9 @@ def big_grid(side=700):
     qx, qy = np.meshgrid(np.arange(side, dtype=np.int32), np.arange(side, dtype=np.int32))
     v00 = (qy * (side + 1) + qx).ravel()
     corners = np.stack([v00, v00 + 1, v00 + side + 2, v00 + side + 1], 1).ravel().astype(np.int32)
-    mesh = bpy.data.meshes.new("Big")
-    mesh.vertices.add(len(positions))
-    mesh.vertices.foreach_set("co", positions.ravel())
-    mesh.loops.add(len(corners))
-    mesh.loops.foreach_set("vertex_index", corners)
-    mesh.polygons.add(side * side)
-    mesh.polygons.foreach_set("loop_start", np.arange(side * side, dtype=np.int32) * 4)
-    mesh.polygons.foreach_set("loop_total", np.full(side * side, 4, np.int32))
-    mesh.update(calc_edges=True)
-    mesh.uv_layers.new(name="UVMap")
-    obj = bpy.data.objects.new("Big", mesh)
-    bpy.context.scene.collection.objects.link(obj)
+    obj = harness.mesh_from_arrays("Big", positions, corners, np.arange(side * side, dtype=np.int32) * 4,
+                                   np.full(side * side, 4, np.int32))
+    obj.data.uv_layers.new(name="UVMap")
     return obj
 
 
