@@ -12,8 +12,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <memory>
-#include <new>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -21,35 +19,13 @@
 
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/common/uninitialized_vector.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 
 namespace texsynth {
 namespace {
 
 constexpr double kMaxOffset = 1e9;
-
-// resize() without zero-filling: for buffers that a parallel pass overwrites completely, so the
-// pages are first touched (and zeroed by the kernel) by the worker threads, not by a serial memset.
-template <class T>
-struct UninitializedAllocator : std::allocator<T> {
-  template <class U>
-  struct rebind {
-    using other = UninitializedAllocator<U>;
-  };
-  UninitializedAllocator() = default;
-  template <class U>
-  UninitializedAllocator(const UninitializedAllocator<U>&) {}
-  template <class U>
-  void construct(U* p) noexcept {
-    ::new (static_cast<void*>(p)) U;
-  }
-  template <class U, class... Args>
-  void construct(U* p, Args&&... args) {
-    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-  }
-};
-template <class T>
-using UninitializedVector = std::vector<T, UninitializedAllocator<T>>;
 
 struct Box {  // texel-space offsets reachable from a vertex's address through its polygons
   float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
