@@ -6,6 +6,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
@@ -14,7 +15,9 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <exception>
 #include <string>
+#include <thread>
 #include <utility>
 
 #include "texsynth/common/errors.hpp"
@@ -81,9 +84,7 @@ class Synthesizer {
           << "x the sample); lower the scale by at least that factor, subdivide those faces, or pass allow_oversized=True";
       throw std::invalid_argument(msg.str());
     }
-    VertexOrder order = region_growing_order(m_, p_.seed, p_.cancel);
-    throw_if_cancelled(p_.cancel);
-    walk(order, r.stats);
+    order_and_walk(r.stats);
     throw_if_cancelled(p_.cancel);
     write_corners(out);
     throw_if_cancelled(p_.cancel);
@@ -242,12 +243,53 @@ class Synthesizer {
     float texel_weight[4];       // bilinear × the texel's summed jump weights
   };
 
+  // The order (§4.1) and the walk over it are both serial: with a second thread the order is built
+  // there while the walk follows it, a few entries behind. Same order and draws either way.
+  void order_and_walk(SynthStats& st) {
+    UninitializedVector<int32_t> order(size_t(m_.num_vertices));
+    std::atomic<int32_t> ready{0};
+    std::atomic<bool> order_done{false};
+    std::exception_ptr order_error;
+    auto build_order = [&] {
+      try {
+        stream_region_growing_order(m_, p_.seed, order.data(), ready, p_.cancel);
+      } catch (...) {
+        order_error = std::current_exception();
+      }
+      order_done.store(true, std::memory_order_release);
+    };
+    if (tbb::this_task_arena::max_concurrency() > 1) {
+      std::thread producer(build_order);
+      struct Join {
+        std::thread& thread;
+        ~Join() { thread.join(); }  // also when the walk throws (Cancelled: the producer stops too)
+      } join{producer};
+      walk(order.data(), ready, order_done, st);
+    } else {
+      build_order();
+      walk(order.data(), ready, order_done, st);
+    }
+    if (order_error) std::rethrow_exception(order_error);
+    throw_if_cancelled(p_.cancel);
+  }
+
+  // How many order entries are final once entry `step` is needed: waits until it is ready or the
+  // order is complete (then the final count, == step at the end).
+  static int32_t wait_for_order(int32_t step, const std::atomic<int32_t>& ready, const std::atomic<bool>& done) {
+    while (true) {
+      const bool finished = done.load(std::memory_order_acquire);  // before `ready`: then it is final
+      const int32_t count = ready.load(std::memory_order_acquire);
+      if (count > step || finished) return count;
+      std::this_thread::yield();
+    }
+  }
+
   // Pass 2: the walk (§4.2.3–4.2.5). Sequential by nature; one RNG stream, so deterministic.
   // Drawing from the filtered table is done by rejection: draw among continuations (validated
   // exactly) and all jump entries, redraw when a drawn jump is invalid. That yields exactly the
   // filtered distribution without validating every entry; after max_rejection_draws the exact
   // filtered table is built instead (e.g. next to the border, where most jumps are invalid).
-  void walk(const VertexOrder& order, SynthStats& st) {
+  void walk(const int32_t* order, const std::atomic<int32_t>& ready, const std::atomic<bool>& order_done, SynthStats& st) {
     const int max_draws = p_.max_rejection_draws;
     const int32_t k = pre_.jump_map.k;
     const int32_t width = pre_.width, height = pre_.height;
@@ -269,9 +311,11 @@ class Synthesizer {
     std::vector<Candidate> table;
     std::vector<char> fell_back(m_.num_vertices, 0);
     Rng rng(p_.seed, 0x6a756d70);  // "jump"
-    size_t steps = 0;
-    for (int32_t v : order.order) {
-      if ((++steps & 4095) == 0) throw_if_cancelled(p_.cancel);
+    int32_t available = 0;
+    for (int32_t step = 0;; ++step) {
+      if (step == available && (available = wait_for_order(step, ready, order_done)) == step) break;
+      const int32_t v = order[step];
+      if (((step + 1) & 4095) == 0) throw_if_cancelled(p_.cancel);
       const Box& box = reach_[v];
       if (sources.size() < size_t(m_.degree(v))) sources.resize(m_.degree(v));
       size_t count = 0;
