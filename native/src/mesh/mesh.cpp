@@ -3,6 +3,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <cmath>
@@ -190,9 +191,8 @@ Mesh build_mesh(const PolyMeshInput& in, const float* normals, const std::atomic
     build_one_rings(m, corner_ring, cancel);
   }
   throw_if_cancelled(cancel);
-  build_normals(m, normals, cancel);
-  throw_if_cancelled(cancel);
-  build_components(m, cancel);
+  // Independent (different outputs): the serial component search runs next to the parallel normals.
+  tbb::parallel_invoke([&] { build_normals(m, normals, cancel); }, [&] { build_components(m, cancel); });
   return m;
 }
 
