@@ -4,6 +4,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -65,33 +66,54 @@ void parallel_range(int32_t n, int32_t grain, const std::atomic<bool>* cancel, F
   });
 }
 
-// corner_poly (parallel per polygon) and the vertex -> corners CSR (a serial counting sort, so
-// each vertex's corners stay in ascending order whatever the thread count). The same scatter puts
+// corner_poly (parallel per polygon) and the vertex -> corners CSR, a counting sort over contiguous
+// polygon blocks in parallel: block b's corners of v go after those of blocks < b, so each vertex's
+// corners are in ascending order whatever the number of blocks or threads. The same scatter puts
 // each corner's polygon neighbours (previous and next vertex) next to it in `corner_ring`, so the
 // one-rings are built from contiguous runs instead of three dependent look-ups per corner.
 void build_corner_tables(Mesh& m, UninitializedVector<int32_t>& corner_ring, const std::atomic<bool>* cancel) {
-  const int32_t nv = m.num_vertices, nc = m.num_corners;
+  const int32_t nv = m.num_vertices, nc = m.num_corners, np = m.num_polys;
   m.corner_poly.resize(size_t(nc));
-  parallel_range(m.num_polys, 4096, cancel, [&](int32_t p) {
+  parallel_range(np, 4096, cancel, [&](int32_t p) {
     std::fill_n(m.corner_poly.begin() + m.poly_starts[p], m.poly_sizes[p], p);
   });
-  m.vertex_corner_start.assign(size_t(nv) + 1, 0);
-  for (int32_t c = 0; c < nc; ++c) ++m.vertex_corner_start[m.corner_verts[c] + 1];
-  for (int32_t v = 0; v < nv; ++v) m.vertex_corner_start[v + 1] += m.vertex_corner_start[v];
+  // Few blocks: each costs a per-vertex counter array.
+  const int blocks = std::clamp(tbb::this_task_arena::max_concurrency(), 1, 4);
+  auto first_poly = [&](int b) { return int32_t(int64_t(np) * b / blocks); };
+  auto first_corner = [&](int b) { return first_poly(b) < np ? m.poly_starts[first_poly(b)] : nc; };
+  std::vector<UninitializedVector<int32_t>> next_slot(blocks);  // per block and vertex: count, then slot
+  tbb::parallel_for(0, blocks, [&](int b) {
+    throw_if_cancelled(cancel);
+    next_slot[b].assign(size_t(nv), 0);
+    for (int32_t c = first_corner(b); c < first_corner(b + 1); ++c) ++next_slot[b][m.corner_verts[c]];
+  });
   throw_if_cancelled(cancel);
+  m.vertex_corner_start.resize(size_t(nv) + 1);
+  m.vertex_corner_start[0] = 0;
+  for (int32_t v = 0, start = 0; v < nv; ++v) {
+    for (int b = 0; b < blocks; ++b) {
+      const int32_t count = next_slot[b][v];
+      next_slot[b][v] = start;
+      start += count;
+    }
+    m.vertex_corner_start[v + 1] = start;
+  }
   m.vertex_corners.resize(size_t(nc));
   corner_ring.resize(2 * size_t(nc));
-  std::vector<int32_t> fill(m.vertex_corner_start.begin(), m.vertex_corner_start.end() - 1);
-  for (int32_t p = 0; p < m.num_polys; ++p) {
-    const int32_t first = m.poly_starts[p], n = m.poly_sizes[p];
-    const int32_t* cv = m.corner_verts + first;
-    for (int32_t i = 0; i < n; ++i) {
-      const int32_t slot = fill[cv[i]]++;
-      m.vertex_corners[slot] = first + i;
-      corner_ring[2 * size_t(slot)] = cv[i == 0 ? n - 1 : i - 1];
-      corner_ring[2 * size_t(slot) + 1] = cv[i + 1 == n ? 0 : i + 1];
+  tbb::parallel_for(0, blocks, [&](int b) {
+    throw_if_cancelled(cancel);
+    int32_t* slots = next_slot[b].data();
+    for (int32_t p = first_poly(b); p < first_poly(b + 1); ++p) {
+      const int32_t first = m.poly_starts[p], n = m.poly_sizes[p];
+      const int32_t* cv = m.corner_verts + first;
+      for (int32_t i = 0; i < n; ++i) {
+        const int32_t slot = slots[cv[i]]++;
+        m.vertex_corners[slot] = first + i;
+        corner_ring[2 * size_t(slot)] = cv[i == 0 ? n - 1 : i - 1];
+        corner_ring[2 * size_t(slot) + 1] = cv[i + 1 == n ? 0 : i + 1];
+      }
     }
-  }
+  });
 }
 
 // Distinct neighbours of each vertex, sorted: its corners' polygon neighbours (corner_ring) minus
