@@ -4,7 +4,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -13,6 +12,7 @@
 #include <string>
 
 #include "texsynth/common/errors.hpp"
+#include "texsynth/common/threads.hpp"
 #include "texsynth/common/uninitialized_vector.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 
@@ -78,7 +78,7 @@ void build_corner_tables(Mesh& m, UninitializedVector<int32_t>& corner_ring, con
     std::fill_n(m.corner_poly.begin() + m.poly_starts[p], m.poly_sizes[p], p);
   });
   // Few blocks: each costs a per-vertex counter array.
-  const int blocks = std::clamp(tbb::this_task_arena::max_concurrency(), 1, 4);
+  const int blocks = std::clamp(usable_threads(), 1, 4);
   auto first_poly = [&](int b) { return int32_t(int64_t(np) * b / blocks); };
   auto first_corner = [&](int b) { return first_poly(b) < np ? m.poly_starts[first_poly(b)] : nc; };
   std::vector<UninitializedVector<int32_t>> next_slot(blocks);  // per block and vertex: count, then slot

@@ -6,7 +6,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
@@ -22,6 +21,7 @@
 
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/common/threads.hpp"
 #include "texsynth/common/uninitialized_vector.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 
@@ -258,7 +258,7 @@ class Synthesizer {
       }
       order_done.store(true, std::memory_order_release);
     };
-    if (tbb::this_task_arena::max_concurrency() > 1) {
+    if (usable_threads() > 1) {
       std::thread producer(build_order);
       struct Join {
         std::thread& thread;
