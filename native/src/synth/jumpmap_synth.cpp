@@ -16,6 +16,7 @@
 #include <stdexcept>
 #include <exception>
 #include <string>
+#include <system_error>
 #include <thread>
 #include <utility>
 
@@ -258,8 +259,14 @@ class Synthesizer {
       }
       order_done.store(true, std::memory_order_release);
     };
+    std::thread producer;
     if (usable_threads() > 1) {
-      std::thread producer(build_order);
+      try {
+        producer = std::thread(build_order);
+      } catch (const std::system_error&) {  // no thread to be had: build the order here first
+      }
+    }
+    if (producer.joinable()) {
       struct Join {
         std::thread& thread;
         ~Join() { thread.join(); }  // also when the walk throws (Cancelled: the producer stops too)
