@@ -475,11 +475,12 @@ TEST(SynthOrder, StreamedOrderMatchesBatchOrderWhileBeingRead) {
   auto m = texsynth::build_mesh(t.input());
   const std::vector<int32_t> batch = texsynth::region_growing_order(m, 5).order;
   std::vector<int32_t> streamed(size_t(m.num_vertices), -1), consumed;
+  std::vector<uint32_t> ordered_neighbours(size_t(m.num_vertices));
   std::atomic<int32_t> ready{0};
   std::atomic<bool> done{false};
   int32_t count = -1;
   std::thread producer([&] {
-    count = texsynth::stream_region_growing_order(m, 5, streamed.data(), ready);
+    count = texsynth::stream_region_growing_order(m, 5, streamed.data(), ordered_neighbours.data(), ready);
     done.store(true);
   });
   for (int32_t step = 0;;) {
@@ -492,6 +493,13 @@ TEST(SynthOrder, StreamedOrderMatchesBatchOrderWhileBeingRead) {
   EXPECT_EQ(count, int32_t(batch.size()));
   EXPECT_EQ(ready.load(), count);
   EXPECT_EQ(consumed, batch);
+  // Neighbour flags against the positions in the batch order.
+  std::vector<int32_t> position(size_t(m.num_vertices), -1);
+  for (size_t i = 0; i < batch.size(); ++i) position[batch[i]] = int32_t(i);
+  for (size_t i = 0; i < batch.size(); ++i)
+    for (int32_t k = 0; k < m.degree(batch[i]); ++k)
+      ASSERT_EQ((ordered_neighbours[i] >> k) & 1u, uint32_t(position[m.neighbours[m.neighbour_start[batch[i]] + k]] < int32_t(i)))
+          << "step " << i << " neighbour " << k;
 }
 
 // Random small meshes with random corruptions: every call either throws std::invalid_argument or

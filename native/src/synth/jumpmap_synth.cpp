@@ -248,12 +248,13 @@ class Synthesizer {
   // there while the walk follows it, a few entries behind. Same order and draws either way.
   void order_and_walk(SynthStats& st) {
     UninitializedVector<int32_t> order(size_t(m_.num_vertices));
+    UninitializedVector<uint32_t> ordered_neighbours(size_t(m_.num_vertices));
     std::atomic<int32_t> ready{0};
     std::atomic<bool> order_done{false};
     std::exception_ptr order_error;
     auto build_order = [&] {
       try {
-        stream_region_growing_order(m_, p_.seed, order.data(), ready, p_.cancel);
+        stream_region_growing_order(m_, p_.seed, order.data(), ordered_neighbours.data(), ready, p_.cancel);
       } catch (...) {
         order_error = std::current_exception();
       }
@@ -271,10 +272,10 @@ class Synthesizer {
         std::thread& thread;
         ~Join() { thread.join(); }  // also when the walk throws (Cancelled: the producer stops too)
       } join{producer};
-      walk(order.data(), ready, order_done, st);
+      walk(order.data(), ordered_neighbours.data(), ready, order_done, st);
     } else {
       build_order();
-      walk(order.data(), ready, order_done, st);
+      walk(order.data(), ordered_neighbours.data(), ready, order_done, st);
     }
     if (order_error) std::rethrow_exception(order_error);
     throw_if_cancelled(p_.cancel);
@@ -296,7 +297,11 @@ class Synthesizer {
   // exactly) and all jump entries, redraw when a drawn jump is invalid. That yields exactly the
   // filtered distribution without validating every entry; after max_rejection_draws the exact
   // filtered table is built instead (e.g. next to the border, where most jumps are invalid).
-  void walk(const int32_t* order, const std::atomic<int32_t>& ready, const std::atomic<bool>& order_done, SynthStats& st) {
+  // ordered_neighbours[step]: which of the vertex's first 32 neighbours were walked before it (see
+  // stream_region_growing_order); the others are not read, since their records are far away in
+  // memory and unsynthesized anyway.
+  void walk(const int32_t* order, const uint32_t* ordered_neighbours, const std::atomic<int32_t>& ready,
+            const std::atomic<bool>& order_done, SynthStats& st) {
     const int max_draws = p_.max_rejection_draws;
     const int32_t k = pre_.jump_map.k;
     const int32_t width = pre_.width, height = pre_.height;
@@ -327,7 +332,10 @@ class Synthesizer {
       if (sources.size() < size_t(m_.degree(v))) sources.resize(m_.degree(v));
       size_t count = 0;
       double total = 0;
+      const uint32_t before = ordered_neighbours[step];
       for (int32_t kk = m_.neighbour_start[v]; kk < m_.neighbour_start[v + 1]; ++kk) {
+        const int32_t slot = kk - m_.neighbour_start[v];
+        if (slot < 32 && !(before >> slot & 1u)) continue;
         const int32_t j = m_.neighbours[kk];
         if (!state_[j].synthesized()) continue;
         Source& src = sources[count++];
