@@ -2,10 +2,12 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <set>
+#include <thread>
 #include <stdexcept>
 #include <string>
 
@@ -464,6 +466,40 @@ TEST(SynthOrder, IsAPermutationGrowingFromSeedsWithNearGreedyChoices) {
   }
   // seed choice depends on the seed
   EXPECT_NE(texsynth::region_growing_order(m, 1).order[0], texsynth::region_growing_order(m, 2).order[0]);
+}
+
+// The streamed order (read by the walk while it is built) is the batch order, entry for entry, as
+// seen by a consumer on another thread that only reads entries `ready` says are final.
+TEST(SynthOrder, StreamedOrderMatchesBatchOrderWhileBeingRead) {
+  TestMesh t = fixtures::grid(300, 300, 1.0, false, 0.3);
+  auto m = texsynth::build_mesh(t.input());
+  const std::vector<int32_t> batch = texsynth::region_growing_order(m, 5).order;
+  std::vector<int32_t> streamed(size_t(m.num_vertices), -1), consumed;
+  std::vector<uint32_t> ordered_neighbours(size_t(m.num_vertices));
+  std::atomic<int32_t> ready{0};
+  std::atomic<bool> done{false};
+  int32_t count = -1;
+  std::thread producer([&] {
+    count = texsynth::stream_region_growing_order(m, 5, streamed.data(), ordered_neighbours.data(), ready);
+    done.store(true);
+  });
+  for (int32_t step = 0;;) {
+    const bool finished = done.load();
+    const int32_t available = ready.load();
+    while (step < available) consumed.push_back(streamed[step++]);
+    if (finished && step == ready.load()) break;
+  }
+  producer.join();
+  EXPECT_EQ(count, int32_t(batch.size()));
+  EXPECT_EQ(ready.load(), count);
+  EXPECT_EQ(consumed, batch);
+  // Neighbour flags against the positions in the batch order.
+  std::vector<int32_t> position(size_t(m.num_vertices), -1);
+  for (size_t i = 0; i < batch.size(); ++i) position[batch[i]] = int32_t(i);
+  for (size_t i = 0; i < batch.size(); ++i)
+    for (int32_t k = 0; k < m.degree(batch[i]); ++k)
+      ASSERT_EQ((ordered_neighbours[i] >> k) & 1u, uint32_t(position[m.neighbours[m.neighbour_start[batch[i]] + k]] < int32_t(i)))
+          << "step " << i << " neighbour " << k;
 }
 
 // Random small meshes with random corruptions: every call either throws std::invalid_argument or

@@ -3,6 +3,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +12,8 @@
 #include <string>
 
 #include "texsynth/common/errors.hpp"
+#include "texsynth/common/threads.hpp"
+#include "texsynth/common/uninitialized_vector.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 
 namespace texsynth {
@@ -63,61 +66,73 @@ void parallel_range(int32_t n, int32_t grain, const std::atomic<bool>* cancel, F
   });
 }
 
-// corner_poly (parallel per polygon) and the vertex -> corners CSR (a serial counting sort, so
-// each vertex's corners stay in ascending order whatever the thread count).
-void build_corner_tables(Mesh& m, const std::atomic<bool>* cancel) {
-  const int32_t nv = m.num_vertices, nc = m.num_corners;
+// corner_poly (parallel per polygon) and the vertex -> corners CSR, a counting sort over contiguous
+// polygon blocks in parallel: block b's corners of v go after those of blocks < b, so each vertex's
+// corners are in ascending order whatever the number of blocks or threads. The same scatter puts
+// each corner's polygon neighbours (previous and next vertex) next to it in `corner_ring`, so the
+// one-rings are built from contiguous runs instead of three dependent look-ups per corner.
+void build_corner_tables(Mesh& m, UninitializedVector<int32_t>& corner_ring, const std::atomic<bool>* cancel) {
+  const int32_t nv = m.num_vertices, nc = m.num_corners, np = m.num_polys;
   m.corner_poly.resize(size_t(nc));
-  parallel_range(m.num_polys, 4096, cancel, [&](int32_t p) {
+  parallel_range(np, 4096, cancel, [&](int32_t p) {
     std::fill_n(m.corner_poly.begin() + m.poly_starts[p], m.poly_sizes[p], p);
   });
-  m.vertex_corner_start.assign(size_t(nv) + 1, 0);
-  for (int32_t c = 0; c < nc; ++c) ++m.vertex_corner_start[m.corner_verts[c] + 1];
-  for (int32_t v = 0; v < nv; ++v) m.vertex_corner_start[v + 1] += m.vertex_corner_start[v];
+  // Few blocks: each costs a per-vertex counter array.
+  const int blocks = std::clamp(usable_threads(), 1, 4);
+  auto first_poly = [&](int b) { return int32_t(int64_t(np) * b / blocks); };
+  auto first_corner = [&](int b) { return first_poly(b) < np ? m.poly_starts[first_poly(b)] : nc; };
+  std::vector<UninitializedVector<int32_t>> next_slot(blocks);  // per block and vertex: count, then slot
+  tbb::parallel_for(0, blocks, [&](int b) {
+    throw_if_cancelled(cancel);
+    next_slot[b].assign(size_t(nv), 0);
+    for (int32_t c = first_corner(b); c < first_corner(b + 1); ++c) ++next_slot[b][m.corner_verts[c]];
+  });
   throw_if_cancelled(cancel);
-  m.vertex_corners.resize(size_t(nc));
-  std::vector<int32_t> fill(m.vertex_corner_start.begin(), m.vertex_corner_start.end() - 1);
-  for (int32_t c = 0; c < nc; ++c) m.vertex_corners[fill[m.corner_verts[c]]++] = c;
-}
-
-// Distinct neighbours of v, sorted: each corner of v contributes its polygon's previous and next
-// vertex (unless they are v). Returns the count; ring holds at least 2 entries per corner of v.
-int32_t gather_ring(const Mesh& m, int32_t v, std::vector<int32_t>& ring) {
-  ring.resize(2 * size_t(m.vertex_corner_start[v + 1] - m.vertex_corner_start[v]));
-  int32_t* b = ring.data();
-  int32_t* e = b;
-  for (int32_t k = m.vertex_corner_start[v]; k < m.vertex_corner_start[v + 1]; ++k) {
-    const int32_t c = m.vertex_corners[k], p = m.corner_poly[c];
-    const int32_t first = m.poly_starts[p], n = m.poly_sizes[p], i = c - first;
-    const int32_t prev = m.corner_verts[first + (i == 0 ? n - 1 : i - 1)];
-    const int32_t next = m.corner_verts[first + (i + 1 == n ? 0 : i + 1)];
-    if (prev != v) *e++ = prev;
-    if (next != v) *e++ = next;
+  m.vertex_corner_start.resize(size_t(nv) + 1);
+  m.vertex_corner_start[0] = 0;
+  for (int32_t v = 0, start = 0; v < nv; ++v) {
+    for (int b = 0; b < blocks; ++b) {
+      const int32_t count = next_slot[b][v];
+      next_slot[b][v] = start;
+      start += count;
+    }
+    m.vertex_corner_start[v + 1] = start;
   }
-  std::sort(b, e);
-  return int32_t(std::unique(b, e) - b);
+  m.vertex_corners.resize(size_t(nc));
+  corner_ring.resize(2 * size_t(nc));
+  tbb::parallel_for(0, blocks, [&](int b) {
+    throw_if_cancelled(cancel);
+    int32_t* slots = next_slot[b].data();
+    for (int32_t p = first_poly(b); p < first_poly(b + 1); ++p) {
+      const int32_t first = m.poly_starts[p], n = m.poly_sizes[p];
+      const int32_t* cv = m.corner_verts + first;
+      for (int32_t i = 0; i < n; ++i) {
+        const int32_t slot = slots[cv[i]]++;
+        m.vertex_corners[slot] = first + i;
+        corner_ring[2 * size_t(slot)] = cv[i == 0 ? n - 1 : i - 1];
+        corner_ring[2 * size_t(slot) + 1] = cv[i + 1 == n ? 0 : i + 1];
+      }
+    }
+  });
 }
 
-// Two parallel gathers (count, then fill the CSR): recomputing the few entries per vertex is
-// cheaper than a temporary of 2 entries per corner that the kernel must hand out and zero.
-void build_one_rings(Mesh& m, const std::atomic<bool>* cancel) {
+// Distinct neighbours of each vertex, sorted: its corners' polygon neighbours (corner_ring) minus
+// itself. Sorted and deduplicated in place (one parallel pass), then packed into the CSR.
+void build_one_rings(Mesh& m, UninitializedVector<int32_t>& corner_ring, const std::atomic<bool>* cancel) {
   const int32_t nv = m.num_vertices;
   m.neighbour_start.resize(size_t(nv) + 1);
   m.neighbour_start[0] = 0;
-  tbb::parallel_for(tbb::blocked_range<int32_t>(0, nv, 4096), [&](const tbb::blocked_range<int32_t>& r) {
-    throw_if_cancelled(cancel);
-    std::vector<int32_t> ring;
-    for (int32_t v = r.begin(); v < r.end(); ++v) m.neighbour_start[v + 1] = gather_ring(m, v, ring);
+  parallel_range(nv, 4096, cancel, [&](int32_t v) {
+    int32_t* b = corner_ring.data() + 2 * size_t(m.vertex_corner_start[v]);
+    int32_t* e = std::remove(b, corner_ring.data() + 2 * size_t(m.vertex_corner_start[v + 1]), v);
+    std::sort(b, e);
+    m.neighbour_start[v + 1] = int32_t(std::unique(b, e) - b);
   });
   for (int32_t v = 0; v < nv; ++v) m.neighbour_start[v + 1] += m.neighbour_start[v];
   m.neighbours.resize(m.neighbour_start[nv]);
-  tbb::parallel_for(tbb::blocked_range<int32_t>(0, nv, 4096), [&](const tbb::blocked_range<int32_t>& r) {
-    throw_if_cancelled(cancel);
-    std::vector<int32_t> ring;
-    for (int32_t v = r.begin(); v < r.end(); ++v) {
-      const int32_t count = gather_ring(m, v, ring);
-      std::copy(ring.begin(), ring.begin() + count, m.neighbours.begin() + m.neighbour_start[v]);
-    }
+  parallel_range(nv, 4096, cancel, [&](int32_t v) {
+    std::copy_n(corner_ring.data() + 2 * size_t(m.vertex_corner_start[v]), m.degree(v),
+                m.neighbours.begin() + m.neighbour_start[v]);
   });
 }
 
@@ -192,12 +207,14 @@ Mesh build_mesh(const PolyMeshInput& in, const float* normals, const std::atomic
   m.corner_verts = in.corner_verts;
   m.poly_starts = in.poly_starts;
   m.poly_sizes = in.poly_sizes;
-  build_corner_tables(m, cancel);
-  build_one_rings(m, cancel);
+  {
+    UninitializedVector<int32_t> corner_ring;  // 2 per corner, dropped once the one-rings are packed
+    build_corner_tables(m, corner_ring, cancel);
+    build_one_rings(m, corner_ring, cancel);
+  }
   throw_if_cancelled(cancel);
-  build_normals(m, normals, cancel);
-  throw_if_cancelled(cancel);
-  build_components(m, cancel);
+  // Independent (different outputs): the serial component search runs next to the parallel normals.
+  tbb::parallel_invoke([&] { build_normals(m, normals, cancel); }, [&] { build_components(m, cancel); });
   return m;
 }
 

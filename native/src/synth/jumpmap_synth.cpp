@@ -12,44 +12,24 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <memory>
-#include <new>
 #include <sstream>
 #include <stdexcept>
+#include <exception>
 #include <string>
+#include <system_error>
+#include <thread>
 #include <utility>
 
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/common/threads.hpp"
+#include "texsynth/common/uninitialized_vector.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 
 namespace texsynth {
 namespace {
 
 constexpr double kMaxOffset = 1e9;
-
-// resize() without zero-filling: for buffers that a parallel pass overwrites completely, so the
-// pages are first touched (and zeroed by the kernel) by the worker threads, not by a serial memset.
-template <class T>
-struct UninitializedAllocator : std::allocator<T> {
-  template <class U>
-  struct rebind {
-    using other = UninitializedAllocator<U>;
-  };
-  UninitializedAllocator() = default;
-  template <class U>
-  UninitializedAllocator(const UninitializedAllocator<U>&) {}
-  template <class U>
-  void construct(U* p) noexcept {
-    ::new (static_cast<void*>(p)) U;
-  }
-  template <class U, class... Args>
-  void construct(U* p, Args&&... args) {
-    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-  }
-};
-template <class T>
-using UninitializedVector = std::vector<T, UninitializedAllocator<T>>;
 
 struct Box {  // texel-space offsets reachable from a vertex's address through its polygons
   float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
@@ -105,9 +85,7 @@ class Synthesizer {
           << "x the sample); lower the scale by at least that factor, subdivide those faces, or pass allow_oversized=True";
       throw std::invalid_argument(msg.str());
     }
-    VertexOrder order = region_growing_order(m_, p_.seed, p_.cancel);
-    throw_if_cancelled(p_.cancel);
-    walk(order, r.stats);
+    order_and_walk(r.stats);
     throw_if_cancelled(p_.cancel);
     write_corners(out);
     throw_if_cancelled(p_.cancel);
@@ -266,12 +244,64 @@ class Synthesizer {
     float texel_weight[4];       // bilinear × the texel's summed jump weights
   };
 
+  // The order (§4.1) and the walk over it are both serial: with a second thread the order is built
+  // there while the walk follows it, a few entries behind. Same order and draws either way.
+  void order_and_walk(SynthStats& st) {
+    UninitializedVector<int32_t> order(size_t(m_.num_vertices));
+    UninitializedVector<uint32_t> ordered_neighbours(size_t(m_.num_vertices));
+    std::atomic<int32_t> ready{0};
+    std::atomic<bool> order_done{false};
+    std::exception_ptr order_error;
+    auto build_order = [&] {
+      try {
+        stream_region_growing_order(m_, p_.seed, order.data(), ordered_neighbours.data(), ready, p_.cancel);
+      } catch (...) {
+        order_error = std::current_exception();
+      }
+      order_done.store(true, std::memory_order_release);
+    };
+    std::thread producer;
+    if (usable_threads() > 1) {
+      try {
+        producer = std::thread(build_order);
+      } catch (const std::system_error&) {  // no thread to be had: build the order here first
+      }
+    }
+    if (producer.joinable()) {
+      struct Join {
+        std::thread& thread;
+        ~Join() { thread.join(); }  // also when the walk throws (Cancelled: the producer stops too)
+      } join{producer};
+      walk(order.data(), ordered_neighbours.data(), ready, order_done, st);
+    } else {
+      build_order();
+      walk(order.data(), ordered_neighbours.data(), ready, order_done, st);
+    }
+    if (order_error) std::rethrow_exception(order_error);
+    throw_if_cancelled(p_.cancel);
+  }
+
+  // How many order entries are final once entry `step` is needed: waits until it is ready or the
+  // order is complete (then the final count, == step at the end).
+  static int32_t wait_for_order(int32_t step, const std::atomic<int32_t>& ready, const std::atomic<bool>& done) {
+    while (true) {
+      const bool finished = done.load(std::memory_order_acquire);  // before `ready`: then it is final
+      const int32_t count = ready.load(std::memory_order_acquire);
+      if (count > step || finished) return count;
+      std::this_thread::yield();
+    }
+  }
+
   // Pass 2: the walk (§4.2.3–4.2.5). Sequential by nature; one RNG stream, so deterministic.
   // Drawing from the filtered table is done by rejection: draw among continuations (validated
   // exactly) and all jump entries, redraw when a drawn jump is invalid. That yields exactly the
   // filtered distribution without validating every entry; after max_rejection_draws the exact
   // filtered table is built instead (e.g. next to the border, where most jumps are invalid).
-  void walk(const VertexOrder& order, SynthStats& st) {
+  // ordered_neighbours[step]: which of the vertex's first 32 neighbours were walked before it (see
+  // stream_region_growing_order); the others are not read, since their records are far away in
+  // memory and unsynthesized anyway.
+  void walk(const int32_t* order, const uint32_t* ordered_neighbours, const std::atomic<int32_t>& ready,
+            const std::atomic<bool>& order_done, SynthStats& st) {
     const int max_draws = p_.max_rejection_draws;
     const int32_t k = pre_.jump_map.k;
     const int32_t width = pre_.width, height = pre_.height;
@@ -293,14 +323,19 @@ class Synthesizer {
     std::vector<Candidate> table;
     std::vector<char> fell_back(m_.num_vertices, 0);
     Rng rng(p_.seed, 0x6a756d70);  // "jump"
-    size_t steps = 0;
-    for (int32_t v : order.order) {
-      if ((++steps & 4095) == 0) throw_if_cancelled(p_.cancel);
+    int32_t available = 0;
+    for (int32_t step = 0;; ++step) {
+      if (step == available && (available = wait_for_order(step, ready, order_done)) == step) break;
+      const int32_t v = order[step];
+      if (((step + 1) & 4095) == 0) throw_if_cancelled(p_.cancel);
       const Box& box = reach_[v];
       if (sources.size() < size_t(m_.degree(v))) sources.resize(m_.degree(v));
       size_t count = 0;
       double total = 0;
+      const uint32_t before = ordered_neighbours[step];
       for (int32_t kk = m_.neighbour_start[v]; kk < m_.neighbour_start[v + 1]; ++kk) {
+        const int32_t slot = kk - m_.neighbour_start[v];
+        if (slot < 32 && !(before >> slot & 1u)) continue;
         const int32_t j = m_.neighbours[kk];
         if (!state_[j].synthesized()) continue;
         Source& src = sources[count++];

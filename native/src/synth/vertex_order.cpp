@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // §4.1 region-growing vertex order.
+#include <atomic>
 #include <cstddef>
 #include <queue>
 
@@ -26,10 +27,14 @@ std::vector<int32_t> component_seeds(const Mesh& m, uint64_t seed) {
 
 }  // namespace
 
-VertexOrder region_growing_order(const Mesh& m, uint64_t seed, const std::atomic<bool>* cancel) {
-  VertexOrder out;
-  out.order.reserve(m.num_vertices);
-  out.component_start.reserve(size_t(m.num_components) + 1);
+namespace {
+
+// The bucket-queue growth behind region_growing_order and its streaming form: calls
+// begin_component() at each component's seed, then emit(v, ordered_neighbours) for each vertex in
+// order, where bit k of ordered_neighbours is set when v's k-th neighbour (k < 32) came before v.
+template <class BeginComponent, class Emit>
+void grow_region_order(const Mesh& m, uint64_t seed, const std::atomic<bool>* cancel, BeginComponent&& begin_component,
+                       Emit&& emit) {
   std::vector<int32_t> done_neighbours(m.num_vertices, 0);
   // Level of the vertex's live queue entry; -1 = not queued yet, kDone = ordered.
   constexpr signed char kDone = 127;
@@ -44,9 +49,9 @@ VertexOrder region_growing_order(const Mesh& m, uint64_t seed, const std::atomic
     return degree < 256 ? int32_t(float(done_neighbours[v]) * reciprocal[degree] + 1e-4f)
                         : int32_t((int64_t(done_neighbours[v]) * kOrderLevels) / degree);
   };
-
+  size_t emitted = 0;
   for (int32_t start : component_seeds(m, seed)) {
-    out.component_start.push_back(int32_t(out.order.size()));
+    begin_component();
     int top = 0;
     buckets[0].push_back(start);
     queued_level[start] = 0;
@@ -58,11 +63,13 @@ VertexOrder region_growing_order(const Mesh& m, uint64_t seed, const std::atomic
       // Stale entry: the vertex was raised to a higher level (it has a newer entry) or is done.
       if (queued_level[v] != top) continue;
       queued_level[v] = kDone;
-      out.order.push_back(v);
-      if ((out.order.size() & 0xFFFF) == 0) throw_if_cancelled(cancel);
+      uint32_t ordered_neighbours = 0;
       for (int32_t k = m.neighbour_start[v]; k < m.neighbour_start[v + 1]; ++k) {
         int32_t w = m.neighbours[k];
-        if (queued_level[w] == kDone) continue;
+        if (queued_level[w] == kDone) {
+          if (k - m.neighbour_start[v] < 32) ordered_neighbours |= uint32_t(1) << (k - m.neighbour_start[v]);
+          continue;
+        }
         ++done_neighbours[w];
         const int32_t after = level(w);
         if (after != queued_level[w]) {
@@ -71,10 +78,35 @@ VertexOrder region_growing_order(const Mesh& m, uint64_t seed, const std::atomic
           if (after > top) top = after;
         }
       }
+      emit(v, ordered_neighbours);
+      if ((++emitted & 0xFFFF) == 0) throw_if_cancelled(cancel);
     }
   }
+}
+
+}  // namespace
+
+VertexOrder region_growing_order(const Mesh& m, uint64_t seed, const std::atomic<bool>* cancel) {
+  VertexOrder out;
+  out.order.reserve(m.num_vertices);
+  out.component_start.reserve(size_t(m.num_components) + 1);
+  grow_region_order(
+      m, seed, cancel, [&] { out.component_start.push_back(int32_t(out.order.size())); },
+      [&](int32_t v, uint32_t) { out.order.push_back(v); });
   out.component_start.push_back(int32_t(out.order.size()));
   return out;
+}
+
+int32_t stream_region_growing_order(const Mesh& m, uint64_t seed, int32_t* out, uint32_t* ordered_neighbours,
+                                    std::atomic<int32_t>& ready, const std::atomic<bool>* cancel) {
+  int32_t count = 0;
+  grow_region_order(m, seed, cancel, [] {}, [&](int32_t v, uint32_t ordered) {
+    if (ordered_neighbours) ordered_neighbours[count] = ordered;
+    out[count++] = v;
+    if ((count & 1023) == 0) ready.store(count, std::memory_order_release);  // batched: one shared write per 1024
+  });
+  ready.store(count, std::memory_order_release);
+  return count;
 }
 
 VertexOrder region_growing_order_heap(const Mesh& m, uint64_t seed, const std::atomic<bool>* cancel) {

@@ -84,6 +84,13 @@ struct VertexOrder {
   std::vector<int32_t> component_start;  // order[component_start[c]] is component c's seed; size = components + 1
 };
 VertexOrder region_growing_order(const Mesh& mesh, uint64_t seed, const std::atomic<bool>* cancel = nullptr);
+// The same order written into out[0 .. count) (room for mesh.num_vertices entries), for a consumer
+// on another thread: the number of final entries is stored in `ready` (release) as the order grows,
+// in batches, and once more at the end. When ordered_neighbours is given (same room), bit k of
+// ordered_neighbours[i] is set when the k-th neighbour (k < 32) of out[i] comes before it in the
+// order. Returns count.
+int32_t stream_region_growing_order(const Mesh& mesh, uint64_t seed, int32_t* out, uint32_t* ordered_neighbours,
+                                    std::atomic<int32_t>& ready, const std::atomic<bool>* cancel = nullptr);
 // Baseline for benchmarks: the same rule with exact proportions and a std::priority_queue.
 VertexOrder region_growing_order_heap(const Mesh& mesh, uint64_t seed, const std::atomic<bool>* cancel = nullptr);
 
