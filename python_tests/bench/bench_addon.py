@@ -4,7 +4,7 @@ Blender's own Smart UV Project on the same ~840k-face mesh, in the same Blender 
 
   bash scripts/fetch_bench_mesh.sh   # once: the Stanford bunny from Debian's libcgal-demo package
   blender -b --factory-startup --python-exit-code 1 --python python_tests/bench/bench_addon.py \\
-      [-- --mesh stanford|torus|suzanne] [--repeat N]
+      [-- --mesh stanford|torus|suzanne] [--repeat N] [--material NEW|NONE]
 
 stanford (default): the scanned Stanford bunny (out/bench/bunny00.off, 75,408 triangles) with 2
   Catmull-Clark levels applied: 904,896 quads (the issue's "subdivided bunny", 836k quads there).
@@ -142,6 +142,8 @@ def main():
     parser.add_argument("--mesh", choices=["stanford", "torus", "suzanne"], default="stanford")
     parser.add_argument("--stanford-path", default=os.path.join(harness.ROOT, "out", "bench", "bunny00.off"))
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--material", choices=["NEW", "NONE"], default="NEW",
+                        help="the operator's material mode (NONE: layers only, no material assignment)")
     args = parser.parse_args(harness.script_args())
     texsynth = harness.load_addon()
     texsynth.register()
@@ -157,7 +159,7 @@ def main():
     cache_dir = tempfile.mkdtemp(prefix="texsynth_bench_")
     props = bpy.context.scene.texsynth
     props.sample_source, props.sample_path = "FILE", os.path.join(harness.SAMPLES_DIR, "bricks.png")
-    props.scale, props.seed, props.material_mode = size / 4.0, 1, "NEW"  # the sample spans a quarter of the mesh
+    props.scale, props.seed, props.material_mode = size / 4.0, 1, args.material  # the sample spans a quarter of the mesh
     settings = props.to_settings()
     synthesis.preprocess(synthesis.Sample(path=props.sample_path), settings, cache_dir)
     texsynth.properties.cache_dir = lambda context: cache_dir  # the operator uses the warm bench cache
