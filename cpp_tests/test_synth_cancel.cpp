@@ -48,6 +48,16 @@ std::vector<float> up_field(const texsynth::Mesh& mesh) {
   return texsynth::compute_orientation_field(mesh, f);
 }
 
+// Runs synthesize(flag) on another thread and raises the flag 2 ms later: it must end in Cancelled.
+template <class Synthesize>
+void expect_stopped_mid_run(Synthesize&& synthesize) {
+  std::atomic<bool> flag{false};
+  auto running = std::async(std::launch::async, [&] { synthesize(&flag); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  flag.store(true);
+  EXPECT_THROW(running.get(), Cancelled);
+}
+
 TEST(Cancel, RaisedFlagStopsEveryStage) {
   const auto grid = fixtures::grid(40, 40, 0.5, false);
   std::atomic<bool> raised{true};
@@ -90,16 +100,12 @@ TEST(Cancel, FlagRaisedFromAnotherThreadStopsARunningTextonSynthesis) {
   const auto grid = fixtures::grid(400, 400, 0.05, false);  // 160k quads: most of a second of searching
   const texsynth::Mesh mesh = texsynth::build_mesh(grid.input());
   const std::vector<float> up = up_field(mesh);
-  std::atomic<bool> flag{false};
-  texsynth::TextonSynthParams p;
-  p.scale = 2.0;
-  p.cancel = &flag;
-  auto running = std::async(std::launch::async, [&] {
-    return texsynth::synthesize_texton(small_sample(), mesh, up.data(), small_sample_pixels(), p);
+  expect_stopped_mid_run([&](const std::atomic<bool>* flag) {
+    texsynth::TextonSynthParams p;
+    p.scale = 2.0;
+    p.cancel = flag;
+    texsynth::synthesize_texton(small_sample(), mesh, up.data(), small_sample_pixels(), p);
   });
-  std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  flag.store(true);
-  EXPECT_THROW(running.get(), Cancelled);
 }
 
 TEST(Cancel, OrderStopsOnLargeMeshes) {
@@ -113,14 +119,12 @@ TEST(Cancel, FlagRaisedFromAnotherThreadStopsARunningSynthesis) {
   const auto grid = fixtures::grid(700, 700, 0.05, false);  // 490k quads: seconds of work
   const texsynth::Mesh mesh = texsynth::build_mesh(grid.input());
   const std::vector<float> up = up_field(mesh);
-  std::atomic<bool> flag{false};
-  texsynth::JumpSynthParams p;
-  p.scale = 2.0;
-  p.cancel = &flag;
-  auto running = std::async(std::launch::async, [&] { return texsynth::synthesize_jumpmap(small_sample(), mesh, up.data(), p); });
-  std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  flag.store(true);
-  EXPECT_THROW(running.get(), Cancelled);
+  expect_stopped_mid_run([&](const std::atomic<bool>* flag) {
+    texsynth::JumpSynthParams p;
+    p.scale = 2.0;
+    p.cancel = flag;
+    texsynth::synthesize_jumpmap(small_sample(), mesh, up.data(), p);
+  });
 }
 
 }  // namespace
