@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import texsynth_native as ts
+from uv_jacobians import triangle_jacobians
 
 
 @pytest.fixture(scope="module")
@@ -45,16 +46,7 @@ def texel(uv, pre):
 def face_jacobians(pos, corner_verts, starts, uv, pre):
     """Per triangle: J mapping the triangle's own plane (basis from its first edge) to texels."""
     c = starts[:, None] + np.arange(3)[None, :]
-    p = pos[corner_verts[c]].astype(np.float64)
-    t = texel(uv[c], pre)
-    e1 = p[:, 1] - p[:, 0]
-    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    e2 = np.cross(n, e1)
-    M = np.stack([np.stack([((p[:, k] - p[:, 0]) * e).sum(1) for k in (1, 2)], 1) for e in (e1, e2)], 1)
-    T = np.stack([t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]], 2)
-    return T @ np.linalg.inv(M), e1, e2
+    return triangle_jacobians(pos[corner_verts[c]], texel(uv[c], pre))
 
 
 def test_flat_jittered_grid_every_face_is_a_similarity_with_scale_and_rotation(pre):

@@ -3,7 +3,6 @@
 #include <pybind11/pybind11.h>
 
 #include "field_args.hpp"
-#include "texsynth/mesh/mesh.hpp"
 
 namespace py = pybind11;
 using namespace texsynth_py;
@@ -14,17 +13,15 @@ void bind_field(py::module_& m) {
       [](py::object positions, py::object corner_verts, py::object poly_starts, py::object poly_sizes,
          const std::string& orientation, py::object axis, py::object direction, py::object anchor_vertices,
          py::object anchor_directions, py::object sources, py::object sinks, py::object normals) {
-        MeshArrays arrays = mesh_arrays(positions, corner_verts, poly_starts, poly_sizes);
-        FloatArray normal_array = optional_vectors(normals, arrays.input.num_vertices, "normals");
-        FieldArgs field = field_args(arrays.input.num_vertices, orientation, axis, direction, anchor_vertices,
-                                     anchor_directions, sources, sinks);
+        const OrientedMeshArgs args = oriented_mesh_args(positions, corner_verts, poly_starts, poly_sizes, normals,
+                                                         orientation, axis, direction, anchor_vertices,
+                                                         anchor_directions, sources, sinks);
         std::vector<float> out;
         {
           py::gil_scoped_release release;
-          texsynth::Mesh mesh = texsynth::build_mesh(arrays.input, normals.is_none() ? nullptr : normal_array.data());
-          out = texsynth::compute_orientation_field(mesh, field.params);
+          out = std::move(args.build().up);
         }
-        return to_numpy(std::move(out), {py::ssize_t(arrays.input.num_vertices), 3});
+        return to_numpy(std::move(out), {py::ssize_t(args.arrays.input.num_vertices), 3});
       },
       py::arg("positions"), py::arg("corner_verts"), py::arg("poly_starts"), py::arg("poly_sizes"), py::kw_only(),
       py::arg("orientation") = "axis", py::arg("axis") = py::make_tuple(0.0, 0.0, 1.0), py::arg("direction") = py::none(),

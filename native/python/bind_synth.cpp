@@ -4,7 +4,6 @@
 
 #include "cancel_arg.hpp"
 #include "field_args.hpp"
-#include "texsynth/mesh/mesh.hpp"
 #include "texsynth/preprocess/preprocessed.hpp"
 #include "texsynth/synth/jumpmap_synth.hpp"
 
@@ -20,11 +19,10 @@ void bind_synth(py::module_& m) {
          py::object axis, py::object direction, py::object anchor_vertices, py::object anchor_directions,
          py::object sources, py::object sinks, py::object normals, py::object scale_multiplier, bool allow_oversized,
          py::object cancel) {
-        MeshArrays arrays = mesh_arrays(positions, corner_verts, poly_starts, poly_sizes);
-        const int32_t nv = arrays.input.num_vertices;
-        FloatArray normal_array = optional_vectors(normals, nv, "normals");
-        FieldArgs field = field_args(nv, orientation, axis, direction, anchor_vertices, anchor_directions, sources, sinks);
-        FloatArray multiplier = optional_scale_multiplier(scale_multiplier, nv);
+        OrientedMeshArgs args = oriented_mesh_args(positions, corner_verts, poly_starts, poly_sizes, normals, orientation,
+                                                   axis, direction, anchor_vertices, anchor_directions, sources, sinks);
+        const texsynth::PolyMeshInput& input = args.arrays.input;
+        FloatArray multiplier = optional_scale_multiplier(scale_multiplier, input.num_vertices);
         texsynth::JumpSynthParams params;
         params.scale = scale;
         params.jump_rate = jump_rate;
@@ -32,21 +30,19 @@ void bind_synth(py::module_& m) {
         params.blend = blend;
         params.allow_oversized = allow_oversized;
         params.scale_multiplier = scale_multiplier.is_none() ? nullptr : multiplier.data();
-        params.cancel = field.params.cancel = cancel_flag(cancel);
+        params.cancel = args.field.params.cancel = cancel_flag(cancel);
         // Outputs allocated here (uninitialised) and written once by the core, no copies.
-        const py::ssize_t L = arrays.input.num_corners;
-        const int32_t S = texsynth::jumpmap_blend_sets(arrays.input.poly_sizes, arrays.input.num_polys, blend);
+        const py::ssize_t L = input.num_corners;
+        const int32_t S = texsynth::jumpmap_blend_sets(input.poly_sizes, input.num_polys, blend);
         py::array_t<float> base_uv({L, py::ssize_t(2)}), blend_uv({py::ssize_t(S), L, py::ssize_t(2)}),
             blend_weights({L, py::ssize_t(S)});
-        const texsynth::CornerMapsView view{arrays.input.num_corners, S, base_uv.mutable_data(), blend_uv.mutable_data(),
+        const texsynth::CornerMapsView view{input.num_corners, S, base_uv.mutable_data(), blend_uv.mutable_data(),
                                             blend_weights.mutable_data()};
         texsynth::JumpSynthResult r;
         {
           py::gil_scoped_release release;
-          texsynth::Mesh mesh =
-              texsynth::build_mesh(arrays.input, normals.is_none() ? nullptr : normal_array.data(), params.cancel);
-          std::vector<float> up = texsynth::compute_orientation_field(mesh, field.params);
-          r = texsynth::synthesize_jumpmap(pre, mesh, up.data(), params, view);
+          const OrientedMeshArgs::Built built = args.build();
+          r = texsynth::synthesize_jumpmap(pre, built.mesh, built.up.data(), params, view);
         }
         py::dict stats;
         stats["faces"] = r.stats.faces;

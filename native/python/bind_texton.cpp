@@ -43,13 +43,11 @@ void bind_texton(py::module_& m) {
          py::object anchor_vertices, py::object anchor_directions, py::object sources, py::object sinks,
          py::object normals, py::object scale_multiplier, py::object camera_position, py::object blend_threshold,
          double lambda, bool allow_oversized, py::object cancel) {
-        MeshArrays arrays = mesh_arrays(positions, corner_verts, poly_starts, poly_sizes);
-        const int32_t nv = arrays.input.num_vertices;
+        OrientedMeshArgs args = oriented_mesh_args(positions, corner_verts, poly_starts, poly_sizes, normals, orientation,
+                                                   axis, direction, anchor_vertices, anchor_directions, sources, sinks);
         FloatArray pixels = float_array(sample_pixels, "sample_pixels");
         const texsynth::SampleImage sample = sample_image(pixels);
-        FloatArray normal_array = optional_vectors(normals, nv, "normals");
-        FieldArgs field = field_args(nv, orientation, axis, direction, anchor_vertices, anchor_directions, sources, sinks);
-        FloatArray multiplier = optional_scale_multiplier(scale_multiplier, nv);
+        FloatArray multiplier = optional_scale_multiplier(scale_multiplier, args.arrays.input.num_vertices);
         texsynth::TextonSynthParams params;
         params.scale = scale;
         params.seed = seed;
@@ -61,7 +59,7 @@ void bind_texton(py::module_& m) {
         params.allow_oversized = allow_oversized;
         params.lambda = lambda;
         params.scale_multiplier = scale_multiplier.is_none() ? nullptr : multiplier.data();
-        params.cancel = field.params.cancel = cancel_flag(cancel);
+        params.cancel = args.field.params.cancel = cancel_flag(cancel);
         if (!camera_position.is_none()) {
           const texsynth::Vec3f c = vec3(camera_position, "camera_position");
           params.has_camera = true;
@@ -74,10 +72,8 @@ void bind_texton(py::module_& m) {
         texsynth::TextonSynthResult r;
         {
           py::gil_scoped_release release;
-          texsynth::Mesh mesh =
-              texsynth::build_mesh(arrays.input, normals.is_none() ? nullptr : normal_array.data(), params.cancel);
-          std::vector<float> up = texsynth::compute_orientation_field(mesh, field.params);
-          r = texsynth::synthesize_texton(pre, mesh, up.data(), sample, params);
+          const OrientedMeshArgs::Built built = args.build();
+          r = texsynth::synthesize_texton(pre, built.mesh, built.up.data(), sample, params);
         }
         const py::ssize_t L = r.maps.num_corners, S = r.maps.num_blend_sets, E = r.edges.num_edges();
         // Per corner: the edge from this corner to the next (what the add-on shows as attributes).

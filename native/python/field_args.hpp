@@ -1,8 +1,12 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// Orientation keyword arguments shared by compute_field and synthesize_jumpmap.
+// Orientation keyword arguments, and the mesh + normals + orientation arguments that compute_field
+// and both synthesizers parse and build the same way.
+#include <utility>
+
 #include "array_args.hpp"
 #include "texsynth/field/orientation_field.hpp"
+#include "texsynth/mesh/mesh.hpp"
 
 namespace texsynth_py {
 
@@ -33,6 +37,35 @@ inline FieldArgs field_args(int32_t num_vertices, const std::string& orientation
   f.params.sources = optional_indices(sources, "sources");
   f.params.sinks = optional_indices(sinks, "sinks");
   return f;
+}
+
+struct OrientedMeshArgs {
+  MeshArrays arrays;
+  FloatArray normals;  // keeps the caller's normals alive
+  bool has_normals = false;
+  FieldArgs field;  // field.params.cancel also stops the mesh build
+
+  struct Built {
+    texsynth::Mesh mesh;  // borrows arrays
+    std::vector<float> up;
+  };
+  // The mesh tables and the per-vertex "up" field: heavy, call with the GIL released.
+  Built build() const {
+    Built built{texsynth::build_mesh(arrays.input, has_normals ? normals.data() : nullptr, field.params.cancel), {}};
+    built.up = texsynth::compute_orientation_field(built.mesh, field.params);
+    return built;
+  }
+};
+
+inline OrientedMeshArgs oriented_mesh_args(py::handle positions, py::handle corner_verts, py::handle poly_starts,
+                                           py::handle poly_sizes, py::handle normals, const std::string& orientation,
+                                           py::handle axis, py::handle direction, py::handle anchor_vertices,
+                                           py::handle anchor_directions, py::handle sources, py::handle sinks) {
+  OrientedMeshArgs a{mesh_arrays(positions, corner_verts, poly_starts, poly_sizes), {}, !normals.is_none(), {}};
+  const int32_t nv = a.arrays.input.num_vertices;
+  a.normals = optional_vectors(normals, nv, "normals");
+  a.field = field_args(nv, orientation, axis, direction, anchor_vertices, anchor_directions, sources, sinks);
+  return a;
 }
 
 }  // namespace texsynth_py

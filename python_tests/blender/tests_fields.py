@@ -7,10 +7,12 @@ import sys
 import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # uv_jacobians
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 import harness  # noqa: E402
+from uv_jacobians import triangle_jacobians  # noqa: E402
 
 texsynth = harness.load_addon()
 from texsynth import bridge, field_ops, fields, native, pipeline  # noqa: E402
@@ -62,16 +64,7 @@ def face_frames(obj, uv_name="TexSynth"):
     obj.data.uv_layers[uv_name].data.foreach_get("uv", uv)
     uv = uv.reshape(-1, 2).astype(np.float64)
     c = arrays.poly_starts[:, None] + np.arange(3)[None, :]
-    p = arrays.positions[arrays.corner_verts[c]].astype(np.float64)
-    t = uv[c]
-    e1 = p[:, 1] - p[:, 0]
-    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    e2 = np.cross(n, e1)
-    M = np.stack([np.stack([((p[:, k] - p[:, 0]) * e).sum(1) for k in (1, 2)], 1) for e in (e1, e2)], 1)
-    T = np.stack([t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]], 2)
-    J = T @ np.linalg.inv(M)  # plane coords -> UV
+    J, e1, e2 = triangle_jacobians(arrays.positions[arrays.corner_verts[c]], uv[c])  # plane coords -> UV
     up2 = np.linalg.solve(J, np.tile([0.0, 1.0], (len(J), 1))[..., None])[..., 0]
     return up2[:, :1] * e1 + up2[:, 1:] * e2, np.sqrt(np.abs(np.linalg.det(J))), arrays
 

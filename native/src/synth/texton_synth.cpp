@@ -10,7 +10,6 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -218,13 +217,8 @@ class TextonSynthesizer {
     r.edges = build_mesh_edges(m_);
     throw_if_cancelled(p_.cancel);
     measure_faces(r.stats);
-    if (r.stats.oversized_faces > 0 && !p_.allow_oversized) {
-      std::ostringstream msg;
-      msg << r.stats.oversized_faces << " of " << m_.num_polys << " faces are larger than the " << pre_.width << "x"
-          << pre_.height << " sample at scale " << p_.scale << " texels/unit (worst face " << r.stats.max_oversize_ratio
-          << "x the sample); lower the scale by at least that factor, subdivide those faces, or pass allow_oversized=True";
-      throw std::invalid_argument(msg.str());
-    }
+    check_oversized_faces(r.stats.oversized_faces, r.stats.max_oversize_ratio, m_.num_polys, pre_.width, pre_.height,
+                          p_.scale, p_.allow_oversized);
     grow(r.edges, r.stats);
     throw_if_cancelled(p_.cancel);
     write_base(r.maps);

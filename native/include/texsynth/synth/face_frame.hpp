@@ -7,6 +7,7 @@
 // Texel y points down, so an offset e maps to (e·right, -e·up) × scale.
 #include <cmath>
 #include <cstdint>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -26,6 +27,18 @@ inline void validate_vertex_inputs(const Mesh& m, const float* orientation, cons
     for (int32_t v = 0; v < m.num_vertices; ++v)
       if (!std::isfinite(scale_multiplier[v]) || scale_multiplier[v] <= 0.f)
         throw std::invalid_argument("scale_multiplier of vertex " + std::to_string(v) + " must be finite and > 0");
+}
+
+// Refuses faces larger than the sample (counted by the synthesizer's face measuring pass) unless
+// the caller allowed them, naming how far to lower the scale.
+inline void check_oversized_faces(int64_t oversized_faces, double max_oversize_ratio, int32_t num_polys,
+                                  int32_t sample_width, int32_t sample_height, double scale, bool allow_oversized) {
+  if (oversized_faces == 0 || allow_oversized) return;
+  std::ostringstream msg;
+  msg << oversized_faces << " of " << num_polys << " faces are larger than the " << sample_width << "x"
+      << sample_height << " sample at scale " << scale << " texels/unit (worst face " << max_oversize_ratio
+      << "x the sample); lower the scale by at least that factor, subdivide those faces, or pass allow_oversized=True";
+  throw std::invalid_argument(msg.str());
 }
 
 // up_of(v) returns vertex v's unit tangent "up" (V3). xy receives poly_sizes[poly]*2 floats.
