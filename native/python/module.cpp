@@ -21,15 +21,17 @@ PYBIND11_MODULE(texsynth_native, m) {
   m.doc() = "TexSynth native core: sample preprocessing and texture synthesis on meshes.";
   m.attr("__version__") = "0.1.0";
 
-  static py::exception<texsynth::CacheError> cache_error(m, "CacheError", PyExc_ValueError);
-  static py::exception<texsynth::Cancelled> cancelled(m, "Cancelled", PyExc_RuntimeError);
+  // Raw, deliberately leaked references: a static py::object would be released after the interpreter
+  // is gone (at Blender's exit), and py::exception's call operator is deprecated in pybind11 3.
+  static PyObject* cache_error = py::exception<texsynth::CacheError>(m, "CacheError", PyExc_ValueError).release().ptr();
+  static PyObject* cancelled = py::exception<texsynth::Cancelled>(m, "Cancelled", PyExc_RuntimeError).release().ptr();
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const texsynth::CacheError& e) {
-      cache_error(e.what());
+      PyErr_SetString(cache_error, e.what());
     } catch (const texsynth::Cancelled& e) {
-      cancelled(e.what());
+      PyErr_SetString(cancelled, e.what());
     }
   });
 

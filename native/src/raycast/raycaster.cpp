@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "texsynth/raycast/raycaster.hpp"
 
-#include <embree3/rtcore.h>
+#include "embree_compat.hpp"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -193,8 +194,6 @@ std::vector<RayHit> RayCaster::cast(const float* origins, const float* direction
   const Impl& m = *impl_;
   if (!m.scene) return hits;
   tbb::parallel_for(tbb::blocked_range<int64_t>(0, count, 64), [&](const tbb::blocked_range<int64_t>& r) {
-    RTCIntersectContext context;
-    rtcInitIntersectContext(&context);
     for (int64_t i = r.begin(); i < r.end(); ++i) {
       const float* o = origins + 3 * i;
       const float* d = directions + 3 * i;
@@ -206,7 +205,7 @@ std::vector<RayHit> RayCaster::cast(const float* origins, const float* direction
       rh.ray.tfar = t_far;
       rh.ray.mask = 0xFFFFFFFFu;
       rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-      rtcIntersect1(m.scene, &context, &rh);
+      embree::intersect1(m.scene, rh);
       if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
       RayHit& h = hits[size_t(i)];
       const uint32_t t = rh.hit.primID;
