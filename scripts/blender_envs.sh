@@ -1,0 +1,197 @@
+#!/usr/bin/env bash
+# SPDX-License-Identifier: GPL-3.0-or-later
+# Newer Blenders on this Debian 12 machine: root filesystems made with mmdebstrap, kept in a cache
+# folder outside the repository and reused while their package list is unchanged.
+#
+#   trixie          Debian 13: Blender 4.3, Python 3.13, Embree 4, OpenImageIO 2.5  (+ build deps)
+#   sid             Debian sid: Blender 5.2 LTS, Python 3.14, OpenImageIO 3.1, Eigen 5, pybind11 3
+#   <dist>-runtime  bookworm / trixie / sid with ONLY the blender package: where the packages are installed
+#
+# Usage:
+#   scripts/blender_envs.sh create ENV...          make (or reuse) the root filesystems
+#   scripts/blender_envs.sh build ENV              configure + build + ctest inside ENV (build-<ENV>/)
+#   scripts/blender_envs.sh run ENV CMD [ARG...]   run a command in ENV, the repository mounted at /src
+#   scripts/blender_envs.sh test ENV               build, then the Blender-side pytest suites inside ENV
+#   scripts/blender_envs.sh install-check ENV PKG  install PKG in a *-runtime ENV, Synthesize + render
+#   scripts/blender_envs.sh path ENV               print ENV's root folder
+# Needs root (chroot, mounts). TEXSYNTH_ENVS_DIR overrides the cache folder.
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+envs_dir="${TEXSYNTH_ENVS_DIR:-/var/cache/texsynth-envs}"
+
+BUILD_PACKAGES=(
+  blender
+  build-essential cmake pkg-config
+  python3-dev python3-numpy python3-pytest pybind11-dev
+  libopenimageio-dev openimageio-tools
+  libembree-dev libeigen3-dev libtbb-dev libgtest-dev
+  xvfb xauth
+)
+RUNTIME_PACKAGES=(blender)
+
+dist_of() {
+  case "$1" in
+    trixie|trixie-runtime) echo trixie ;;
+    sid|sid-runtime) echo sid ;;
+    bookworm-runtime) echo bookworm ;;
+    *) echo "blender_envs: unknown environment '$1' (trixie, sid, bookworm-runtime, trixie-runtime, sid-runtime)" >&2
+       exit 2 ;;
+  esac
+}
+
+packages_of() {
+  case "$1" in
+    *-runtime) echo "${RUNTIME_PACKAGES[*]}" ;;
+    *) echo "${BUILD_PACKAGES[*]}" ;;
+  esac
+}
+
+need_root() {
+  [ "$(id -u)" -eq 0 ] || { echo "blender_envs: needs root (chroot, bind mounts)" >&2; exit 1; }
+}
+
+ensure_mmdebstrap() {
+  command -v mmdebstrap >/dev/null && return
+  apt-get update -q
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends mmdebstrap
+}
+
+# The stamp records what an environment was made with; a different list means it is remade.
+stamp_text() { printf 'dist=%s\npackages=%s\n' "$(dist_of "$1")" "$(packages_of "$1")"; }
+
+create() {
+  local env="$1" dir="$envs_dir/$1"
+  if [ -f "$dir/.texsynth-env" ] && [ "$(cat "$dir/.texsynth-env")" = "$(stamp_text "$env")" ]; then
+    echo "blender_envs: $env: reusing $dir"
+    return
+  fi
+  local dist start=$SECONDS
+  dist="$(dist_of "$env")"
+  rm -rf "$dir" "$dir.partial"
+  mkdir -p "$envs_dir"
+  case "$env" in
+    *-runtime)
+      ensure_mmdebstrap
+      local options=()
+      # sid's reachable mirror is a snapshot whose Release file has expired (the option stays in the chroot).
+      [ "$dist" = sid ] && options+=(--aptopt='Acquire::Check-Valid-Until "false"')
+      echo "blender_envs: $env: creating Debian $dist with $(packages_of "$env")"
+      mmdebstrap --variant=apt --mode=root --skip=cleanup/apt/lists "${options[@]}" \
+        --include="$(packages_of "$env" | tr ' ' ',')" "$dist" "$dir.partial" >"$envs_dir/$env.log" 2>&1 \
+        || { tail -30 "$envs_dir/$env.log" >&2; echo "blender_envs: $env: mmdebstrap failed (log: $envs_dir/$env.log)" >&2; exit 1; }
+      ;;
+    *)
+      # A build environment is its runtime environment plus the build packages: Blender is unpacked once.
+      create "$env-runtime"
+      echo "blender_envs: $env: $env-runtime + $(packages_of "$env")"
+      cp -a "$envs_dir/$env-runtime" "$dir.partial"
+      run_dir "$dir.partial" bash -c 'DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "$@"' _ \
+        $(packages_of "$env") >"$envs_dir/$env.log" 2>&1 \
+        || { tail -30 "$envs_dir/$env.log" >&2; echo "blender_envs: $env: apt-get failed (log: $envs_dir/$env.log)" >&2; exit 1; }
+      ;;
+  esac
+  stamp_text "$env" >"$dir.partial/.texsynth-env"
+  mv "$dir.partial" "$dir"
+  echo "blender_envs: $env: ready in $((SECONDS - start)) s ($(du -sh "$dir" | cut -f1))"
+}
+
+# Runs a command chrooted in ENV inside a private mount namespace: the bind mounts vanish with it,
+# so parallel runs and interrupted runs leave nothing mounted.
+run_dir() {
+  local dir="$1"; shift
+  mkdir -p "$dir/src" "$dir/proc" "$dir/dev" "$dir/sys" "$dir/tmp"
+  unshare --mount --propagation private -- bash -euc '
+    dir="$1"; src="$2"; shift 2
+    mount --rbind /dev "$dir/dev"
+    mount -t proc proc "$dir/proc"
+    mount --rbind /sys "$dir/sys"
+    mount -t tmpfs tmpfs "$dir/tmp"
+    [ -n "$src" ] && mount --bind "$src" "$dir/src"
+    exec chroot "$dir" /usr/bin/env -i HOME=/root PATH=/usr/local/bin:/usr/bin:/bin:/usr/sbin:/sbin \
+      LANG=C.UTF-8 TEXSYNTH_IN_ENV=1 ${TEXSYNTH_UPDATE_REFERENCES:+TEXSYNTH_UPDATE_REFERENCES=$TEXSYNTH_UPDATE_REFERENCES} \
+      "$@"' _ "$dir" "${TEXSYNTH_ENV_SRC-$root}" "$@"
+}
+
+# run_dir on a finished environment. TEXSYNTH_ENV_SRC= (empty) runs it without the repository.
+run_in() {
+  local env="$1"; shift
+  [ -f "$envs_dir/$env/.texsynth-env" ] || { echo "blender_envs: $env does not exist (create it first)" >&2; exit 1; }
+  run_dir "$envs_dir/$env" "$@"
+}
+
+build_in() {
+  local env="$1"
+  case "$env" in *-runtime) echo "blender_envs: $env is a runtime environment (no compiler)" >&2; exit 2 ;; esac
+  # The build asks the environment's Blender for its Python; cpp tests run with ctest.
+  run_in "$env" bash -euc '
+    cd /src
+    TEXSYNTH_BUILD_DIR=/src/build-'"$env"' bash scripts/build.sh -DTEXSYNTH_BUILD_BENCHMARKS=OFF
+    ctest --test-dir /src/build-'"$env"' --output-on-failure -j"$(nproc)"'
+}
+
+# The Blender-side suites: add-on, CLI, fields (headless parts), hostile harness, reference frames,
+# install routes. The native-only pytest modules run too: they are cheap and exercise the module.
+BLENDER_SUITES=(
+  python_tests/test_native_module.py
+  python_tests/test_blender_addon.py
+  python_tests/test_blender_cli.py
+  python_tests/test_blender_fields.py
+  python_tests/test_hostile_blender.py
+  python_tests/test_reference_frames.py
+  python_tests/test_install_package.py
+)
+
+test_in() {
+  local env="$1"
+  build_in "$env"
+  run_in "$env" bash -euc 'cd /src && python3 -m pytest -q -p no:cacheprovider '"${BLENDER_SUITES[*]}"
+}
+
+# Installs a package the way an artist would, in ENV (a *-runtime environment: only Debian's blender
+# package, no compiler, no -dev package, no source tree), with a throwaway home, then runs a headless
+# Synthesize and a render (python_tests/install/check_installed.py).
+install_check() {
+  local env="$1" package="$2"
+  case "$env" in *-runtime) ;; *) echo "blender_envs: install-check needs a *-runtime environment" >&2; exit 2 ;; esac
+  [ -f "$package" ] || { echo "blender_envs: no package $package" >&2; exit 1; }
+  local drop
+  drop="$(mktemp -d)"
+  cp "$package" "$drop/"
+  cp "$root/python_tests/install/check_installed.py" "$root/blend_samples/bricks.png" "$drop/"
+  local name
+  name="$(basename "$package")"
+  local status=0
+  TEXSYNTH_ENV_SRC="$drop" run_in "$env" env HOME=/tmp/home bash -euc '
+    mkdir -p "$HOME"
+    if command -v cc >/dev/null || command -v c++ >/dev/null; then echo "install-check: a compiler is installed" >&2; exit 1; fi
+    if dpkg-query -W -f "\${Package}\n" | grep -q -- "-dev$"; then echo "install-check: -dev packages are installed" >&2; exit 1; fi
+    version="$(blender --version 2>/dev/null | sed -n "s/^Blender \([0-9]*\)\.\([0-9]*\).*/\1 \2/p" | head -1)"
+    read -r major minor <<<"$version"
+    if [ "$major" -lt 4 ] || { [ "$major" -eq 4 ] && [ "$minor" -lt 2 ]; }; then
+      blender -b --python-exit-code 1 --python-expr "
+import addon_utils, bpy
+bpy.ops.preferences.addon_install(filepath=\"/src/$1\")
+assert addon_utils.enable(\"texsynth\", default_set=True, handle_error=None) is not None
+bpy.ops.wm.save_userpref()" >/tmp/install.log 2>&1 || { cat /tmp/install.log; exit 1; }
+    else
+      blender --command extension install-file -r user_default --enable "/src/$1" >/tmp/install.log 2>&1 \
+        || { cat /tmp/install.log; exit 1; }
+    fi
+    blender -b --python-exit-code 1 --python /src/check_installed.py -- /src/bricks.png /tmp/check.png >/tmp/check.log 2>&1 \
+      || { cat /tmp/install.log /tmp/check.log | tail -40; exit 1; }
+    grep "^CHECK_INSTALLED" /tmp/check.log' _ "$name" || status=$?
+  rm -rf "$drop"
+  return $status
+}
+
+command="${1:-}"
+[ $# -gt 0 ] && shift
+case "$command" in
+  create) need_root; [ $# -gt 0 ] || set -- trixie sid; for env in "$@"; do dist_of "$env" >/dev/null; create "$env"; done ;;
+  build) need_root; build_in "$1" ;;
+  run) need_root; env="$1"; shift; run_in "$env" "$@" ;;
+  test) need_root; test_in "$1" ;;
+  install-check) need_root; install_check "$1" "$2" ;;
+  path) dist_of "$1" >/dev/null; echo "$envs_dir/$1" ;;
+  *) sed -n '3,18p' "$0" >&2; exit 2 ;;
+esac
