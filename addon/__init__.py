@@ -17,12 +17,23 @@ bl_info = {
 
 import bpy  # noqa: E402
 
-from . import field_ops, operators, overlay, properties, ui  # noqa: E402
+from . import compat  # noqa: E402
 
-classes = properties.classes + operators.classes + field_ops.classes + ui.classes
+# Checked before anything else is imported: an older Blender gets one sentence, not an API traceback.
+UNSUPPORTED = compat.unsupported_version_message(bpy.app.version)
+if not UNSUPPORTED:
+    from . import field_ops, operators, overlay, properties, ui  # noqa: E402
+    classes = properties.classes + operators.classes + field_ops.classes + ui.classes
+else:
+    classes = []
 
 
 def register():
+    if UNSUPPORTED:
+        raise RuntimeError(UNSUPPORTED)
+    warning = compat.untested_version_message(bpy.app.version)
+    if warning:
+        print("TexSynth: " + warning)
     unregister()  # twice-safe: a half-registered previous run is cleaned first
     for cls in classes:
         bpy.utils.register_class(cls)
@@ -32,6 +43,8 @@ def register():
 
 
 def unregister():
+    if UNSUPPORTED:
+        return
     field_ops.unregister_tool()
     overlay.unregister()
     if hasattr(bpy.types.Scene, "texsynth"):

@@ -1,11 +1,31 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Small helpers hiding Blender-version-dependent API (3.4 ... 4.x).
+"""Everything that differs between the Blender versions TexSynth supports (3.4 ... 5.2 LTS).
 
 The blend group sums weighted colours with Vector Math nodes (same in 3.x and 4.x), so it needs no
 MixRGB / Mix node switch."""
 import os
 
 import bpy
+import numpy as np
+
+OLDEST_SUPPORTED = (3, 4, 0)
+NEWEST_TESTED = (5, 2)
+
+
+def unsupported_version_message(version):
+    """One clear sentence when `version` (a bpy.app.version tuple) is too old for TexSynth, else ''."""
+    if tuple(version[:3]) < OLDEST_SUPPORTED:
+        return ("TexSynth needs Blender %d.%d or newer; this is Blender %s"
+                % (OLDEST_SUPPORTED[0], OLDEST_SUPPORTED[1], ".".join(str(v) for v in version[:3])))
+    return ""
+
+
+def untested_version_message(version):
+    """A warning when `version` is newer than any Blender TexSynth was tested on, else ''."""
+    if tuple(version[:2]) > NEWEST_TESTED:
+        return ("TexSynth was tested on Blender 3.4 to %d.%d; Blender %s may behave differently"
+                % (NEWEST_TESTED[0], NEWEST_TESTED[1], ".".join(str(v) for v in version[:3])))
+    return ""
 
 
 def group_socket_names(group, in_out):
@@ -94,3 +114,59 @@ def uniform_color_shader():
         return gpu.shader.from_builtin("UNIFORM_COLOR")
     except (ValueError, TypeError):
         return gpu.shader.from_builtin("3D_UNIFORM_COLOR")
+
+
+# Grease Pencil objects: GPENCIL (legacy, 3.x) and GREASEPENCIL (Grease Pencil v3, 4.3+).
+GREASE_PENCIL_OBJECT_TYPES = {"GPENCIL", "GREASEPENCIL"}
+
+
+def scene_annotation(context):
+    """The annotation data the artist draws with: context.annotation_data in the UI, else the scene's
+    (scene.grease_pencil up to 4.x, scene.annotation from 5.0)."""
+    data = getattr(context, "annotation_data", None)
+    if data is None:
+        scene = context.scene
+        data = getattr(scene, "annotation", None) or getattr(scene, "grease_pencil", None)
+    return data
+
+
+def _displayed_frame(layer, current):
+    """The frame a layer shows at frame `current`: the last one at or before it."""
+    if hasattr(layer, "current_frame"):  # Grease Pencil v3
+        return layer.current_frame()
+    frame = getattr(layer, "active_frame", None)  # legacy: only set once the layer has been drawn
+    if frame is not None:
+        return frame
+    shown = [f for f in layer.frames if f.frame_number <= current]
+    return max(shown, key=lambda f: f.frame_number) if shown else None
+
+
+def stroke_polylines(data, current_frame):
+    """Polylines (n x 3 float64, in data space) of every visible layer's displayed strokes, read in bulk:
+    legacy strokes (annotations, 3.x Grease Pencil) point by stroke, Grease Pencil v3 drawings (4.3+)
+    through their position attribute and curve offsets."""
+    polylines = []
+    for layer in data.layers:
+        if getattr(layer, "hide", False):
+            continue
+        frame = _displayed_frame(layer, current_frame)
+        if frame is None:
+            continue
+        drawing = getattr(frame, "drawing", None)
+        if drawing is not None:
+            positions_attribute = drawing.attributes.get("position")
+            count = len(positions_attribute.data) if positions_attribute is not None else 0
+            if count == 0:
+                continue
+            positions = np.empty(count * 3, np.float32)
+            positions_attribute.data.foreach_get("vector", positions)
+            positions = positions.reshape(-1, 3).astype(np.float64)
+            offsets = np.empty(len(drawing.curve_offsets), np.int32)
+            drawing.curve_offsets.foreach_get("value", offsets)
+            polylines += [positions[start:end] for start, end in zip(offsets[:-1], offsets[1:]) if end > start]
+            continue
+        for stroke in frame.strokes:
+            points = np.empty(len(stroke.points) * 3, np.float32)
+            stroke.points.foreach_get("co", points)
+            polylines.append(points.reshape(-1, 3).astype(np.float64))
+    return polylines

@@ -9,7 +9,7 @@ import time
 import bpy
 import numpy as np
 
-from . import bridge, fields, operators, overlay, pipeline, properties, synthesis
+from . import bridge, compat, fields, operators, overlay, pipeline, properties, synthesis
 
 # Per object name: (fields.mesh_key, RayCaster, FieldMesh), rebuilt when the mesh changes.
 _native_meshes = {}
@@ -325,35 +325,18 @@ class TEXSYNTH_OT_field_preset(bpy.types.Operator):
         return {"FINISHED"}
 
 
-def _displayed_frame(layer, current):
-    """The frame a (Grease Pencil / annotation) layer shows at frame `current`: the last one at or
-    before it (active_frame is only set once the layer has been drawn)."""
-    frame = getattr(layer, "active_frame", None)
-    if frame is not None:
-        return frame
-    shown = [f for f in layer.frames if f.frame_number <= current]
-    return max(shown, key=lambda f: f.frame_number) if shown else None
-
-
 def guide_strokes(context):
     """World-space polylines of the scene's annotation strokes and of selected Grease Pencil objects."""
-    strokes = []
-    annotation = getattr(context, "annotation_data", None) or context.scene.grease_pencil
+    annotation = compat.scene_annotation(context)
     datas = [(annotation, None)] if annotation is not None else []
     datas += [(obj.data, np.array(obj.matrix_world, np.float64)) for obj in context.selected_objects
-              if obj.type == "GPENCIL"]
+              if obj.type in compat.GREASE_PENCIL_OBJECT_TYPES]
+    strokes = []
     for data, matrix in datas:
-        for layer in data.layers:
-            frame = _displayed_frame(layer, context.scene.frame_current)
-            if frame is None or getattr(layer, "hide", False):
-                continue
-            for stroke in frame.strokes:
-                points = np.empty(len(stroke.points) * 3, np.float32)
-                stroke.points.foreach_get("co", points)
-                points = points.reshape(-1, 3).astype(np.float64)
-                if matrix is not None:
-                    points = points @ matrix[:3, :3].T + matrix[:3, 3]
-                strokes.append(points)
+        for points in compat.stroke_polylines(data, context.scene.frame_current):
+            if matrix is not None:
+                points = points @ matrix[:3, :3].T + matrix[:3, 3]
+            strokes.append(points)
     return strokes
 
 

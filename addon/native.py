@@ -8,6 +8,7 @@ TEXSYNTH_MODULE_DIR (e.g. a sanitizer build) is searched first, like the tests d
 import glob
 import importlib
 import os
+import re
 import sys
 import sysconfig
 
@@ -43,6 +44,23 @@ def diagnose(folder=_PACKAGE_DIR, suffix=None, version_info=None):
     return None
 
 
+def explain_load_error(error):
+    """A one-line reason for an ImportError/OSError raised while loading the module: which shared
+    library is missing, or which symbol does not resolve (a library of another version)."""
+    text = str(error)
+    missing = re.search(r"([\w.+-]+\.so[\w.]*): cannot open shared object file", text)
+    if missing:
+        return ("native module needs the shared library %s, which this system does not have: install the "
+                "package that provides it (Debian's blender package pulls in OpenImageIO, Embree and TBB), "
+                "or use the TexSynth package built for this Blender" % missing.group(1))
+    symbol = re.search(r"undefined symbol: (\S+)", text)
+    if symbol:
+        return ("native module does not match this system's libraries (undefined symbol %s): it was built "
+                "against other versions; use the TexSynth package built for this Blender or rebuild it "
+                "with scripts/build.sh" % symbol.group(1))
+    return "native module failed to load: %s" % text
+
+
 def _try_import():
     override = os.environ.get("TEXSYNTH_MODULE_DIR")
     if override and os.path.isdir(override):
@@ -63,7 +81,7 @@ def get():
         try:
             _module = _try_import()
         except (ImportError, OSError) as error:
-            _reason = diagnose() or ("native module failed to load: %s" % error)
+            _reason = diagnose() or explain_load_error(error)
             _module = None
     return _module
 

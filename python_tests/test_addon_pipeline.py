@@ -1,6 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """bpy-free core of the add-on (addon/pipeline.py, addon/native.py), under plain pytest."""
 
+import os
+import shutil
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -182,6 +187,36 @@ def test_native_diagnosis_names_the_problem(tmp_path):
     assert "another Python" in message and "cpython-310" in message and "3.11" in message
     (tmp_path / ("texsynth_native" + suffix)).write_bytes(b"")
     assert native.diagnose(str(tmp_path), suffix, (3, 11)) is None
+
+
+def test_load_errors_are_explained_in_one_line():
+    missing = native.explain_load_error(ImportError(
+        "libOpenImageIO.so.2.5: cannot open shared object file: No such file or directory"))
+    assert "libOpenImageIO.so.2.5" in missing and "does not have" in missing and "\n" not in missing
+    symbol = native.explain_load_error(ImportError("/x/texsynth_native.so: undefined symbol: _ZN4OIIO8geterrorB5cxx11Eb"))
+    assert "undefined symbol _ZN4OIIO8geterrorB5cxx11Eb" in symbol and "other versions" in symbol
+    assert native.explain_load_error(OSError("weird")) == "native module failed to load: weird"
+
+
+@pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler to make a module with a missing library")
+def test_reason_names_the_missing_shared_library_of_a_real_module(tmp_path):
+    """A module file that links a library the system lacks: the reason names that library."""
+    import sysconfig
+    (tmp_path / "dep.c").write_text("int texsynth_probe_dep(void) { return 1; }\n")
+    (tmp_path / "mod.c").write_text("int texsynth_probe_dep(void);\nint PyInit_texsynth_native(void) "
+                                    "{ return texsynth_probe_dep(); }\n")
+    run = dict(cwd=tmp_path, check=True, capture_output=True)
+    subprocess.run(["cc", "-shared", "-fPIC", "-o", "libtexsynth_probe_dep.so", "dep.c"], **run)
+    module = "texsynth_native" + sysconfig.get_config_var("EXT_SUFFIX")
+    subprocess.run(["cc", "-shared", "-fPIC", "-o", module, "mod.c", "-L.", "-ltexsynth_probe_dep"], **run)
+    os.remove(tmp_path / "libtexsynth_probe_dep.so")
+    script = "import addon_package; print('REASON', addon_package.load('native').reason())"
+    process = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60,
+                             cwd=os.path.dirname(os.path.abspath(__file__)),
+                             env=dict(os.environ, TEXSYNTH_MODULE_DIR=str(tmp_path),
+                                      PYTHONPATH=os.path.dirname(os.path.abspath(__file__))))
+    assert process.returncode == 0, process.stderr
+    assert "REASON native module needs the shared library libtexsynth_probe_dep.so" in process.stdout, process.stdout
 
 
 @pytest.fixture

@@ -32,8 +32,11 @@ def reset_scene():
 
 
 def select_only(objects):
+    # 4.x lists removed objects as None until the view layer is updated.
+    bpy.context.view_layer.update()
     for obj in bpy.context.view_layer.objects:
-        obj.select_set(False)
+        if obj is not None:
+            obj.select_set(False)
     for obj in objects:
         obj.select_set(True)
     if objects:

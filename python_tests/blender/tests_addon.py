@@ -126,6 +126,18 @@ def test_register_unregister_twice():
     assert bpy.types.TEXSYNTH_PT_main.is_registered
 
 
+def test_version_gate_names_the_versions():
+    from texsynth import compat
+    assert not texsynth.UNSUPPORTED  # this Blender is supported
+    assert compat.unsupported_version_message(bpy.app.version) == ""
+    message = compat.unsupported_version_message((3, 3, 1))
+    assert message == "TexSynth needs Blender 3.4 or newer; this is Blender 3.3.1", message
+    assert compat.unsupported_version_message((2, 93, 0)).endswith("Blender 2.93.0")
+    assert compat.unsupported_version_message((3, 4, 0)) == ""
+    assert compat.untested_version_message((5, 2, 2)) == ""
+    assert "Blender 6.0.0 may behave differently" in compat.untested_version_message((6, 0, 0))
+
+
 def test_read_mesh_is_world_space():
     clean()
     obj = harness.add_primitive("monkey", "Moved", location=(1.0, -2.0, 0.5), rotation=(0.3, 0.2, 1.1))

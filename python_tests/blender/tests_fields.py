@@ -148,19 +148,44 @@ def test_presets_axis_curvature_smooth():
     assert np.min(along()) > 0.99
 
 
+def draw_guide_stroke(points):
+    """One stroke through `points` (world space) the way this Blender lets a script draw it: an
+    annotation (3.x, 5.x: legacy strokes with strokes.new) or, where annotation strokes cannot be made
+    from Python (4.3), a Grease Pencil v3 object, offset by its transform to check that it is applied."""
+    if hasattr(bpy.data, "annotations"):
+        data = bpy.data.annotations.new("Annotations")
+        bpy.context.scene.annotation = data
+    else:
+        data = bpy.data.grease_pencils.new("Annotations")
+        bpy.context.scene.grease_pencil = data
+    frame = data.layers.new("Note").frames.new(bpy.context.scene.frame_current)
+    if hasattr(frame.strokes, "new"):
+        stroke = frame.strokes.new()
+        stroke.points.add(len(points))
+        stroke.points.foreach_set("co", points.astype(np.float32).ravel())
+        return "annotation"
+    data.layers.remove(data.layers[0])
+    gp = bpy.data.grease_pencils_v3.new("Guide")
+    obj = bpy.data.objects.new("Guide", gp)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.location = (0.0, 0.0, 2.0)
+    drawing = gp.layers.new("Guide").frames.new(bpy.context.scene.frame_current).drawing
+    drawing.add_strokes([len(points)])
+    local = (points - np.array(obj.location)).astype(np.float32)
+    drawing.attributes["position"].data.foreach_set("vector", local.ravel())
+    bpy.context.view_layer.update()
+    obj.select_set(True)
+    return "grease pencil v3 object"
+
+
 def test_field_from_annotation_strokes():
     props = fresh_scene()
     props.field_brush_radius = 0.15
     obj = grid_object()
-    gp = bpy.data.grease_pencils.new("Annotations")
-    bpy.context.scene.grease_pencil = gp
-    layer = gp.layers.new("Note")
-    frame = layer.frames.new(bpy.context.scene.frame_current)
-    stroke = frame.strokes.new()
     t = np.linspace(0, 1, 30)
     points = np.column_stack([-0.6 + 1.2 * t, 0.3 * np.sin(2 * t), np.full_like(t, 0.001)])
-    stroke.points.add(len(points))
-    stroke.points.foreach_set("co", points.astype(np.float32).ravel())
+    kind = draw_guide_stroke(points)
+    print("guide stroke drawn as", kind)
     assert len(field_ops.guide_strokes(bpy.context)) == 1
     assert bpy.ops.texsynth.field_from_strokes() == {"FINISHED"}
     d = world_direction(obj)
