@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <OpenImageIO/imageio.h>
 
+#include <cstdint>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -70,6 +71,57 @@ TEST(ImageSniffing, ContentDecidesNotTheExtensionAndTgaGoesByExtension) {
   std::ifstream png(dir.file("a.png"), std::ios::binary);
   write_bytes(dir.file("renamed.jpg"), std::string((std::istreambuf_iterator<char>(png)), std::istreambuf_iterator<char>()));
   EXPECT_NEAR(texsynth::load_image(dir.file("renamed.jpg")).pixels[4], 50.f / 255.f, 1e-6f);
+}
+
+// A 1x1, 8-bit, uncompressed TIFF written byte by byte (not by OpenImageIO, whose reader is what the
+// check protects): little- or big-endian, classic or BigTIFF, with the given PhotometricInterpretation.
+std::string tiff_bytes(bool little, bool big_tiff, int photometric) {
+  std::string out;
+  auto put = [&](uint64_t value, int width) {
+    for (int i = 0; i < width; ++i) out.push_back(char((value >> (8 * (little ? i : width - 1 - i))) & 0xFF));
+  };
+  const int channels = photometric == 5 ? 4 : 3;
+  const std::vector<std::pair<int, uint64_t>> tags = {
+      {256, 1}, {257, 1}, {258, 8}, {259, 1}, {262, uint64_t(photometric)}, {273, 0 /* patched */},
+      {277, uint64_t(channels)}, {278, 1}, {279, uint64_t(channels)}};
+  out += little ? "II" : "MM";
+  const int count_width = big_tiff ? 8 : 2, value_width = big_tiff ? 8 : 4, entry = big_tiff ? 20 : 12;
+  if (big_tiff) put(43, 2), put(8, 2), put(0, 2), put(16, 8);
+  else put(42, 2), put(8, 4);
+  const uint64_t ifd_end = out.size() + count_width + tags.size() * entry + value_width;
+  put(tags.size(), count_width);
+  for (const auto& [tag, value] : tags) {
+    put(uint64_t(tag), 2);
+    put(tag == 273 ? 4 : 3, 2);  // LONG for the strip offset, SHORT otherwise
+    put(1, value_width);
+    const uint64_t v = tag == 273 ? ifd_end : value;
+    if (tag == 273) put(v, value_width);
+    else put(v, 2), put(0, value_width - 2);  // a SHORT sits left-justified in the value field
+  }
+  put(0, value_width);  // no next IFD
+  out += std::string(size_t(channels), '\x80');
+  return out;
+}
+
+TEST(ImageSniffing, CmykTiffIsRefusedBeforeOpenImageIOOpensIt) {
+  // OpenImageIO 3.1 on Debian sid aborts the process ("stack smashing detected") opening a CMYK TIFF.
+  TempDir dir;
+  for (bool little : {true, false})
+    for (bool big_tiff : {false, true}) {
+      const std::string name = std::string(little ? "le" : "be") + (big_tiff ? "_big" : "") + "_cmyk.tif";
+      write_bytes(dir.file(name), tiff_bytes(little, big_tiff, 5));
+      EXPECT_NE(error_of(dir.file(name)).find("CMYK TIFF samples are not supported"), std::string::npos) << name;
+      EXPECT_THROW(texsynth::read_image_info(dir.file(name)), std::invalid_argument) << name;
+    }
+  // The same file as RGB is no CMYK: it reaches OpenImageIO and decodes.
+  write_bytes(dir.file("rgb.tif"), tiff_bytes(true, false, 2));
+  EXPECT_EQ(error_of(dir.file("rgb.tif")), "");
+  EXPECT_EQ(texsynth::load_image(dir.file("rgb.tif")).channels, 3);
+  // A header cut inside the first IFD cannot say; OpenImageIO reports the damage.
+  write_bytes(dir.file("cut.tif"), tiff_bytes(true, false, 5).substr(0, 30));
+  const std::string cut = error_of(dir.file("cut.tif"));
+  EXPECT_NE(cut, "");
+  EXPECT_EQ(cut.find("CMYK"), std::string::npos) << cut;
 }
 
 }  // namespace

@@ -1,8 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Imports the add-on's bpy-free modules outside Blender: registers addon/ as package `texsynth`
 without running its __init__.py (which needs bpy)."""
+import functools
 import importlib
 import os
+import re
+import subprocess
 import sys
 import types
 
@@ -26,3 +29,13 @@ def real_synthesizer_available():
     except ImportError:
         return False
     return hasattr(texsynth_native, "synthesize_jumpmap") and hasattr(texsynth_native, "preprocess")
+
+
+@functools.lru_cache(maxsize=None)
+def blender_version():
+    """(major, minor, patch) of the Blender the tests run (TEXSYNTH_BLENDER), from `blender --version`."""
+    output = subprocess.run([BLENDER, "--version"], capture_output=True, text=True, timeout=120).stdout
+    match = re.search(r"^Blender (\d+)\.(\d+)\.(\d+)", output, re.MULTILINE)
+    if not match:
+        raise RuntimeError("could not read the version of %r from: %s" % (BLENDER, output[:500]))
+    return tuple(int(part) for part in match.groups())

@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Launches Blender subprocesses for the pytest tests."""
 import os
+import re
 import subprocess
 
 import addon_package
@@ -30,3 +31,14 @@ def cli(*cli_args, blend_file=None, env=None):
 
 def error_lines(process):
     return [line for line in (process.stdout + process.stderr).splitlines() if line.startswith("texsynth_cli: error")]
+
+
+# Debian sid's Blender 5.2 prints this at every start: its extension manager (bl_pkg) imports cattrs,
+# which Debian does not package. It is Blender's own add-on, not TexSynth, and changes nothing else.
+_BLENDER_OWN_NOISE = re.compile(r"Traceback \(most recent call last\):\n(?:[ \t].*\n)*?"
+                                r"ModuleNotFoundError: No module named 'cattrs'\n")
+
+
+def without_blender_noise(output):
+    """Blender's output without the tracebacks Blender itself prints on some distributions."""
+    return _BLENDER_OWN_NOISE.sub("", output)

@@ -1,8 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Reference frames: renders blend_samples/scene.blend textured by TexSynth (Eevee and Cycles, fixed
-seeds and samples) and compares each to python_tests/references/<name>.png with idiff.
+seeds and samples) and compares each to python_tests/references/blender<major>/<name>.png with idiff.
 
-On failure the render and idiff's difference image are left in out/reference_frames/
+Eevee changed between major versions (Eevee Next in 4.2), so each major version has its own references,
+all held to the same thresholds.
+
+On failure the render and idiff's difference image are left in out/reference_frames/blender<major>/
 (<name>.png, <name>_diff.png). TEXSYNTH_UPDATE_REFERENCES=1 rewrites the references instead.
 """
 import os
@@ -14,8 +17,17 @@ import pytest
 import addon_package
 import blender_run
 
-REFERENCES = os.path.join(addon_package.ROOT, "python_tests", "references")
-OUTPUT = os.path.join(addon_package.ROOT, "out", "reference_frames")
+
+
+def references_dir():
+    return os.path.join(addon_package.ROOT, "python_tests", "references",
+                        "blender%d" % addon_package.blender_version()[0])
+
+
+def output_dir():
+    return os.path.join(addon_package.ROOT, "out", "reference_frames", "blender%d" % addon_package.blender_version()[0])
+
+
 FRAMES = ("scene_eevee", "suzanne_noblend_eevee", "scene_cycles")
 # A pixel fails when a channel differs by more than 0.06 (~15/255); a frame fails when more than 0.5 %
 # of its pixels fail or any pixel differs by more than 0.6. Software-GL Eevee is deterministic here;
@@ -28,21 +40,22 @@ IDIFF_THRESHOLDS = ["-fail", "0.06", "-failpercent", "0.5", "-hardfail", "0.6", 
                     reason="texsynth_native lacks synthesize_jumpmap: reference frames need the real synthesizer")
 @pytest.mark.parametrize("name", FRAMES)
 def test_reference_frame(name, tmp_path):
-    os.makedirs(OUTPUT, exist_ok=True)
-    rendered = os.path.join(OUTPUT, name + ".png")
+    output = output_dir()
+    os.makedirs(output, exist_ok=True)
+    rendered = os.path.join(output, name + ".png")
     if os.path.exists(rendered):
         os.remove(rendered)
     process = blender_run.blender("--python", os.path.join(blender_run.BLENDER_TESTS, "render_frame.py"), "--",
                                   name, rendered, blend_file=os.path.join(blender_run.SAMPLES, "scene.blend"),
                                   env={"TEXSYNTH_CACHE_DIR": str(tmp_path / "cache")})
     assert process.returncode == 0 and os.path.isfile(rendered), process.stdout[-3000:] + process.stderr[-3000:]
-    reference = os.path.join(REFERENCES, name + ".png")
+    reference = os.path.join(references_dir(), name + ".png")
     if os.environ.get("TEXSYNTH_UPDATE_REFERENCES") == "1":
-        os.makedirs(REFERENCES, exist_ok=True)
+        os.makedirs(references_dir(), exist_ok=True)
         shutil.copyfile(rendered, reference)
         return
     assert os.path.isfile(reference), "no reference %s: run with TEXSYNTH_UPDATE_REFERENCES=1" % reference
-    diff = os.path.join(OUTPUT, name + "_diff.png")
+    diff = os.path.join(output, name + "_diff.png")
     compare = subprocess.run(["idiff"] + IDIFF_THRESHOLDS + ["-od", "-o", diff, reference, rendered],
                              capture_output=True, text=True)
     # idiff: 0 = match, 1 = within warning limits, 2+ = failure or error.

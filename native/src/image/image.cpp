@@ -3,7 +3,9 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <cctype>
+#include <cstdint>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -36,6 +38,42 @@ void check_readable_file(const std::string& path) {
   if (!probe) fail(path, "file cannot be opened for reading (permissions?)");
 }
 
+// PhotometricInterpretation (tag 262) of a TIFF's first image, or -1 when the header cannot say
+// (truncated, unusual layout): OpenImageIO then reads it and reports what is wrong.
+int tiff_photometric(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  auto read = [&](uint64_t offset, void* out, size_t bytes) {
+    in.clear();
+    in.seekg(std::streamoff(offset));
+    in.read(static_cast<char*>(out), std::streamsize(bytes));
+    return size_t(in.gcount()) == bytes;
+  };
+  unsigned char header[16];
+  if (!read(0, header, 8)) return -1;
+  const bool little = header[0] == 'I';
+  auto number = [&](const unsigned char* bytes, int width) {
+    uint64_t value = 0;
+    for (int i = 0; i < width; ++i) value |= uint64_t(bytes[little ? i : width - 1 - i]) << (8 * i);
+    return value;
+  };
+  const bool big_tiff = number(header + 2, 2) == 43;
+  uint64_t ifd = number(header + 4, 4);
+  if (big_tiff) {
+    if (!read(0, header, 16)) return -1;
+    ifd = number(header + 8, 8);
+  }
+  const int count_width = big_tiff ? 8 : 2, entry_size = big_tiff ? 20 : 12;
+  unsigned char count_bytes[8];
+  if (!read(ifd, count_bytes, size_t(count_width))) return -1;
+  const uint64_t entries = std::min<uint64_t>(number(count_bytes, count_width), 4096);
+  for (uint64_t e = 0; e < entries; ++e) {
+    unsigned char entry[20];
+    if (!read(ifd + uint64_t(count_width) + e * uint64_t(entry_size), entry, size_t(entry_size))) return -1;
+    if (number(entry, 2) == 262) return int(number(entry + (big_tiff ? 12 : 8), 2));  // SHORT value, left-justified
+  }
+  return -1;
+}
+
 // The OpenImageIO reader for a sample file, chosen from its leading bytes (TGA, which has none, from
 // its extension). OpenImageIO is never left to guess: its probe tries every plugin it has (GIF, PSD,
 // DPX, FITS, camera RAW, DICOM, ...), and some abort the process on damaged files (fuzz_image found
@@ -49,7 +87,12 @@ std::string sniff_format(const std::string& path) {
   if (starts("\x89PNG\r\n\x1a\n", 8)) return "png";
   if (starts("\xFF\xD8\xFF", 3)) return "jpeg";
   if (starts("\x76\x2F\x31\x01", 4)) return "openexr";
-  if (starts("II*\0", 4) || starts("MM\0*", 4) || starts("II+\0", 4) || starts("MM\0+", 4)) return "tiff";
+  if (starts("II*\0", 4) || starts("MM\0*", 4) || starts("II+\0", 4) || starts("MM\0+", 4)) {
+    // OpenImageIO 3.1 (Debian sid) smashes its stack opening a CMYK TIFF, which would kill Blender.
+    if (tiff_photometric(path) == 5)
+      fail(path, "CMYK TIFF samples are not supported (save the sample as RGB)");
+    return "tiff";
+  }
   if (starts("BM", 2)) return "bmp";
   if (starts("#?", 2)) return "hdr";  // Radiance "#?RADIANCE" / "#?RGBE"
   if (n >= 2 && head[0] == 'P' && std::strchr("123456fF", head[1]) && head[1] != 0) return "pnm";  // PBM..PPM, PFM
