@@ -13,6 +13,7 @@ PACKAGES=(
   blender
   clang libclang-rt-14-dev
   xvfb xauth
+  zip unzip mmdebstrap
 )
 
 missing=()

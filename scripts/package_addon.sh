@@ -1,27 +1,60 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: GPL-3.0-or-later
-# Builds dist/texsynth-<version>.zip for Preferences > Add-ons > Install: a folder texsynth/ with the
-# add-on's Python files, blender_manifest.toml and the compiled texsynth_native module.
+# One installable package per Blender family, each holding texsynth_native built for that Blender's Python:
+#   host    Blender 3.x (Debian 12): legacy add-on zip  dist/texsynth-<version>-blender<X.Y>-py<XY>.zip
+#           (a folder texsynth/ for Preferences > Add-ons > Install)
+#   trixie  Blender 4.2+ (Debian 13), sid  Blender 5.x (Debian sid): an extension built and validated
+#           by that Blender's own `blender --command extension build` / `validate`, same naming.
+# Usage: scripts/package_addon.sh [host] [trixie] [sid]      (default: host)
+# The environments are scripts/blender_envs.sh's; their modules are built when missing.
+# Prints "package_addon: <path> ..." for each package.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
-if ! ls "$root"/addon/texsynth_native*.so >/dev/null 2>&1; then
-  bash "$root/scripts/build.sh"
-fi
-/usr/bin/python3.11 - "$root" <<'PY'
-import ast, os, sys, zipfile
-root = sys.argv[1]
-addon = os.path.join(root, "addon")
-with open(os.path.join(addon, "__init__.py")) as handle:
-    tree = ast.parse(handle.read())
-info = next(ast.literal_eval(node.value) for node in tree.body
-            if isinstance(node, ast.Assign) and getattr(node.targets[0], "id", "") == "bl_info")
-version = ".".join(str(v) for v in info["version"])
-os.makedirs(os.path.join(root, "dist"), exist_ok=True)
-path = os.path.join(root, "dist", "texsynth-%s.zip" % version)
-names = sorted(n for n in os.listdir(addon)
-               if n.endswith((".py", ".toml")) or (n.startswith("texsynth_native") and n.endswith(".so")))
-with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
-    for name in names:
-        archive.write(os.path.join(addon, name), "texsynth/" + name)
-print("package_addon: %s (%d files, %.1f MB)" % (path, len(names), os.path.getsize(path) / 1e6))
-PY
+envs=("$@")
+[ ${#envs[@]} -gt 0 ] || envs=(host)
+
+version="$(sed -n 's/^version = "\(.*\)"/\1/p' "$root/addon/blender_manifest.toml")"
+bl_version="$(sed -n 's/.*"version": (\([0-9]*\), \([0-9]*\), \([0-9]*\)).*/\1.\2.\3/p' "$root/addon/__init__.py")"
+[ "$version" = "$bl_version" ] || { echo "package_addon: blender_manifest.toml says $version, bl_info says $bl_version" >&2; exit 1; }
+mkdir -p "$root/dist"
+
+# Runs a command on the host or inside an environment (the repository is /src there).
+in_env() {
+  local env="$1"; shift
+  if [ "$env" = host ]; then (cd "$root" && "$@"); else bash "$root/scripts/blender_envs.sh" run "$env" "$@"; fi
+}
+path_in_env() { if [ "$1" = host ]; then echo "$root/$2"; else echo "/src/$2"; fi; }
+
+for env in "${envs[@]}"; do
+  case "$env" in host|trixie|sid) ;; *) echo "package_addon: unknown environment '$env' (host, trixie, sid)" >&2; exit 2 ;; esac
+  # What the environment's Blender runs: its version and its Python's module suffix.
+  probe="$(in_env "$env" blender -b --factory-startup --python-expr \
+    "import bpy, sys, sysconfig; print('PROBE', bpy.app.version_string.split()[0], '%d%d' % sys.version_info[:2], sysconfig.get_config_var('EXT_SUFFIX'))" \
+    2>/dev/null | sed -n 's/^PROBE //p')"
+  read -r blender_version py_tag suffix <<<"$probe"
+  [ -n "${suffix:-}" ] || { echo "package_addon: could not ask $env's Blender for its version and Python" >&2; exit 1; }
+  module="$root/addon/texsynth_native$suffix"
+  if [ ! -f "$module" ]; then
+    if [ "$env" = host ]; then bash "$root/scripts/build.sh"; else bash "$root/scripts/blender_envs.sh" build "$env"; fi
+  fi
+  family="${blender_version%.*}"
+  name="texsynth-$version-blender$family-py$py_tag.zip"
+  stage="$root/dist/stage-$env/texsynth"
+  rm -rf "$root/dist/stage-$env" "$root/dist/$name"
+  mkdir -p "$stage"
+  (cd "$root/addon" && cp ./*.py blender_manifest.toml "$stage/")
+  cp "$module" "$stage/"
+  if [ "${blender_version%%.*}" -lt 4 ] || { [ "${blender_version%%.*}" -eq 4 ] && [ "${family#*.}" -lt 2 ]; }; then
+    # Legacy add-on zip (Blender < 4.2 has no extension platform).
+    (cd "$root/dist/stage-$env" && find texsynth -type f | LC_ALL=C sort | zip -q -X -@ "$root/dist/$name")
+    kind="legacy add-on zip"
+  else
+    in_env "$env" blender --command extension build --source-dir "$(path_in_env "$env" "dist/stage-$env/texsynth")" \
+      --output-filepath "$(path_in_env "$env" "dist/$name")" >/dev/null
+    in_env "$env" blender --command extension validate "$(path_in_env "$env" "dist/$name")"
+    kind="extension (built and validated by Blender $blender_version)"
+  fi
+  rm -rf "$root/dist/stage-$env"
+  files="$(unzip -Z1 "$root/dist/$name" | grep -vc '/$')"
+  echo "package_addon: $root/dist/$name ($kind, Blender $blender_version, Python ${py_tag:0:1}.${py_tag:1}, $files files, $(du -k "$root/dist/$name" | cut -f1) KB)"
+done

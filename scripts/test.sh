@@ -1,16 +1,59 @@
 #!/usr/bin/env bash
-# Everything CI runs: installs Debian packages, builds, runs the C++ tests (ctest), then the
-# Python and Blender tests (pytest under Blender's interpreter, /usr/bin/python3.11).
+# Everything CI runs, on Blender 3.4 (this Debian 12 host), 4.3 (Debian 13) and 5.2 LTS (Debian sid):
+#   host: install Debian packages, build, C++ tests (ctest), sanitizers, fuzzing, Python + Blender tests
+#         (pytest under Blender's interpreter, /usr/bin/python3.11);
+#   trixie, sid (scripts/blender_envs.sh, made while the host stages run): build against that
+#         distribution's libraries and Python, ctest, the Blender-side suites;
+#   packages: one per Blender family (scripts/package_addon.sh), each installed in a runtime environment
+#         holding only Debian's blender package, then a headless Synthesize + render.
+# Prints the wall time of every stage at the end (also in out/test_stage_times.txt).
+# TEXSYNTH_TEST_HOST_ONLY=1 runs the host stages only.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 cd "$root"
-bash scripts/install_deps.sh
-bash scripts/build.sh
-echo "== C++ tests (ctest)"
-ctest --test-dir build --output-on-failure -j"$(nproc)"
-echo "== Sanitizer tests (ASan+UBSan build in build-asan: core, cpp_tests, fuzz seed/regression replay)"
-bash scripts/sanitize.sh
-echo "== Fuzzing (libFuzzer, ${TEXSYNTH_FUZZ_SECONDS:-20} s per target)"
-bash scripts/fuzz.sh "${TEXSYNTH_FUZZ_SECONDS:-20}"
-echo "== Python and Blender tests (pytest)"
+mkdir -p out
+times="$root/out/test_stage_times.txt"
+: >"$times"
+stage_start=0
+begin() { echo "== $1"; stage_name="$1"; stage_start=$SECONDS; }
+end() { printf '%-58s %5d s\n' "$stage_name" "$((SECONDS - stage_start))" >>"$times"; }
+trap 'echo; echo "== stage times (so far)"; cat "$times"' EXIT
+all_envs=1
+[ "${TEXSYNTH_TEST_HOST_ONLY:-0}" = 1 ] && all_envs=0
+
+begin "Debian packages (host)"; bash scripts/install_deps.sh; end
+
+envs_pid=""
+if [ "$all_envs" = 1 ]; then
+  # Root filesystems for Blender 4.3 and 5.2 (+ runtime-only ones) are mostly download and unpack:
+  # made in the background while the host builds and tests.
+  bash scripts/blender_envs.sh create trixie sid bookworm-runtime >out/blender_envs_create.log 2>&1 &
+  envs_pid=$!
+fi
+
+begin "build (host, Blender 3.4)"; bash scripts/build.sh; end
+begin "C++ tests (ctest, host)"; ctest --test-dir build --output-on-failure -j"$(nproc)"; end
+begin "Sanitizer tests (ASan+UBSan: core, cpp_tests, fuzz replay)"; bash scripts/sanitize.sh; end
+begin "Fuzzing (libFuzzer, ${TEXSYNTH_FUZZ_SECONDS:-20} s per target)"; bash scripts/fuzz.sh "${TEXSYNTH_FUZZ_SECONDS:-20}"; end
+begin "Python and Blender tests (pytest, Blender 3.4)"
 PYTHONPATH="$root/addon" /usr/bin/python3.11 -m pytest -q python_tests
+end
+
+[ "$all_envs" = 1 ] || exit 0
+
+begin "environments (Debian 13, sid, runtime-only; waited for)"
+wait "$envs_pid" || { cat out/blender_envs_create.log; exit 1; }
+cat out/blender_envs_create.log
+end
+for env in trixie sid; do
+  begin "$env: build, ctest, Blender-side suites"; bash scripts/blender_envs.sh test "$env"; end
+done
+begin "packages (3.x zip, 4.2+ extensions)"; bash scripts/package_addon.sh host trixie sid; end
+begin "install checks (runtime-only environments)"
+for pair in bookworm-runtime:py311 trixie-runtime:py313 sid-runtime:py314; do
+  env="${pair%%:*}"
+  package="$(ls dist/texsynth-*-"${pair#*:}".zip)"
+  echo "-- $env: $(basename "$package")"
+  bash scripts/blender_envs.sh install-check "$env" "$package"
+done
+end
