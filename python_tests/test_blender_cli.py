@@ -87,6 +87,39 @@ def test_mesh_file_import_no_blend_and_render(tmp_path):
     assert "render" in stats["seconds"]
 
 
+def ply_text(verts, faces):
+    header = ["ply", "format ascii 1.0", "element vertex %d" % len(verts), "property float x", "property float y",
+              "property float z", "element face %d" % len(faces), "property list uchar int vertex_indices",
+              "end_header"]
+    return "\n".join(header + ["%g %g %g" % v for v in verts] +
+                     ["%d %s" % (len(f), " ".join(map(str, f))) for f in faces]) + "\n"
+
+
+def stl_text(verts, faces):
+    lines = ["solid t"]
+    for f in faces:
+        lines += ["facet normal 0 0 0", "outer loop"] + ["vertex %g %g %g" % verts[i] for i in f] + \
+            ["endloop", "endfacet"]
+    return "\n".join(lines + ["endsolid t"]) + "\n"
+
+
+@pytest.mark.parametrize("kind", ["ply", "stl"])
+def test_ply_and_stl_import_with_this_blenders_importer(tmp_path, kind):
+    """Blender 4.0 removed import_mesh.ply/stl; compat picks wm.ply_import / wm.stl_import where they exist."""
+    verts = [(x * 0.5, y * 0.5, 0.1 * ((x * y) % 3)) for y in range(4) for x in range(4)]
+    faces = [(y * 4 + x, y * 4 + x + 1, y * 4 + x + 5) for y in range(3) for x in range(3)] + \
+            [(y * 4 + x, y * 4 + x + 5, y * 4 + x + 4) for y in range(3) for x in range(3)]
+    path = tmp_path / ("grid." + kind)
+    path.write_text(ply_text(verts, faces) if kind == "ply" else stl_text(verts, faces))
+    stats_path = tmp_path / "stats.json"
+    process = blender_run.cli("--sample", BRICKS, "--mesh", str(path), "--scale", "2", "--stats", str(stats_path))
+    assert process.returncode == 0, process.stdout[-2000:] + process.stderr[-2000:]
+    stats = json.loads(stats_path.read_text())
+    # STL stores every triangle's corners; the importer merges them back into 16 vertices.
+    assert (stats["faces"], stats["corners"]) == (18, 54), stats
+    assert stats["vertices"] == 16, stats
+
+
 def test_oversized_faces_and_unknown_mesh_type_exit_1(tmp_path):
     big = tmp_path / "big.obj"
     big.write_text("v 0 0 0\nv 10 0 0\nv 10 10 0\nv 0 10 0\nf 1 2 3 4\n")  # a 10-unit quad, 1-unit sample
