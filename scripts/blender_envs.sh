@@ -108,7 +108,7 @@ run_dir() {
     mount -t tmpfs tmpfs "$dir/tmp"
     [ -n "$src" ] && mount --bind "$src" "$dir/src"
     exec chroot "$dir" /usr/bin/env -i HOME=/root PATH=/usr/local/bin:/usr/bin:/bin:/usr/sbin:/sbin \
-      LANG=C.UTF-8 TEXSYNTH_IN_ENV=1 ${TEXSYNTH_UPDATE_REFERENCES:+TEXSYNTH_UPDATE_REFERENCES=$TEXSYNTH_UPDATE_REFERENCES} \
+      LANG=C.UTF-8 ${TEXSYNTH_UPDATE_REFERENCES:+TEXSYNTH_UPDATE_REFERENCES=$TEXSYNTH_UPDATE_REFERENCES} \
       "$@"' _ "$dir" "${TEXSYNTH_ENV_SRC-$root}" "$@"
 }
 
