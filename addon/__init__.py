@@ -19,18 +19,44 @@ import bpy  # noqa: E402
 
 from . import compat  # noqa: E402
 
-# Checked before anything else is imported: an older Blender gets one sentence, not an API traceback.
-UNSUPPORTED = compat.unsupported_version_message(bpy.app.version)
+# Checked before anything else is imported: a Blender that is too old, or a Python without NumPy,
+# gets one sentence in the sidebar and the console, never a traceback at enable time.
+UNSUPPORTED = compat.unsupported_version_message(bpy.app.version) or compat.missing_requirement_message()
 if not UNSUPPORTED:
     from . import field_ops, operators, overlay, properties, ui  # noqa: E402
     classes = properties.classes + operators.classes + field_ops.classes + ui.classes
 else:
-    classes = []
+    class TEXSYNTH_PT_unavailable(bpy.types.Panel):
+        bl_label = "TexSynth"
+        bl_space_type = "VIEW_3D"
+        bl_region_type = "UI"
+        bl_category = "TexSynth"
+
+        def draw(self, context):
+            column = self.layout.column(align=True)
+            column.label(text="TexSynth is not available:", icon="ERROR")
+            for line in _wrap(UNSUPPORTED, 40):
+                column.label(text=line)
+
+    def _wrap(text, width):
+        lines, line = [], ""
+        for word in text.split():
+            if line and len(line) + 1 + len(word) > width:
+                lines.append(line)
+                line = word
+            else:
+                line = (line + " " + word).strip()
+        return lines + [line]
+
+    classes = [TEXSYNTH_PT_unavailable]
 
 
 def register():
     if UNSUPPORTED:
-        raise RuntimeError(UNSUPPORTED)
+        print("TexSynth: " + UNSUPPORTED)
+        if not getattr(classes[0], "is_registered", False):
+            bpy.utils.register_class(classes[0])
+        return
     warning = compat.untested_version_message(bpy.app.version)
     if warning:
         print("TexSynth: " + warning)
@@ -44,6 +70,8 @@ def register():
 
 def unregister():
     if UNSUPPORTED:
+        if getattr(classes[0], "is_registered", False):
+            bpy.utils.unregister_class(classes[0])
         return
     field_ops.unregister_tool()
     overlay.unregister()

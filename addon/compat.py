@@ -3,10 +3,10 @@
 
 The blend group sums weighted colours with Vector Math nodes (same in 3.x and 4.x), so it needs no
 MixRGB / Mix node switch."""
+import importlib.util
 import os
 
 import bpy
-import numpy as np
 
 OLDEST_SUPPORTED = (3, 4, 0)
 NEWEST_TESTED = (5, 2)
@@ -17,6 +17,19 @@ def unsupported_version_message(version):
     if tuple(version[:3]) < OLDEST_SUPPORTED:
         return ("TexSynth needs Blender %d.%d or newer; this is Blender %s"
                 % (OLDEST_SUPPORTED[0], OLDEST_SUPPORTED[1], ".".join(str(v) for v in version[:3])))
+    return ""
+
+
+def missing_requirement_message(find_spec=importlib.util.find_spec):
+    """One sentence when a Python package TexSynth needs is not importable, else ''. Blender from
+    blender.org ships NumPy; Debian's blender package does not depend on python3-numpy."""
+    try:
+        spec = find_spec("numpy")
+    except (ImportError, ValueError):
+        spec = None
+    if spec is None:
+        return ("TexSynth needs NumPy, which this Blender's Python (%s) cannot import: on Debian and Ubuntu, "
+                "install the python3-numpy package" % ".".join(str(v) for v in __import__("sys").version_info[:2]))
     return ""
 
 
@@ -145,6 +158,8 @@ def stroke_polylines(data, current_frame):
     """Polylines (n x 3 float64, in data space) of every visible layer's displayed strokes, read in bulk:
     legacy strokes (annotations, 3.x Grease Pencil) point by stroke, Grease Pencil v3 drawings (4.3+)
     through their position attribute and curve offsets."""
+    import numpy as np  # lazily: compat must import without NumPy (missing_requirement_message)
+
     polylines = []
     for layer in data.layers:
         if getattr(layer, "hide", False):

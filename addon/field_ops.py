@@ -413,8 +413,8 @@ def register_tool():
 def unregister_tool():
     try:
         bpy.utils.unregister_tool(TexSynthCombTool)
-    except (ValueError, RuntimeError, AttributeError, KeyError):
-        pass
+    except Exception:  # noqa: BLE001 - bpy raises a bare Exception when the toolbar no longer has it
+        pass  # (read_factory_settings rebuilt the toolbar before disabling add-ons)
 
 
 classes = (TEXSYNTH_OT_comb, TEXSYNTH_OT_singularity, TEXSYNTH_OT_field_preset, TEXSYNTH_OT_field_from_strokes)

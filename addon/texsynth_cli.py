@@ -169,6 +169,8 @@ def main(argv):
     started = time.perf_counter()
     args = parse_args(argv)
     addon = load_addon()
+    if addon.UNSUPPORTED:
+        raise CliError(addon.UNSUPPORTED)
     from texsynth import compat, native, pipeline, synthesis  # noqa: F401  (registered by load_addon)
     if native.get() is None:
         raise CliError(native.reason())

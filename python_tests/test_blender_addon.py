@@ -37,6 +37,45 @@ def test_enabling_without_native_module_does_not_fail(tmp_path):
     assert "REASON native module missing" in output, output[-3000:]
 
 
+# Makes NumPy unimportable in Blender's Python, as on Debian's blender without python3-numpy.
+HIDE_NUMPY = ("import sys\n"
+              "class HideNumpy:\n"
+              "    def find_spec(self, name, path=None, target=None):\n"
+              "        if name == 'numpy' or name.startswith('numpy.'):\n"
+              "            raise ModuleNotFoundError(\"No module named 'numpy'\")\n"
+              "sys.meta_path.insert(0, HideNumpy())\n"
+              "for name in [n for n in sys.modules if n == 'numpy' or n.startswith('numpy.')]:\n"
+              "    del sys.modules[name]\n")
+
+
+def test_enabling_without_numpy_says_so_in_one_sentence(tmp_path):
+    import shutil
+    addons = tmp_path / "scripts" / "addons"
+    shutil.copytree(os.path.join(addon_package.ROOT, "addon"), addons / "texsynth",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    script = HIDE_NUMPY + (
+        "import addon_utils, bpy\n"
+        "mod = addon_utils.enable('texsynth', default_set=True, handle_error=None)\n"
+        "assert mod is not None, 'enable failed'\n"
+        "print('UNSUPPORTED', mod.UNSUPPORTED)\n"
+        "assert bpy.types.TEXSYNTH_PT_unavailable.is_registered\n"
+        "assert not hasattr(bpy.types.Scene, 'texsynth')\n"
+        "addon_utils.disable('texsynth')\n"
+        "assert 'TEXSYNTH_PT_unavailable' not in dir(bpy.types)\n"
+        "print('DISABLED')\n")
+    process = blender_run.blender("--python-expr", script, env={"BLENDER_USER_SCRIPTS": str(tmp_path / "scripts")})
+    output = blender_run.without_blender_noise(process.stdout + process.stderr)
+    assert process.returncode == 0 and "DISABLED" in output, output[-3000:]
+    assert "UNSUPPORTED TexSynth needs NumPy" in output and "python3-numpy" in output, output[-3000:]
+    assert "Traceback" not in output, output[-3000:]
+    cli = blender_run.blender("--python-expr", HIDE_NUMPY, "--python",
+                              os.path.join(addon_package.ROOT, "addon", "texsynth_cli.py"), "--",
+                              "--sample", os.path.join(blender_run.SAMPLES, "bricks.png"), "--object", "Suzanne",
+                              blend_file=os.path.join(blender_run.SAMPLES, "scene.blend"))
+    lines = blender_run.error_lines(cli)
+    assert cli.returncode == 1 and len(lines) == 1 and "needs NumPy" in lines[0], cli.stdout[-2000:] + cli.stderr[-2000:]
+
+
 def test_addon_suite_on_the_contract_double():
     """The same suite against fake_native.py: the add-on's I/O checked independently of the synthesizer."""
     process = blender_run.blender("--python", os.path.join(blender_run.BLENDER_TESTS, "tests_addon.py"),

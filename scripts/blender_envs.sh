@@ -5,7 +5,7 @@
 #
 #   trixie          Debian 13: Blender 4.3, Python 3.13, Embree 4, OpenImageIO 2.5  (+ build deps)
 #   sid             Debian sid: Blender 5.2 LTS, Python 3.14, OpenImageIO 3.1, Eigen 5, pybind11 3
-#   <dist>-runtime  bookworm / trixie / sid with ONLY the blender package: where the packages are installed
+#   <dist>-runtime  bookworm / trixie / sid with only blender (+ python3-numpy): where packages are installed
 #
 # Usage:
 #   scripts/blender_envs.sh create ENV...          make (or reuse) the root filesystems
@@ -27,7 +27,8 @@ BUILD_PACKAGES=(
   libembree-dev libeigen3-dev libtbb-dev libgtest-dev
   xvfb xauth
 )
-RUNTIME_PACKAGES=(blender)
+# Debian's blender package does not depend on (or recommend) python3-numpy, which TexSynth needs.
+RUNTIME_PACKAGES=(blender python3-numpy)
 
 dist_of() {
   case "$1" in
@@ -93,6 +94,22 @@ create() {
   stamp_text "$env" >"$dir.partial/.texsynth-env"
   mv "$dir.partial" "$dir"
   echo "blender_envs: $env: ready in $((SECONDS - start)) s ($(du -sh "$dir" | cut -f1))"
+}
+
+# Runtime environments first, in parallel (mostly download and unpack), then the build environments.
+create_all() {
+  local env runtimes=() pids=() failed=0
+  for env in "$@"; do
+    dist_of "$env" >/dev/null
+    case "$env" in *-runtime) runtimes+=("$env") ;; *) runtimes+=("$env-runtime") ;; esac
+  done
+  for env in $(printf '%s\n' "${runtimes[@]}" | sort -u); do create "$env" & pids+=($!); done
+  for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
+  [ "$failed" = 0 ] || exit 1
+  pids=()
+  for env in "$@"; do case "$env" in *-runtime) ;; *) create "$env" & pids+=($!) ;; esac; done
+  for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
+  [ "$failed" = 0 ] || exit 1
 }
 
 # Runs a command chrooted in ENV inside a private mount namespace: the bind mounts vanish with it,
@@ -164,7 +181,9 @@ install_check() {
   TEXSYNTH_ENV_SRC="$drop" run_in "$env" env HOME=/tmp/home bash -euc '
     mkdir -p "$HOME"
     if command -v cc >/dev/null || command -v c++ >/dev/null; then echo "install-check: a compiler is installed" >&2; exit 1; fi
-    if dpkg-query -W -f "\${Package}\n" | grep -q -- "-dev$"; then echo "install-check: -dev packages are installed" >&2; exit 1; fi
+    # python3-numpy depends on python3-numpy-dev (its headers) since Debian 13: not a build package.
+    dev="$(dpkg-query -W -f "\${Package}\n" | grep -- "-dev$" | grep -vx python3-numpy-dev || true)"
+    if [ -n "$dev" ]; then echo "install-check: -dev packages are installed: $dev" >&2; exit 1; fi
     version="$(blender --version 2>/dev/null | sed -n "s/^Blender \([0-9]*\)\.\([0-9]*\).*/\1 \2/p" | head -1)"
     read -r major minor <<<"$version"
     if [ "$major" -lt 4 ] || { [ "$major" -eq 4 ] && [ "$minor" -lt 2 ]; }; then
@@ -187,7 +206,7 @@ bpy.ops.wm.save_userpref()" >/tmp/install.log 2>&1 || { cat /tmp/install.log; ex
 command="${1:-}"
 [ $# -gt 0 ] && shift
 case "$command" in
-  create) need_root; [ $# -gt 0 ] || set -- trixie sid; for env in "$@"; do dist_of "$env" >/dev/null; create "$env"; done ;;
+  create) need_root; [ $# -gt 0 ] || set -- trixie sid; create_all "$@" ;;
   build) need_root; build_in "$1" ;;
   run) need_root; env="$1"; shift; run_in "$env" "$@" ;;
   test) need_root; test_in "$1" ;;

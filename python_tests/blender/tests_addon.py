@@ -126,6 +126,21 @@ def test_register_unregister_twice():
     assert bpy.types.TEXSYNTH_PT_main.is_registered
 
 
+def test_unregister_after_the_toolbar_lost_the_comb_tool():
+    """read_factory_settings rebuilds the toolbar and then disables add-ons: the tool is already gone."""
+    from bl_ui.space_toolsystem_common import ToolSelectPanelHelper
+    from texsynth import field_ops
+    texsynth.register()
+    tool = field_ops.TexSynthCombTool
+    tools = ToolSelectPanelHelper._tool_class_from_space_type(tool.bl_space_type)._tools[tool.bl_context_mode]
+    assert tool._bl_tool in tools, "the comb tool is not in the toolbar"
+    tools.remove(tool._bl_tool)  # what the rebuilt toolbar looks like: the class still thinks it is there
+    texsynth.unregister()
+    assert not hasattr(bpy.types.Scene, "texsynth")
+    texsynth.register()
+    assert bpy.types.TEXSYNTH_PT_main.is_registered
+
+
 def test_version_gate_names_the_versions():
     from texsynth import compat
     assert not texsynth.UNSUPPORTED  # this Blender is supported
@@ -136,6 +151,8 @@ def test_version_gate_names_the_versions():
     assert compat.unsupported_version_message((3, 4, 0)) == ""
     assert compat.untested_version_message((5, 2, 2)) == ""
     assert "Blender 6.0.0 may behave differently" in compat.untested_version_message((6, 0, 0))
+    assert compat.missing_requirement_message() == ""  # this Blender's Python has NumPy
+    assert "python3-numpy" in compat.missing_requirement_message(find_spec=lambda name: None)
 
 
 def test_read_mesh_is_world_space():

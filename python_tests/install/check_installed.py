@@ -20,8 +20,9 @@ assert loaded_state, "TexSynth (%s) is installed but not enabled" % module_name
 addon = sys.modules[module_name]
 assert addon.native.get() is not None, "native module unavailable: " + addon.native.reason()
 
-bpy.ops.wm.read_factory_settings(use_empty=True)
-bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=4, radius=1.0)
+for obj in list(bpy.data.objects):  # the startup scene's cube, camera and light
+    bpy.data.objects.remove(obj)
+bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=4, radius=1.0, calc_uvs=False)
 sphere = bpy.context.active_object
 assert len(sphere.data.uv_layers) == 0
 bpy.ops.object.camera_add(location=(0.0, -4.0, 0.0), rotation=(1.5708, 0.0, 0.0))
@@ -52,9 +53,17 @@ scene.render.filepath = out_path
 scene.render.image_settings.file_format = "PNG"
 bpy.ops.render.render(write_still=True)
 
+import numpy as np  # noqa: E402 (installed with Blender's Python once TexSynth runs)
+
 image = bpy.data.images.load(out_path)
-pixels = list(image.pixels)
-reds = pixels[0::4]
-assert max(reds) - min(reds) > 0.05, "the render is flat: the texture did not show"
-print("CHECK_INSTALLED ok: Blender %s, %s, %d UV maps, render %s" % (
-    bpy.app.version_string, module_name, len(uv_names), out_path), flush=True)
+pixels = np.empty(len(image.pixels), np.float32)
+image.pixels.foreach_get(pixels)
+rgb = pixels.reshape(-1, 4)[:, :3]
+# The sphere's pixels: those unlike the background (the corner). Untextured grey would have R = B
+# there; the brick sample is red.
+sphere_pixels = rgb[np.abs(rgb - rgb[0]).max(axis=1) > 0.02]
+assert len(sphere_pixels) > len(rgb) // 10, "the sphere is not in the render"
+redness = float(np.mean(sphere_pixels[:, 0] - sphere_pixels[:, 2]))
+assert redness > 0.05, "the render shows no brick red (R - B = %.3f): the texture did not show" % redness
+print("CHECK_INSTALLED ok: Blender %s, %s, %d UV maps, render %s (R - B %.3f)" % (
+    bpy.app.version_string, module_name, len(uv_names), out_path, redness), flush=True)
