@@ -11,7 +11,7 @@
 #   scripts/blender_envs.sh create ENV...          make (or reuse) the root filesystems
 #   scripts/blender_envs.sh build ENV              configure + build + ctest inside ENV (build-<ENV>/)
 #   scripts/blender_envs.sh run ENV CMD [ARG...]   run a command in ENV, the repository mounted at /src
-#   scripts/blender_envs.sh test ENV               build, then the Blender-side pytest suites inside ENV
+#   scripts/blender_envs.sh test ENV               build + ctest, then all of python_tests inside ENV
 #   scripts/blender_envs.sh install-check ENV PKG  install PKG in a *-runtime ENV, Synthesize + render
 #   scripts/blender_envs.sh path ENV               print ENV's root folder
 # Needs root (chroot, mounts). TEXSYNTH_ENVS_DIR overrides the cache folder.
@@ -146,22 +146,13 @@ build_in() {
     ctest --test-dir /src/build-'"$env"' --output-on-failure -j"$(nproc)"'
 }
 
-# The Blender-side suites: add-on, CLI, fields (headless parts), hostile harness, reference frames,
-# install routes. The native-only pytest modules run too: they are cheap and exercise the module.
-BLENDER_SUITES=(
-  python_tests/test_native_module.py
-  python_tests/test_blender_addon.py
-  python_tests/test_blender_cli.py
-  python_tests/test_blender_fields.py
-  python_tests/test_hostile_blender.py
-  python_tests/test_reference_frames.py
-  python_tests/test_install_package.py
-)
-
+# All of python_tests with this distribution's Python: the Blender-side suites (add-on, CLI, fields with
+# the Xvfb GUI test, hostile harnesses, reference frames, install routes) and the module's own tests,
+# which meet this stack's NumPy and pybind11.
 test_in() {
   local env="$1"
   build_in "$env"
-  run_in "$env" bash -euc 'cd /src && python3 -m pytest -q -p no:cacheprovider '"${BLENDER_SUITES[*]}"
+  run_in "$env" bash -euc 'cd /src && python3 -m pytest -q -p no:cacheprovider -rs python_tests'
 }
 
 # Installs a package the way an artist would, in ENV (a *-runtime environment: only Debian's blender

@@ -17,7 +17,7 @@ import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-PYTHON = "/usr/bin/python3.11"
+PYTHON = sys.executable  # the interpreter the module was built for: the one running the tests
 DEFAULT_TIMEOUT = 60.0
 FAILURES = ("crash", "hang", "partial", "invalid", "unclear", "unexpected")
 

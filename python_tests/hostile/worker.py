@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Runs hostile cases against texsynth_native, one JSON line per case on stdout.
 
-    python3.11 worker.py CORPUS_DIR CASES.json FIRST_INDEX
+    python3 worker.py CORPUS_DIR CASES.json FIRST_INDEX
 
 Prints {"start": i} before case i and {"index": i, "outcome": ..., ...} after it, so the parent
 (run_hostile.py) can tell which case a crash or hang happened in and restart after it.
