@@ -77,16 +77,25 @@ create() {
       # sid's reachable mirror is a snapshot whose Release file has expired (the option stays in the chroot).
       [ "$dist" = sid ] && options+=(--aptopt='Acquire::Check-Valid-Until "false"')
       echo "blender_envs: $env: creating Debian $dist with $(packages_of "$env")"
-      mmdebstrap --variant=apt --mode=root --skip=cleanup/apt/lists "${options[@]}" \
-        --include="$(packages_of "$env" | tr ' ' ',')" "$dist" "$dir.partial" >"$envs_dir/$env.log" 2>&1 \
-        || { tail -30 "$envs_dir/$env.log" >&2; echo "blender_envs: $env: mmdebstrap failed (log: $envs_dir/$env.log)" >&2; exit 1; }
+      # Two attempts: a dropped connection to the mirror should not fail a whole CI run.
+      local attempt
+      for attempt in 1 2; do
+        rm -rf "$dir.partial"
+        mmdebstrap --variant=apt --mode=root --skip=cleanup/apt/lists "${options[@]}" \
+          --include="$(packages_of "$env" | tr ' ' ',')" "$dist" "$dir.partial" >"$envs_dir/$env.log" 2>&1 && break
+        tail -30 "$envs_dir/$env.log" >&2
+        echo "blender_envs: $env: mmdebstrap failed, attempt $attempt of 2 (log: $envs_dir/$env.log)" >&2
+        [ "$attempt" = 2 ] && exit 1
+      done
       ;;
     *)
       # A build environment is its runtime environment plus the build packages: Blender is unpacked once.
       create "$env-runtime"
       echo "blender_envs: $env: $env-runtime + $(packages_of "$env")"
       cp -a "$envs_dir/$env-runtime" "$dir.partial"
-      run_dir "$dir.partial" bash -c 'DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "$@"' _ \
+      run_dir "$dir.partial" bash -c 'for attempt in 1 2; do
+          DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "$@" && exit 0
+          echo "apt-get failed, attempt $attempt of 2" >&2; done; exit 1' _ \
         $(packages_of "$env") >"$envs_dir/$env.log" 2>&1 \
         || { tail -30 "$envs_dir/$env.log" >&2; echo "blender_envs: $env: apt-get failed (log: $envs_dir/$env.log)" >&2; exit 1; }
       ;;
