@@ -81,7 +81,9 @@ create() {
       local attempt
       for attempt in 1 2; do
         rm -rf "$dir.partial"
-        mmdebstrap --variant=apt --mode=root --skip=cleanup/apt/lists "${options[@]}" \
+        # In a private mount namespace: mmdebstrap mounts proc, sys and devpts inside the new root, and
+        # a killed run must not leave them mounted on the host.
+        unshare --mount --propagation private -- mmdebstrap --variant=apt --mode=root --skip=cleanup/apt/lists "${options[@]}" \
           --include="$(packages_of "$env" | tr ' ' ',')" "$dist" "$dir.partial" >"$envs_dir/$env.log" 2>&1 && break
         tail -30 "$envs_dir/$env.log" >&2
         echo "blender_envs: $env: mmdebstrap failed, attempt $attempt of 2 (log: $envs_dir/$env.log)" >&2
