@@ -4,5 +4,11 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build_dir="${TEXSYNTH_BUILD_DIR:-$root/build}"
-cmake -S "$root" -B "$build_dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+mkdir -p "$build_dir"
+# Quiet configure, but say which stack was found (Python, Embree, OpenImageIO, Eigen).
+if ! cmake -S "$root" -B "$build_dir" -DCMAKE_BUILD_TYPE=Release "$@" >"$build_dir/configure.log" 2>&1; then
+  cat "$build_dir/configure.log" >&2
+  exit 1
+fi
+grep "^-- TexSynth:" "$build_dir/configure.log" || true
 cmake --build "$build_dir" -j"$(nproc)"
