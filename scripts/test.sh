@@ -17,7 +17,7 @@ times="$root/out/test_stage_times.txt"
 stage_start=0
 begin() { echo "== $1"; stage_name="$1"; stage_start=$SECONDS; }
 end() { printf '%-58s %5d s\n' "$stage_name" "$((SECONDS - stage_start))" >>"$times"; }
-trap 'echo; echo "== stage times (so far)"; cat "$times"' EXIT
+trap 'status=$?; echo; [ "$status" = 0 ] && echo "== stage times" || echo "== stage times (up to the failure)"; cat "$times"' EXIT
 all_envs=1
 [ "${TEXSYNTH_TEST_HOST_ONLY:-0}" = 1 ] && all_envs=0
 
