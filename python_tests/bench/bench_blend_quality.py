@@ -1,0 +1,238 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Blending quality measured in renders. Not a test: prints figures and leaves the pictures.
+
+  blender -b --factory-startup --python-exit-code 1 --python python_tests/bench/bench_blend_quality.py -- \\
+      [--sample blend_samples/bricks.png] [--modes tiling,jumpmap,jumpmap_noblend,texton,texton_noblend]
+      [--pixels 512] [--cells 10] [--seed 3] [--out out/bench_blend]
+
+Scene: a jittered triangulated plane seen from straight above by an orthographic camera, flat emission
+shading (no lights), scaled so that one sample texel covers one pixel. Each mode renders the same view
+(Eevee, one sample): plain tiling of the sample through planar UVs (the reference), then TexSynth's
+methods with and without blending. Mesh edges are rasterised from the known projection (exact for
+this view) into a mask; blend_metrics.py turns render + mask into:
+  seam     mean |grad L| within 1 px of an edge / from 3 px on (1.00 = no visible seam)
+  detail   mean |grad L| / that of tiling (< 1: blending washed detail out)
+  profile  mean |grad L| by distance 0..10 px from the nearest edge, relative to its mean
+  repeat   largest autocorrelation of L beyond a quarter of the sample width (tiling: ~0.99)
+Renders and the edge mask go to --out.
+"""
+import argparse
+import math
+import os
+import sys
+import tempfile
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "blender"))
+sys.path.insert(0, HERE)
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+import blend_metrics  # noqa: E402
+import harness  # noqa: E402
+
+MODES = ("tiling", "jumpmap", "jumpmap_noblend", "texton", "texton_noblend")
+PROFILE_DISTANCE = 10
+
+
+def parse_args():
+    parser = argparse.ArgumentParser(prog="bench_blend_quality")
+    parser.add_argument("--sample", default=os.path.join(ROOT, "blend_samples", "bricks.png"))
+    parser.add_argument("--modes", default=",".join(MODES))
+    parser.add_argument("--pixels", type=int, default=512, help="render width and height")
+    parser.add_argument("--cells", type=int, default=10, help="grid cells per side (2 triangles each)")
+    parser.add_argument("--seed", type=int, default=3)
+    parser.add_argument("--out", default=os.path.join(ROOT, "out", "bench_blend"))
+    args = parser.parse_args(harness.script_args())
+    args.modes = [m for m in args.modes.split(",") if m]
+    unknown = set(args.modes) - set(MODES)
+    if unknown:
+        parser.error("unknown modes %s (choose from %s)" % (", ".join(sorted(unknown)), ", ".join(MODES)))
+    return args
+
+
+def jittered_plane(cells, width, seed):
+    """Triangles over [-width/2, width/2]^2: interior vertices jittered by up to 0.3 cell, each cell split
+    along a random diagonal. Returns the object and its edges as (E, 2, 2) world xy segments."""
+    rng = np.random.default_rng(seed)
+    step = width / cells
+    ys, xs = np.mgrid[0:cells + 1, 0:cells + 1].astype(np.float64)
+    jitter = rng.uniform(-0.3, 0.3, (cells + 1, cells + 1, 2))
+    border = (xs == 0) | (xs == cells) | (ys == 0) | (ys == cells)
+    jitter[border] = 0.0
+    px = (xs + jitter[..., 0]) * step - width / 2
+    py = (ys + jitter[..., 1]) * step - width / 2
+    positions = np.stack([px.ravel(), py.ravel(), np.zeros(px.size)], 1).astype(np.float32)
+    triangles = []
+    for y in range(cells):
+        for x in range(cells):
+            a, b, c, d = y * (cells + 1) + x, y * (cells + 1) + x + 1, (y + 1) * (cells + 1) + x + 1, \
+                (y + 1) * (cells + 1) + x
+            triangles += [(a, b, c), (a, c, d)] if rng.random() < 0.5 else [(a, b, d), (b, c, d)]
+    triangles = np.array(triangles, np.int32)
+    obj = harness.mesh_from_arrays("Plane", positions, triangles.ravel(),
+                                   np.arange(0, 3 * len(triangles), 3, dtype=np.int32),
+                                   np.full(len(triangles), 3, np.int32))
+    edges = {tuple(sorted((int(t[k]), int(t[(k + 1) % 3])))) for t in triangles for k in range(3)}
+    segments = np.array([[positions[i, :2], positions[j, :2]] for i, j in sorted(edges)], np.float64)
+    return obj, segments
+
+
+def edge_mask(segments, width, pixels):
+    """Pixels (row 0 = top) that the projected edges pass through, sampled every 0.25 px."""
+    mask = np.zeros((pixels, pixels), bool)
+    to_pixel = pixels / width
+    for (x0, y0), (x1, y1) in segments:
+        count = int(math.ceil(math.hypot(x1 - x0, y1 - y0) * to_pixel * 4)) + 1
+        t = np.linspace(0.0, 1.0, count)
+        cols = np.floor((x0 + (x1 - x0) * t + width / 2) * to_pixel).astype(int)
+        rows = np.floor((width / 2 - (y0 + (y1 - y0) * t)) * to_pixel).astype(int)
+        keep = (cols >= 0) & (cols < pixels) & (rows >= 0) & (rows < pixels)
+        mask[rows[keep], cols[keep]] = True
+    return mask
+
+
+def setup_view(width, pixels):
+    scene = bpy.context.scene
+    camera_data = bpy.data.cameras.new("Top")
+    camera_data.type = "ORTHO"
+    camera_data.ortho_scale = width
+    camera = bpy.data.objects.new("Top", camera_data)
+    camera.location = (0.0, 0.0, 5.0)  # looks down -Z: image x = world x, image up = world y
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    scene.world = None
+    texsynth = harness.load_addon()
+    texsynth.compat.use_eevee(scene)
+    scene.eevee.taa_render_samples = 1
+    scene.render.resolution_x = scene.render.resolution_y = pixels
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "PNG"
+    scene.render.image_settings.color_depth = "16"
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    return scene
+
+
+def emission_material(name, build_color):
+    """A material whose surface is Emission(colour) with colour = build_color(nodes, links)."""
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    nodes.clear()
+    emission = nodes.new("ShaderNodeEmission")
+    output = nodes.new("ShaderNodeOutputMaterial")
+    links.new(emission.outputs["Emission"], output.inputs["Surface"])
+    links.new(build_color(nodes, links), emission.inputs["Color"])
+    return material
+
+
+def tiling_material(image, world_size):
+    def color(nodes, links):
+        coordinates = nodes.new("ShaderNodeTexCoord")
+        scale = nodes.new("ShaderNodeVectorMath")
+        scale.operation = "SCALE"
+        scale.inputs[3].default_value = 1.0 / world_size
+        texture = nodes.new("ShaderNodeTexImage")
+        texture.image, texture.interpolation, texture.extension = image, "Linear", "REPEAT"
+        links.new(coordinates.outputs["Object"], scale.inputs[0])
+        links.new(scale.outputs["Vector"], texture.inputs["Vector"])
+        return texture.outputs["Color"]
+    return emission_material("Tiling", color)
+
+
+def texsynth_material(image):
+    from texsynth import shading
+
+    def color(nodes, links):
+        group = nodes.new("ShaderNodeGroup")
+        group.node_tree = shading.ensure_blend_group(image)
+        return group.outputs["Color"]
+    return emission_material("TexSynth emission", color)
+
+
+def render(scene, path):
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(path, check_existing=False)
+    pixels = np.empty(len(image.pixels), np.float32)
+    image.pixels.foreach_get(pixels)
+    bpy.data.images.remove(image)
+    return pixels.reshape(scene.render.resolution_y, scene.render.resolution_x, 4)[::-1, :, :3].astype(np.float64)
+
+
+def synthesize(obj, sample_path, mode, world_size, seed, cache_dir):
+    from texsynth import pipeline, synthesis
+    method = "TEXTON" if mode.startswith("texton") else "JUMPMAP"
+    settings = pipeline.Settings(method=method, sample_world_size=world_size, seed=seed,
+                                 blend=not mode.endswith("_noblend"))
+    report = synthesis.synthesize([obj], synthesis.Sample(path=sample_path), settings, cache_dir=cache_dir,
+                                  material_mode="NONE")
+    if report.failures:
+        raise SystemExit("bench_blend_quality: %s: %s" % (mode, report.summary()))
+
+
+def sample_luminance(image):
+    width, height = image.size
+    pixels = np.empty(width * height * image.channels, np.float32)
+    image.pixels.foreach_get(pixels)
+    return blend_metrics.luminance(pixels.reshape(height, width, image.channels).astype(np.float64))
+
+
+def main():
+    args = parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    harness.reset_scene()
+    image = bpy.data.images.load(os.path.abspath(args.sample))
+    sample_width = image.size[0]
+    plane_width = 2.0
+    world_size = sample_width * plane_width / args.pixels  # one texel per pixel
+    scene = setup_view(plane_width, args.pixels)
+    obj, segments = jittered_plane(args.cells, plane_width, args.seed)
+    mask = edge_mask(segments, plane_width, args.pixels)
+    distance = blend_metrics.edge_distance(mask, PROFILE_DISTANCE + 2)
+    valid = np.zeros(mask.shape, bool)
+    valid[4:-4, 4:-4] = True
+    mask_image = np.repeat(mask[::-1, :, None].astype(np.float32), 4, axis=2)
+    mask_image[..., 3] = 1.0
+    written = bpy.data.images.new("edges", args.pixels, args.pixels)
+    written.pixels.foreach_set(mask_image.ravel())
+    written.filepath_raw = os.path.join(args.out, "edges.png")
+    written.file_format = "PNG"
+    written.save()
+    own_repeat = blend_metrics.autocorrelation_peak(sample_luminance(image), sample_width // 4)
+    print("bench_blend_quality: sample %s (%dx%d), plane of %d triangles, %d edges, %dx%d px, 1 texel/px"
+          % (os.path.basename(args.sample), image.size[0], image.size[1], 2 * args.cells ** 2, len(segments),
+             args.pixels, args.pixels), flush=True)
+    results = {}
+    cache_dir = tempfile.mkdtemp(prefix="texsynth_bench_cache_")
+    for mode in args.modes:
+        if mode == "tiling":
+            material = tiling_material(image, world_size)
+        else:
+            synthesize(obj, os.path.abspath(args.sample), mode, world_size, args.seed, cache_dir)
+            material = texsynth_material(image)
+        obj.data.materials.clear()
+        obj.data.materials.append(material)
+        rgb = render(scene, os.path.join(args.out, mode + ".png"))
+        lum = blend_metrics.luminance(rgb)
+        grad = blend_metrics.gradient_magnitude(lum)
+        results[mode] = dict(
+            seam=blend_metrics.seam_ratio(grad, distance, valid),
+            gradient=blend_metrics.mean_gradient(grad, valid),
+            profile=blend_metrics.gradient_profile(grad, distance, valid, PROFILE_DISTANCE),
+            repeat=blend_metrics.autocorrelation_peak(lum[4:-4, 4:-4], sample_width // 4))
+    reference = results.get("tiling", {}).get("gradient")
+    print("%-16s %6s %7s %7s  %s" % ("mode", "seam", "detail", "repeat", "profile: |grad L| at 0..%d px from an edge"
+                                     % PROFILE_DISTANCE))
+    for mode, r in results.items():
+        detail = "%7.3f" % (r["gradient"] / reference) if reference else "      -"
+        print("%-16s %6.3f %s %7.3f  %s" % (mode, r["seam"], detail, r["repeat"],
+                                           " ".join("%.2f" % v for v in r["profile"])))
+    print("%-16s %6s %7s %7.3f  (the sample's own, circular)" % ("sample", "-", "-", own_repeat))
+    print("bench_blend_quality: renders and edges.png in %s" % args.out)
+
+
+if __name__ == "__main__":
+    main()
