@@ -2,13 +2,14 @@
 """Blending quality measured in renders. Not a test: prints figures and leaves the pictures.
 
   blender -b --factory-startup --python-exit-code 1 --python python_tests/bench/bench_blend_quality.py -- \\
-      [--sample blend_samples/bricks.png] [--modes tiling,jumpmap,jumpmap_noblend,texton,texton_noblend]
+      [--sample blend_samples/bricks.png] [--modes tiling,box,jumpmap,jumpmap_noblend,texton,texton_noblend]
       [--pixels 512] [--cells 10] [--seed 3] [--out out/bench_blend]
 
 Scene: a jittered triangulated plane seen from straight above by an orthographic camera, flat emission
 shading (no lights), scaled so that one sample texel covers one pixel. Each mode renders the same view
-(Eevee, one sample): plain tiling of the sample through planar UVs (the reference), then TexSynth's
-methods with and without blending. Mesh edges are rasterised from the known projection (exact for
+(Eevee, one sample): plain tiling of the sample through planar UVs (the reference), Blender's box
+projection (blend 0.2; on this flat view it is planar tiling too), then TexSynth's methods with and
+without blending. Mesh edges are rasterised from the known projection (exact for
 this view) into a mask; blend_metrics.py turns render + mask into:
   seam     mean |grad L| within 1 px of an edge / from 3 px on (1.00 = no visible seam)
   detail   mean |grad L| / that of tiling (< 1: blending washed detail out)
@@ -32,7 +33,7 @@ import numpy as np  # noqa: E402
 import blend_metrics  # noqa: E402
 import harness  # noqa: E402
 
-MODES = ("tiling", "jumpmap", "jumpmap_noblend", "texton", "texton_noblend")
+MODES = ("tiling", "box", "jumpmap", "jumpmap_noblend", "texton", "texton_noblend")
 PROFILE_DISTANCE = 10
 
 
@@ -142,6 +143,21 @@ def tiling_material(image, world_size):
     return emission_material("Tiling", color)
 
 
+def box_material(image, world_size):
+    def color(nodes, links):
+        coordinates = nodes.new("ShaderNodeTexCoord")
+        scale = nodes.new("ShaderNodeVectorMath")
+        scale.operation = "SCALE"
+        scale.inputs[3].default_value = 1.0 / world_size
+        texture = nodes.new("ShaderNodeTexImage")
+        texture.image, texture.interpolation, texture.extension = image, "Linear", "REPEAT"
+        texture.projection, texture.projection_blend = "BOX", 0.2
+        links.new(coordinates.outputs["Object"], scale.inputs[0])
+        links.new(scale.outputs["Vector"], texture.inputs["Vector"])
+        return texture.outputs["Color"]
+    return emission_material("Box", color)
+
+
 def texsynth_material(image):
     from texsynth import shading
 
@@ -210,6 +226,8 @@ def main():
     for mode in args.modes:
         if mode == "tiling":
             material = tiling_material(image, world_size)
+        elif mode == "box":
+            material = box_material(image, world_size)
         else:
             synthesize(obj, os.path.abspath(args.sample), mode, world_size, args.seed, cache_dir)
             material = texsynth_material(image)
