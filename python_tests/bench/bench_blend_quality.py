@@ -129,7 +129,9 @@ def emission_material(name, build_color):
     return material
 
 
-def tiling_material(image, world_size):
+def projected_material(name, image, world_size, projection="FLAT"):
+    """Emission of the sample repeated every world_size units through object coordinates: FLAT is plain
+    tiling (the reference), BOX Blender's box projection."""
     def color(nodes, links):
         coordinates = nodes.new("ShaderNodeTexCoord")
         scale = nodes.new("ShaderNodeVectorMath")
@@ -137,25 +139,11 @@ def tiling_material(image, world_size):
         scale.inputs[3].default_value = 1.0 / world_size
         texture = nodes.new("ShaderNodeTexImage")
         texture.image, texture.interpolation, texture.extension = image, "Linear", "REPEAT"
+        texture.projection, texture.projection_blend = projection, 0.2
         links.new(coordinates.outputs["Object"], scale.inputs[0])
         links.new(scale.outputs["Vector"], texture.inputs["Vector"])
         return texture.outputs["Color"]
-    return emission_material("Tiling", color)
-
-
-def box_material(image, world_size):
-    def color(nodes, links):
-        coordinates = nodes.new("ShaderNodeTexCoord")
-        scale = nodes.new("ShaderNodeVectorMath")
-        scale.operation = "SCALE"
-        scale.inputs[3].default_value = 1.0 / world_size
-        texture = nodes.new("ShaderNodeTexImage")
-        texture.image, texture.interpolation, texture.extension = image, "Linear", "REPEAT"
-        texture.projection, texture.projection_blend = "BOX", 0.2
-        links.new(coordinates.outputs["Object"], scale.inputs[0])
-        links.new(scale.outputs["Vector"], texture.inputs["Vector"])
-        return texture.outputs["Color"]
-    return emission_material("Box", color)
+    return emission_material(name, color)
 
 
 def texsynth_material(image):
@@ -224,10 +212,8 @@ def main():
     results = {}
     cache_dir = tempfile.mkdtemp(prefix="texsynth_bench_cache_")
     for mode in args.modes:
-        if mode == "tiling":
-            material = tiling_material(image, world_size)
-        elif mode == "box":
-            material = box_material(image, world_size)
+        if mode in ("tiling", "box"):
+            material = projected_material(mode, image, world_size, "FLAT" if mode == "tiling" else "BOX")
         else:
             synthesize(obj, os.path.abspath(args.sample), mode, world_size, args.seed, cache_dir)
             material = texsynth_material(image)
