@@ -5,7 +5,7 @@
       [--sample blend_samples/bricks.png] [--modes tiling,box,jumpmap,jumpmap_noblend,texton,texton_noblend]
       [--pixels 512] [--cells 10] [--seed 3] [--out out/bench_blend]
 
-Scene: a jittered triangulated plane seen from straight above by an orthographic camera, flat emission
+Scene 1: a jittered triangulated plane seen from straight above by an orthographic camera, flat emission
 shading (no lights), scaled so that one sample texel covers one pixel. Each mode renders the same view
 (Eevee, one sample): plain tiling of the sample through planar UVs (the reference), Blender's box
 projection (blend 0.2; on this flat view it is planar tiling too), then TexSynth's methods with and
@@ -15,7 +15,10 @@ this view) into a mask; blend_metrics.py turns render + mask into:
   detail   mean |grad L| / that of tiling (< 1: blending washed detail out)
   profile  mean |grad L| by distance 0..10 px from the nearest edge, relative to its mean
   repeat   largest autocorrelation of L beyond a quarter of the sample width (tiling: ~0.99)
-Renders and the edge mask go to --out.
+Scene 2: triangulated Suzanne (curved) from three orthographic views, same shading and scale; its edge
+masks are Cycles renders of the Wireframe node (1 px, hidden edges hidden), and only pixels at least
+4 px inside the silhouette count. Tiling has no meaning there, so detail is relative to box projection.
+Renders and edge masks go to --out.
 """
 import argparse
 import math
@@ -163,7 +166,7 @@ def render(scene, path):
     pixels = np.empty(len(image.pixels), np.float32)
     image.pixels.foreach_get(pixels)
     bpy.data.images.remove(image)
-    return pixels.reshape(scene.render.resolution_y, scene.render.resolution_x, 4)[::-1, :, :3].astype(np.float64)
+    return pixels.reshape(scene.render.resolution_y, scene.render.resolution_x, 4)[::-1].astype(np.float64)
 
 
 def synthesize(obj, sample_path, mode, world_size, seed, cache_dir):
@@ -184,9 +187,48 @@ def sample_luminance(image):
     return blend_metrics.luminance(pixels.reshape(height, width, image.channels).astype(np.float64))
 
 
-def main():
-    args = parse_args()
-    os.makedirs(args.out, exist_ok=True)
+def save_mask(mask, path):
+    pixels = np.repeat(mask[::-1, :, None].astype(np.float32), 4, axis=2)
+    pixels[..., 3] = 1.0
+    written = bpy.data.images.new("mask", mask.shape[1], mask.shape[0])
+    written.pixels.foreach_set(pixels.ravel())
+    written.filepath_raw = path
+    written.file_format = "PNG"
+    written.save()
+    bpy.data.images.remove(written)
+
+
+def measure(rgba, distance, valid, repeat_lag):
+    lum = blend_metrics.luminance(rgba)
+    grad = blend_metrics.gradient_magnitude(lum)
+    return dict(seam=blend_metrics.seam_ratio(grad, distance, valid),
+                gradient=blend_metrics.mean_gradient(grad, valid),
+                profile=blend_metrics.gradient_profile(grad, distance, valid, PROFILE_DISTANCE),
+                repeat=blend_metrics.autocorrelation_peak(lum[4:-4, 4:-4], repeat_lag) if repeat_lag else None)
+
+
+def print_table(title, results, reference_mode):
+    reference = results.get(reference_mode, {}).get("gradient")
+    print("\n" + title)
+    print("%-16s %6s %7s %7s  %s" % ("mode", "seam", "detail", "repeat",
+                                     "profile: |grad L| at 0..%d px from an edge" % PROFILE_DISTANCE))
+    for mode, r in results.items():
+        detail = "%7.3f" % (r["gradient"] / reference) if reference else "      -"
+        repeat = "%7.3f" % r["repeat"] if r["repeat"] is not None else "      -"
+        print("%-16s %6.3f %s %s  %s" % (mode, r["seam"], detail, repeat, " ".join("%.2f" % v for v in r["profile"])))
+
+
+def apply_mode(obj, mode, image, world_size, args, cache_dir):
+    if mode in ("tiling", "box"):
+        material = projected_material(mode, image, world_size, "FLAT" if mode == "tiling" else "BOX")
+    else:
+        synthesize(obj, os.path.abspath(args.sample), mode, world_size, args.seed, cache_dir)
+        material = texsynth_material(image)
+    obj.data.materials.clear()
+    obj.data.materials.append(material)
+
+
+def plane_benchmark(args, cache_dir):
     harness.reset_scene()
     image = bpy.data.images.load(os.path.abspath(args.sample))
     sample_width = image.size[0]
@@ -198,44 +240,86 @@ def main():
     distance = blend_metrics.edge_distance(mask, PROFILE_DISTANCE + 2)
     valid = np.zeros(mask.shape, bool)
     valid[4:-4, 4:-4] = True
-    mask_image = np.repeat(mask[::-1, :, None].astype(np.float32), 4, axis=2)
-    mask_image[..., 3] = 1.0
-    written = bpy.data.images.new("edges", args.pixels, args.pixels)
-    written.pixels.foreach_set(mask_image.ravel())
-    written.filepath_raw = os.path.join(args.out, "edges.png")
-    written.file_format = "PNG"
-    written.save()
+    save_mask(mask, os.path.join(args.out, "edges.png"))
     own_repeat = blend_metrics.autocorrelation_peak(sample_luminance(image), sample_width // 4)
-    print("bench_blend_quality: sample %s (%dx%d), plane of %d triangles, %d edges, %dx%d px, 1 texel/px"
-          % (os.path.basename(args.sample), image.size[0], image.size[1], 2 * args.cells ** 2, len(segments),
-             args.pixels, args.pixels), flush=True)
     results = {}
-    cache_dir = tempfile.mkdtemp(prefix="texsynth_bench_cache_")
     for mode in args.modes:
-        if mode in ("tiling", "box"):
-            material = projected_material(mode, image, world_size, "FLAT" if mode == "tiling" else "BOX")
-        else:
-            synthesize(obj, os.path.abspath(args.sample), mode, world_size, args.seed, cache_dir)
-            material = texsynth_material(image)
-        obj.data.materials.clear()
+        apply_mode(obj, mode, image, world_size, args, cache_dir)
+        rgba = render(scene, os.path.join(args.out, mode + ".png"))
+        results[mode] = measure(rgba, distance, valid, sample_width // 4)
+    print_table("plane: %d jittered triangles, %d edges, %dx%d px, 1 texel/px, sample %s (%dx%d); "
+                "the sample's own repeat (circular) %.3f" % (2 * args.cells ** 2, len(segments), args.pixels,
+                                                             args.pixels, os.path.basename(args.sample),
+                                                             image.size[0], image.size[1], own_repeat),
+                results, "tiling")
+
+
+# Three orthographic views of the curved mesh: (location, rotation) of a camera aimed at the origin.
+VIEWS = {"front": ((0.0, -5.0, 0.0), (math.pi / 2, 0.0, 0.0)),
+         "side": ((5.0, 0.0, 0.0), (math.pi / 2, 0.0, math.pi / 2)),
+         "top": ((0.0, 0.0, 5.0), (0.0, 0.0, 0.0))}
+
+
+def wireframe_mask(scene, obj, path):
+    """Mesh-edge pixels of the current view: a Cycles render of the Wireframe node (1 px wide), which
+    hides edges behind the surface. The mesh is all triangles, so every drawn edge is a mesh edge."""
+    def color(nodes, links):
+        wire = nodes.new("ShaderNodeWireframe")
+        wire.use_pixel_size = True
+        wire.inputs["Size"].default_value = 1.0
+        return wire.outputs["Fac"]
+    saved = list(obj.data.materials)
+    obj.data.materials.clear()
+    obj.data.materials.append(emission_material("Wire", color))
+    engine = scene.render.engine
+    scene.render.engine = "CYCLES"
+    scene.cycles.samples = 16
+    scene.cycles.use_denoising = False
+    rgba = render(scene, path)
+    scene.render.engine = engine
+    obj.data.materials.clear()
+    for material in saved:
         obj.data.materials.append(material)
-        rgb = render(scene, os.path.join(args.out, mode + ".png"))
-        lum = blend_metrics.luminance(rgb)
-        grad = blend_metrics.gradient_magnitude(lum)
-        results[mode] = dict(
-            seam=blend_metrics.seam_ratio(grad, distance, valid),
-            gradient=blend_metrics.mean_gradient(grad, valid),
-            profile=blend_metrics.gradient_profile(grad, distance, valid, PROFILE_DISTANCE),
-            repeat=blend_metrics.autocorrelation_peak(lum[4:-4, 4:-4], sample_width // 4))
-    reference = results.get("tiling", {}).get("gradient")
-    print("%-16s %6s %7s %7s  %s" % ("mode", "seam", "detail", "repeat", "profile: |grad L| at 0..%d px from an edge"
-                                     % PROFILE_DISTANCE))
-    for mode, r in results.items():
-        detail = "%7.3f" % (r["gradient"] / reference) if reference else "      -"
-        print("%-16s %6.3f %s %7.3f  %s" % (mode, r["seam"], detail, r["repeat"],
-                                           " ".join("%.2f" % v for v in r["profile"])))
-    print("%-16s %6s %7s %7.3f  (the sample's own, circular)" % ("sample", "-", "-", own_repeat))
-    print("bench_blend_quality: renders and edges.png in %s" % args.out)
+    return (rgba[..., 0] > 0.5) & (rgba[..., 3] > 0.5), rgba[..., 3] > 0.999
+
+
+def curved_benchmark(args, cache_dir):
+    harness.reset_scene()
+    image = bpy.data.images.load(os.path.abspath(args.sample))
+    view_width = 3.0
+    world_size = image.size[0] * view_width / args.pixels  # one texel per pixel where the surface faces the camera
+    scene = setup_view(view_width, args.pixels)
+    scene.render.film_transparent = True
+    obj = harness.add_primitive("monkey", "Suzanne")
+    harness.select_only([obj])
+    # Triangulated, not subdivided: faces of 10-40 px at this size leave room for an edge-distance profile.
+    modifier = obj.modifiers.new("Triangulate", "TRIANGULATE")
+    bpy.ops.object.modifier_apply(modifier=modifier.name)
+    masks = {}
+    for view, (location, rotation) in VIEWS.items():
+        scene.camera.location, scene.camera.rotation_euler = location, rotation
+        edges, opaque = wireframe_mask(scene, obj, os.path.join(args.out, "suzanne_%s_edges.png" % view))
+        inside = blend_metrics.edge_distance(~opaque, 4) >= 4  # away from the silhouette
+        masks[view] = (blend_metrics.edge_distance(edges, PROFILE_DISTANCE + 2), inside)
+    results = {view: {} for view in VIEWS}
+    for mode in [m for m in args.modes if m != "tiling"]:  # tiling needs UVs Suzanne has no use for
+        apply_mode(obj, mode, image, world_size, args, cache_dir)
+        for view, (location, rotation) in VIEWS.items():
+            scene.camera.location, scene.camera.rotation_euler = location, rotation
+            rgba = render(scene, os.path.join(args.out, "suzanne_%s_%s.png" % (view, mode)))
+            results[view][mode] = measure(rgba, *masks[view], None)
+    for view in VIEWS:
+        print_table("Suzanne (%d triangles), %s view, %dx%d px; detail relative to box projection"
+                    % (len(obj.data.polygons), view, args.pixels, args.pixels), results[view], "box")
+
+
+def main():
+    args = parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    cache_dir = tempfile.mkdtemp(prefix="texsynth_bench_cache_")
+    plane_benchmark(args, cache_dir)
+    curved_benchmark(args, cache_dir)
+    print("\nbench_blend_quality: renders and edge masks in %s" % args.out)
 
 
 if __name__ == "__main__":
