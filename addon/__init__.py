@@ -35,7 +35,9 @@ else:
         def draw(self, context):
             column = self.layout.column(align=True)
             column.label(text="TexSynth is not available:", icon="ERROR")
-            for line in _wrap(UNSUPPORTED, 40):
+            # Labels do not wrap: about 7 px per character at UI scale 1 keeps lines inside the sidebar.
+            chars = max(16, int(context.region.width / (7.0 * context.preferences.system.ui_scale)) - 2)
+            for line in _wrap(UNSUPPORTED, chars):
                 column.label(text=line)
 
     def _wrap(text, width):

@@ -5,6 +5,7 @@ The blend group sums weighted colours with Vector Math nodes (same in 3.x and 4.
 MixRGB / Mix node switch."""
 import importlib.util
 import os
+import sys
 
 import bpy
 
@@ -29,7 +30,7 @@ def missing_requirement_message(find_spec=importlib.util.find_spec):
         spec = None
     if spec is None:
         return ("TexSynth needs NumPy, which this Blender's Python (%s) cannot import: on Debian and Ubuntu, "
-                "install the python3-numpy package" % ".".join(str(v) for v in __import__("sys").version_info[:2]))
+                "install the python3-numpy package" % ".".join(str(v) for v in sys.version_info[:2]))
     return ""
 
 

@@ -166,8 +166,8 @@ test_in() {
   run_in "$env" bash -euc 'cd /src && python3 -m pytest -q -p no:cacheprovider -rs python_tests'
 }
 
-# Installs a package the way an artist would, in ENV (a *-runtime environment: only Debian's blender
-# package, no compiler, no -dev package, no source tree), with a throwaway home, then runs a headless
+# Installs a package the way an artist would, in ENV (a *-runtime environment: only Debian's blender and
+# python3-numpy packages, no compiler, no -dev package, no source tree), with a throwaway home, then runs a headless
 # Synthesize and a render (python_tests/install/check_installed.py).
 install_check() {
   local env="$1" package="$2"
@@ -177,8 +177,10 @@ install_check() {
   drop="$(mktemp -d)"
   cp "$package" "$drop/"
   cp "$root/python_tests/install/check_installed.py" "$root/blend_samples/bricks.png" "$drop/"
-  local name
+  local name kind=legacy
   name="$(basename "$package")"
+  # An extension has its manifest at the top; the legacy zip holds a folder texsynth/.
+  unzip -Z1 "$package" | grep -qx blender_manifest.toml && kind=extension
   local status=0
   TEXSYNTH_ENV_SRC="$drop" run_in "$env" env HOME=/tmp/home bash -euc '
     mkdir -p "$HOME"
@@ -186,9 +188,7 @@ install_check() {
     # python3-numpy depends on python3-numpy-dev (its headers) since Debian 13: not a build package.
     dev="$(dpkg-query -W -f "\${Package}\n" | grep -- "-dev$" | grep -vx python3-numpy-dev || true)"
     if [ -n "$dev" ]; then echo "install-check: -dev packages are installed: $dev" >&2; exit 1; fi
-    version="$(blender --version 2>/dev/null | sed -n "s/^Blender \([0-9]*\)\.\([0-9]*\).*/\1 \2/p" | head -1)"
-    read -r major minor <<<"$version"
-    if [ "$major" -lt 4 ] || { [ "$major" -eq 4 ] && [ "$minor" -lt 2 ]; }; then
+    if [ "$2" = legacy ]; then
       blender -b --python-exit-code 1 --python-expr "
 import addon_utils, bpy
 bpy.ops.preferences.addon_install(filepath=\"/src/$1\")
@@ -200,7 +200,7 @@ bpy.ops.wm.save_userpref()" >/tmp/install.log 2>&1 || { cat /tmp/install.log; ex
     fi
     blender -b --python-exit-code 1 --python /src/check_installed.py -- /src/bricks.png /tmp/check.png >/tmp/check.log 2>&1 \
       || { cat /tmp/install.log /tmp/check.log | tail -40; exit 1; }
-    grep "^CHECK_INSTALLED" /tmp/check.log' _ "$name" || status=$?
+    grep "^CHECK_INSTALLED" /tmp/check.log' _ "$name" "$kind" || status=$?
   rm -rf "$drop"
   return $status
 }

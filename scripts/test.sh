@@ -3,9 +3,9 @@
 #   host: install Debian packages, build, C++ tests (ctest), sanitizers, fuzzing, Python + Blender tests
 #         (pytest under Blender's interpreter, /usr/bin/python3.11);
 #   trixie, sid (scripts/blender_envs.sh, made while the host stages run): build against that
-#         distribution's libraries and Python, ctest, the Blender-side suites;
+#         distribution's libraries and Python, ctest, all of python_tests;
 #   packages: one per Blender family (scripts/package_addon.sh), each installed in a runtime environment
-#         holding only Debian's blender package, then a headless Synthesize + render.
+#         holding only Debian's blender and python3-numpy packages, then a headless Synthesize + render.
 # Prints the wall time of every stage at the end (also in out/test_stage_times.txt).
 # TEXSYNTH_TEST_HOST_ONLY=1 runs the host stages only.
 set -euo pipefail

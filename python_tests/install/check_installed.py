@@ -1,14 +1,15 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Run by Blender in a runtime environment (only Debian's blender package, no source tree) after the
+"""Run by Blender in a runtime environment (only Debian's blender and python3-numpy, no source tree) after the
 package was installed and enabled: a headless Synthesize through the operator, then a render.
 
 blender -b --python-exit-code 1 --python check_installed.py -- SAMPLE.png OUT.png
 Prints CHECK_INSTALLED ok ... on success; raises (exit code 1) otherwise.
 """
-import addon_utils
 import sys
 
+import addon_utils
 import bpy
+import numpy as np
 
 sample, out_path = sys.argv[sys.argv.index("--") + 1:][:2]
 
@@ -52,8 +53,6 @@ scene.render.resolution_percentage = 100
 scene.render.filepath = out_path
 scene.render.image_settings.file_format = "PNG"
 bpy.ops.render.render(write_still=True)
-
-import numpy as np  # noqa: E402 (installed with Blender's Python once TexSynth runs)
 
 image = bpy.data.images.load(out_path)
 pixels = np.empty(len(image.pixels), np.float32)

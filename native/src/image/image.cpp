@@ -5,8 +5,8 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cstdint>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -65,10 +65,12 @@ int tiff_photometric(const std::string& path) {
   const int count_width = big_tiff ? 8 : 2, entry_size = big_tiff ? 20 : 12;
   unsigned char count_bytes[8];
   if (!read(ifd, count_bytes, size_t(count_width))) return -1;
-  const uint64_t entries = std::min<uint64_t>(number(count_bytes, count_width), 4096);
-  for (uint64_t e = 0; e < entries; ++e) {
-    unsigned char entry[20];
-    if (!read(ifd + uint64_t(count_width) + e * uint64_t(entry_size), entry, size_t(entry_size))) return -1;
+  // The whole directory in one read; a cut one is scanned as far as its complete entries go.
+  std::vector<unsigned char> entries(size_t(std::min<uint64_t>(number(count_bytes, count_width), 4096)) * entry_size);
+  read(ifd + uint64_t(count_width), entries.data(), entries.size());
+  const size_t complete = size_t(in.gcount()) / size_t(entry_size);
+  for (size_t e = 0; e < complete; ++e) {
+    const unsigned char* entry = entries.data() + e * size_t(entry_size);
     if (number(entry, 2) == 262) return int(number(entry + (big_tiff ? 12 : 8), 2));  // SHORT value, left-justified
   }
   return -1;
