@@ -17,8 +17,8 @@ import numpy as np
 
 from . import pipeline
 
-# Test hook: TEXSYNTH_TEST_FAIL_AT=<point> makes the write fail at that point (uv_layer, weights,
-# material) so the tests can prove a failure mid-write leaves the mesh byte-identical.
+# Test hook: TEXSYNTH_TEST_FAIL_AT=<point> makes the write fail at that point (uv_layer, sets,
+# weights, extras, material) so the tests can prove a failure mid-write leaves the mesh byte-identical.
 FAIL_AT_ENV = "TEXSYNTH_TEST_FAIL_AT"
 
 
@@ -88,8 +88,8 @@ def texsynth_uv_names(mesh):
     return [layer.name for layer in mesh.uv_layers if pipeline.is_texsynth_uv_name(layer.name)]
 
 
-def check_capacity(mesh, num_blend_sets):
-    pipeline.check_uv_capacity([layer.name for layer in mesh.uv_layers], num_blend_sets)
+def check_capacity(mesh):
+    pipeline.check_uv_capacity([layer.name for layer in mesh.uv_layers])
 
 
 def _uv_data(layer, num_corners):
@@ -153,64 +153,63 @@ def _restore(mesh, snapshot):
 
 
 def _restore_uv_order_flags(mesh, snapshot):
-    if 0 <= snapshot["active_uv"] < len(mesh.uv_layers):
-        mesh.uv_layers.active_index = snapshot["active_uv"]
-    if 0 <= snapshot["render_uv"] < len(mesh.uv_layers):
-        mesh.uv_layers[snapshot["render_uv"]].active_render = True
+    """Active and render UV maps as in snapshot, by name (indices shift when older TexSynth maps go);
+    a flag on a removed map falls back to the first map."""
+    names = [layer.name for layer in mesh.uv_layers]
+    for key, apply in (("active_uv", lambda i: setattr(mesh.uv_layers, "active_index", i)),
+                       ("render_uv", lambda i: setattr(mesh.uv_layers[i], "active_render", True))):
+        index = snapshot[key]
+        if 0 <= index < len(snapshot["uv_order"]) and names:
+            name = snapshot["uv_order"][index]
+            apply(names.index(name) if name in names else 0)
 
 
 def write_result(mesh, result):
-    """Writes base + blend UV layers and the weight attribute; replaces TexSynth's previous ones.
+    """Writes the base UV map and the corner attributes (blend sets, weights, the method's extras);
+    replaces TexSynth's previous layers, including the blend-set UV maps of older versions.
 
     Foreign UV maps keep their data and flags; the active/render UV map is not changed unless the
-    mesh had none. Raises SettingsError (too many UV maps) or MeshWriteError (restored) and then
-    leaves the mesh as it was. Returns the snapshot taken before writing, for restore(). Consumes
-    result["blend_weights"] (converted to RGBA in place, to save a corner-sized copy).
+    mesh had none. Raises SettingsError (no room for the UV map) or MeshWriteError (restored) and
+    then leaves the mesh as it was. Returns the snapshot taken before writing, for restore().
+    Consumes result["blend_weights"] (converted to RGBA in place, to save a corner-sized copy).
     """
     num_corners = len(mesh.loops)
-    base = pipeline.check_result(result, num_corners)
+    base = np.ascontiguousarray(pipeline.check_result(result, num_corners), dtype=np.float32).ravel()
     extras = pipeline.corner_attributes(result, num_corners)
     sets = int(result["num_blend_sets"])
-    check_capacity(mesh, sets)
-    names = pipeline.uv_layer_names(sets)
-    data = [np.ascontiguousarray(base, dtype=np.float32).ravel()]
+    check_capacity(mesh)
+    colors = {}  # FLOAT_COLOR corner attributes to write
     if sets:
-        blend_uv = np.ascontiguousarray(result["blend_uv"], dtype=np.float32)
-        data += [blend_uv[k].ravel() for k in range(sets)]
-    weights = pipeline.weights_rgba(result, num_corners, consume=True) if sets else None
+        colors.update(zip(pipeline.SET_ATTRIBUTE_NAMES, pipeline.blend_set_rgba(result, num_corners)))
+        colors[pipeline.WEIGHTS_NAME] = pipeline.weights_rgba(result, num_corners, consume=True)
 
     snapshot = _snapshot(mesh)
     had_uv = len(mesh.uv_layers) > 0
     try:
-        for name, values in zip(names, data):
-            layer = mesh.uv_layers.get(name) or mesh.uv_layers.new(name=name, do_init=False)
-            if layer is None:
-                raise MeshWriteError("Blender refused to create UV map %r" % name)
-            layer.data.foreach_set("uv", values)
-            fail_point("uv_layer")
-        attribute = mesh.attributes.get(pipeline.WEIGHTS_NAME)
-        if attribute is not None and (weights is None or attribute.data_type != "FLOAT_COLOR"
-                                      or attribute.domain != "CORNER"):
-            mesh.attributes.remove(attribute)
-            attribute = None
-        if weights is not None:
-            if attribute is None:
-                attribute = mesh.attributes.new(pipeline.WEIGHTS_NAME, "FLOAT_COLOR", "CORNER")
-            attribute.data.foreach_set("color", weights)
-            fail_point("weights")
-        # Per-corner FLOAT attributes of the method (texton: blended edges, E_t); stale ones go.
-        for name in pipeline.EXTRA_ATTRIBUTE_NAMES:
+        layer = mesh.uv_layers.get(pipeline.BASE_UV_NAME) or mesh.uv_layers.new(name=pipeline.BASE_UV_NAME,
+                                                                                 do_init=False)
+        if layer is None:
+            raise MeshWriteError("Blender refused to create UV map %r" % pipeline.BASE_UV_NAME)
+        layer.data.foreach_set("uv", base)
+        fail_point("uv_layer")
+        wanted = dict((name, ("FLOAT_COLOR", "color", values)) for name, values in colors.items())
+        wanted.update((name, ("FLOAT", "value", values)) for name, values in extras.items())
+        # Every TexSynth corner attribute is rewritten or removed (stale ones of another run/method go).
+        for name in pipeline.ATTRIBUTE_NAMES:
             attribute = mesh.attributes.get(name)
-            if attribute is not None and (name not in extras or attribute.data_type != "FLOAT"
+            data_type, key, values = wanted.get(name, (None, None, None))
+            if attribute is not None and (data_type is None or attribute.data_type != data_type
                                           or attribute.domain != "CORNER"):
                 mesh.attributes.remove(attribute)
                 attribute = None
-            if name in extras:
+            if data_type is not None:
                 if attribute is None:
-                    attribute = mesh.attributes.new(name, "FLOAT", "CORNER")
-                attribute.data.foreach_set("value", extras[name])
+                    attribute = mesh.attributes.new(name, data_type, "CORNER")
+                attribute.data.foreach_set(key, values)
+                fail_point({pipeline.WEIGHTS_NAME: "weights"}.get(name, "sets" if name in pipeline.SET_ATTRIBUTE_NAMES
+                                                                else "extras"))
         # Last: removed layers would come back in another order if a later step failed.
-        _remove_uv_layers(mesh, [n for n in texsynth_uv_names(mesh) if n not in names])
+        _remove_uv_layers(mesh, [n for n in texsynth_uv_names(mesh) if n != pipeline.BASE_UV_NAME])
         if had_uv:
             _restore_uv_order_flags(mesh, snapshot)
         else:

@@ -105,7 +105,7 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
         if not report.objects:
             self.report({"ERROR"}, report.summary())
             return {"CANCELLED"}
-        self.report({"WARNING"} if report.failures else {"INFO"}, report.summary())
+        self.report({"WARNING"} if report.failures or report.notes else {"INFO"}, report.summary())
         return {"FINISHED"}
 
     def execute(self, context):

@@ -18,16 +18,22 @@ METHODS = ("JUMPMAP", "TEXTON")
 IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON")
 ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
 SCALE_SOURCES = ("NONE", "ATTRIBUTE", "VERTEX_GROUP")
+BLEND_MODES = ("HISTOGRAM", "VARIANCE", "LINEAR")  # see shading.py
 MAX_UV_LAYERS = 8  # Blender's hard limit per mesh
 
-BASE_UV_NAME = "TexSynth"
-BLEND_UV_PREFIX = "TexSynth_B"
+BASE_UV_NAME = "TexSynth"  # TexSynth's only UV map: the base mapping (normal-map tangents, no-blend look)
+# Before 0.2 the blend sets were UV maps TexSynth_B0..B3 (5 of Blender's 8): recognised, so Synthesize
+# replaces them and Clear removes them.
+LEGACY_BLEND_UV_PREFIX = "TexSynth_B"
+# Blend set coordinates per corner, two sets per RGBA corner attribute: (u0, v0, u1, v1), (u2, v2, u3, v3).
+# Interpolated exactly like UV maps, without using any of Blender's 8 UV map slots.
+SET_ATTRIBUTE_NAMES = ("TexSynth_Sets01", "TexSynth_Sets23")
 WEIGHTS_NAME = "TexSynth_Weights"
 # Texton method, per corner (the edge from the corner to the next): 1 where that edge is blended, and its E_t.
 EDGE_BLENDED_NAME = "TexSynth_EdgeBlended"
 EDGE_ERROR_NAME = "TexSynth_EdgeError"
 EXTRA_ATTRIBUTE_NAMES = (EDGE_BLENDED_NAME, EDGE_ERROR_NAME)
-ATTRIBUTE_NAMES = (WEIGHTS_NAME,) + EXTRA_ATTRIBUTE_NAMES
+ATTRIBUTE_NAMES = (WEIGHTS_NAME,) + SET_ATTRIBUTE_NAMES + EXTRA_ATTRIBUTE_NAMES
 MAX_BLEND_SETS = 4  # the weight attribute is RGBA
 
 
@@ -43,6 +49,9 @@ class Settings:
     seed: int = 0
     jump_rate: float = 20.0
     blend: bool = True
+    # How the shader cross-fades the blend sets: HISTOGRAM keeps the sample's histogram (Gaussianized
+    # look-ups, variance-preserving blend, inverse look-up table), VARIANCE keeps its variance, LINEAR averages.
+    blend_mode: str = "HISTOGRAM"
     orientation: str = "AXIS"
     axis: tuple = (0.0, 0.0, 1.0)
     direction_attribute: str = ""    # FIELD: per-vertex vectors; ANCHORS: non-zero vectors mark anchors
@@ -81,6 +90,8 @@ class Settings:
                 raise SettingsError("orientation axis must be a finite non-zero 3D vector, got %r" % (tuple(self.axis),))
         elif not self.direction_attribute:
             raise SettingsError("orientation %s needs the name of a vector attribute on the mesh" % self.orientation)
+        if self.blend_mode not in BLEND_MODES:
+            raise SettingsError("unknown blend mode %r (choose one of %s)" % (self.blend_mode, ", ".join(BLEND_MODES)))
         if not (_finite(self.blend_threshold) and self.blend_threshold >= 0.0):
             raise SettingsError("blend threshold must be a finite number >= 0, got %r" % (self.blend_threshold,))
         if self.scale_source not in SCALE_SOURCES:
@@ -183,6 +194,8 @@ class Report:
     cache_status: str = ""
     native_stats: dict = dataclasses.field(default_factory=dict)  # per object name
     seconds: dict = dataclasses.field(default_factory=dict)
+    blend_mode: str = ""   # the shader's blend mode actually used
+    notes: list = dataclasses.field(default_factory=list)       # warnings that did not stop the run
 
     def add_object(self, name, mesh_arrays, stats):
         self.objects.append(name)
@@ -197,6 +210,8 @@ class Report:
         total = self.seconds.get("total", 0.0)
         text = "TexSynth: %d object(s), %d faces in %.2f s (cache %s)" % (
             len(self.objects), self.faces, total, "hit" if self.cache_hit else "miss")
+        if self.notes:
+            text += "; " + "; ".join(self.notes)
         if self.failures:
             text += "; %d failed: %s" % (len(self.failures), "; ".join("%s: %s" % f for f in self.failures))
         return text
@@ -208,6 +223,7 @@ class Report:
             "faces": self.faces, "vertices": self.vertices, "corners": self.corners,
             "cache_hit": bool(self.cache_hit), "cache_status": self.cache_status,
             "seconds": dict(self.seconds), "native": self.native_stats,
+            "blend_mode": self.blend_mode, "notes": list(self.notes),
         }
 
 
@@ -238,34 +254,21 @@ class MeshArrays:
         return int(self.poly_starts.shape[0])
 
 
-def uv_layer_names(num_blend_sets):
-    """TexSynth's UV layer names for a result with num_blend_sets blend sets (base first)."""
-    return [BASE_UV_NAME] + ["%s%d" % (BLEND_UV_PREFIX, k) for k in range(num_blend_sets)]
-
-
 def is_texsynth_uv_name(name):
+    """TexSynth's UV map, or a blend-set UV map of an older TexSynth (TexSynth_B0..B3)."""
     if name == BASE_UV_NAME:
         return True
-    suffix = name[len(BLEND_UV_PREFIX):]
-    return name.startswith(BLEND_UV_PREFIX) and suffix.isdigit()
+    suffix = name[len(LEGACY_BLEND_UV_PREFIX):]
+    return name.startswith(LEGACY_BLEND_UV_PREFIX) and suffix.isdigit()
 
 
-def check_uv_capacity(existing_names, num_blend_sets):
-    """Raises SettingsError when the foreign UV maps plus TexSynth's would exceed Blender's limit."""
+def check_uv_capacity(existing_names):
+    """Raises SettingsError when the mesh has no room for TexSynth's one UV map (its own are replaced)."""
     foreign = [name for name in existing_names if not is_texsynth_uv_name(name)]
-    needed = len(uv_layer_names(num_blend_sets))
-    if len(foreign) + needed > MAX_UV_LAYERS:
+    if len(foreign) + 1 > MAX_UV_LAYERS:
         raise SettingsError(
-            "mesh has %d other UV map(s) (%s); TexSynth needs %d more and Blender allows at most %d: "
-            "remove %d UV map(s) or disable blending"
-            % (len(foreign), ", ".join(foreign), needed, MAX_UV_LAYERS, len(foreign) + needed - MAX_UV_LAYERS))
-
-
-def needed_blend_sets(mesh_arrays, blend):
-    """Blend sets the native module will return: 0 without blending, 3 all-triangle, else 4."""
-    if not blend:
-        return 0
-    return 3 if mesh_arrays.num_faces and bool(np.all(mesh_arrays.poly_sizes == 3)) else 4
+            "mesh has %d other UV maps (%s) and Blender allows at most %d: remove one so TexSynth can add its UV map"
+            % (len(foreign), ", ".join(foreign), MAX_UV_LAYERS))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -310,6 +313,49 @@ def sample_pixels(native_input):
     if array.dtype == np.uint8:
         return np.ascontiguousarray(array, dtype=np.float32) / np.float32(255.0)
     return np.ascontiguousarray(array, dtype=np.float32)
+
+
+def srgb_to_linear(values):
+    """The sRGB transfer function inverted (what Blender does to an sRGB image before shading)."""
+    values = np.asarray(values, dtype=np.float64)
+    return np.where(values <= 0.04045, values / 12.92, ((np.maximum(values, 0.04045) + 0.055) / 1.055) ** 2.4)
+
+
+def shader_mean(pixels, srgb):
+    """Mean colour (3 values) of an H x W x C sample as Blender's shaders read it: sRGB decoded when
+    the image is sRGB; grey images repeat their one channel."""
+    pixels = np.asarray(pixels)
+    channels = pixels.shape[2]
+    colour = pixels[:, :, :1] if channels <= 2 else pixels[:, :, :3]
+    colour = srgb_to_linear(colour) if srgb else colour.astype(np.float64)
+    mean = colour.reshape(-1, colour.shape[2]).mean(axis=0)
+    return tuple(float(m) for m in (np.repeat(mean, 3) if mean.size == 1 else mean))
+
+
+@dataclasses.dataclass
+class HistogramFiles:
+    """The Gaussianized sample and its inverse look-up table, as files next to the cache."""
+    gaussian_path: str
+    lut_path: str
+
+
+def blend_shading(native_input, settings, cache_dir, srgb):
+    """(mode, mean, HistogramFiles or None, note) for the shader: the Gaussianization is computed
+    (or read from the cache) for HISTOGRAM; a sample it cannot serve falls back to VARIANCE, and
+    `note` says why."""
+    if not settings.blend:
+        return "LINEAR", (0.5, 0.5, 0.5), None, ""
+    mode, files, note = settings.blend_mode, None, ""
+    if mode == "HISTOGRAM":
+        transform = native.require().histogram_transform(load_sample(native_input), cache_dir=cache_dir)
+        if transform["ok"]:
+            files = HistogramFiles(transform["gaussian_path"], transform["lut_path"])
+        else:
+            mode = "VARIANCE"
+            note = "histogram-preserving blending unavailable (%s): variance-preserving used" % (
+                transform["fallback_reason"])
+    mean = shader_mean(sample_pixels(native_input), srgb) if mode == "VARIANCE" else (0.5, 0.5, 0.5)
+    return mode, mean, files, note
 
 
 @dataclasses.dataclass
@@ -407,6 +453,20 @@ def corner_attributes(result, num_corners):
         if values.shape != (num_corners,) or values.dtype != np.float32 or not all_finite(values):
             raise SettingsError("native result %s must be finite float32 of shape (%d,)" % (name, num_corners))
     return extras
+
+
+def blend_set_rgba(result, num_corners):
+    """The blend-set coordinates as two flat float32 RGBA corner buffers: (u0, v0, u1, v1) and
+    (u2, v2, u3, v3); unused sets (3-set results) are 0."""
+    sets = int(result["num_blend_sets"])
+    blend_uv = result["blend_uv"]
+    buffers = []
+    for first in (0, 2):
+        rgba = np.zeros((num_corners, 2, 2), dtype=np.float32)
+        for k in range(first, min(first + 2, sets)):
+            rgba[:, k - first, :] = blend_uv[k]
+        buffers.append(rgba.ravel())
+    return buffers
 
 
 def weights_rgba(result, num_corners, consume=False):

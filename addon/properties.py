@@ -70,7 +70,14 @@ class TexSynthSettings(bpy.types.PropertyGroup):
         name="Live Update", default=False,
         description="Re-synthesize the object after each field edit (uses the cached sample)")
     blend: bpy.props.BoolProperty(name="Blending", default=True,
-                                  description="Write blend UV sets and weights that hide patch seams")
+                                  description="Write blend sets and weights that hide patch seams")
+    blend_mode: bpy.props.EnumProperty(
+        name="Blend Mode",
+        items=(("HISTOGRAM", "Histogram", "Keep the sample's contrast and colours where patches overlap "
+                "(Gaussianized look-ups; slightly more shader work)"),
+               ("VARIANCE", "Variance", "Keep the sample's contrast where patches overlap"),
+               ("LINEAR", "Linear", "Plain cross-fade: cheapest, but overlaps look washed out")),
+        default="HISTOGRAM")
     blend_threshold: bpy.props.FloatProperty(
         name="Blend Threshold", default=0.0, min=0.0, soft_max=50.0,
         description="Texton method: blend only edges whose seam, seen from the scene camera, exceeds this "
@@ -89,6 +96,7 @@ class TexSynthSettings(bpy.types.PropertyGroup):
     def to_settings(self):
         return pipeline.Settings(method=self.method, sample_world_size=float(self.scale), seed=int(self.seed),
                                  jump_rate=float(self.jump_rate), blend=bool(self.blend),
+                                 blend_mode=self.blend_mode,
                                  orientation=self.orientation, axis=tuple(self.axis),
                                  direction_attribute=self.direction_attribute,
                                  allow_oversized=bool(self.allow_oversized),

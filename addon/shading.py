@@ -1,12 +1,22 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Shader side: the node group "TexSynth Blend: <image>" = sum_k w_k * image(uv_k), and materials using it.
+"""Shader side: the node group "TexSynth Blend: <image>" that cross-fades the blend sets, and materials using it.
 
-The group samples the image through each blend UV map (TexSynth_B0..B3), weights the samples with the
-corner attribute TexSynth_Weights (RGB = w0..w2, A = 1 - w3) and adds the base map TexSynth weighted by
-1 - sum(w): without blending (no weights) it shows the base mapping alone. Same nodes work in Eevee
-and Cycles. One group per image: a normal or roughness map is driven through the same mapping by
-inserting its own group (insert_into_material(..., target="Roughness"/"Normal")).
+Per pixel the group reads the blend sets' coordinates (corner attributes TexSynth_Sets01/23, two sets
+each), their weights (TexSynth_Weights: RGB = w0..w2, A = 1 - w3) and the base UV map TexSynth, whose
+weight is 1 - sum(w) (so a mesh without weights shows the base mapping alone). Three blend modes:
+
+  LINEAR     sum_k w_k C_k. Averages in face middles lose contrast (ghosting).
+  VARIANCE   (sum_k w_k C_k - mu) / sqrt(sum_k w_k^2) + mu, mu = the image's mean colour: the blend keeps
+             the variance of one look-up (Heitz & Neyret 2018, Eq. 6), so contrast does not drop.
+  HISTOGRAM  the same operator on a Gaussianized copy of the image (mu = 0.5), then each channel back
+             through the inverse look-up table: the blend keeps the sample's histogram, not just its variance.
+
+The same nodes run in Eevee and Cycles on every supported Blender. One group per (image, mode); normal
+maps always use VARIANCE around the map's mean vector, then Blender's Normal Map node renormalises
+(the histogram transform remaps X, Y, Z independently, which the Normal Map encoding does not survive).
 """
+import dataclasses
+
 import bpy
 
 from . import compat, pipeline
@@ -15,95 +25,173 @@ GROUP_PREFIX = "TexSynth Blend: "
 MATERIAL_PREFIX = "TexSynth: "
 NODE_PREFIX = "TexSynth "
 TARGETS = ("Base Color", "Roughness", "Metallic", "Normal")  # Principled inputs named alike in 3.x and 4.x
+BLEND_MODES = ("HISTOGRAM", "VARIANCE", "LINEAR")
+MODE_SUFFIX = {"HISTOGRAM": "", "VARIANCE": " (variance)", "LINEAR": " (linear)"}
 
 
-def group_name(image):
-    return GROUP_PREFIX + image.name
+@dataclasses.dataclass
+class BlendInputs:
+    """What a blend group needs besides the image."""
+    mode: str = "LINEAR"
+    mean: tuple = (0.5, 0.5, 0.5)  # VARIANCE: the image's mean colour as the shader reads it (linear)
+    gaussian: object = None         # HISTOGRAM: bpy image, Gaussianized sample (Non-Color, channel packed)
+    inverse_lut: object = None      # HISTOGRAM: bpy image, lut_size x 1, entry i for value (i + 0.5) / lut_size
+
+    def check(self):
+        if self.mode not in BLEND_MODES:
+            raise ValueError("unknown blend mode %r (choose one of %s)" % (self.mode, ", ".join(BLEND_MODES)))
+        if self.mode == "HISTOGRAM" and (self.gaussian is None or self.inverse_lut is None):
+            raise ValueError("histogram-preserving blending needs the Gaussianized image and its look-up table")
+        return self
 
 
-def ensure_blend_group(image, num_blend_sets=pipeline.MAX_BLEND_SETS):
-    """Creates or rebuilds (idempotently) the blend group for image; returns it."""
-    group = bpy.data.node_groups.get(group_name(image))
-    if group is None:
-        group = bpy.data.node_groups.new(group_name(image), "ShaderNodeTree")
-    compat.ensure_group_socket(group, "Color", "OUTPUT", "NodeSocketColor")
-    compat.ensure_group_socket(group, "Alpha", "OUTPUT", "NodeSocketFloat")
-    nodes, links = group.nodes, group.links
-    nodes.clear()
+def histogram_images(files, image):
+    """(Gaussianized image, inverse look-up table) as bpy images for pipeline.HistogramFiles `files`,
+    packed into the .blend so it renders anywhere. The table holds the sample's own values, so it is
+    read in the sample's colour space; the Gaussianized image is data."""
+    loaded = []
+    for path, kind, colorspace in ((files.gaussian_path, "Gaussian", "Non-Color"),
+                                   (files.lut_path, "LUT", image.colorspace_settings.name)):
+        name = "TexSynth %s: %s" % (kind, image.name)
+        found = bpy.data.images.get(name)
+        if found is None or bpy.path.abspath(found.filepath) != path:
+            if found is not None:
+                bpy.data.images.remove(found)
+            found = bpy.data.images.load(path, check_existing=False)
+            found.name = name
+        found.colorspace_settings.name = colorspace
+        found.alpha_mode = "CHANNEL_PACKED"  # colour and alpha are independent values here
+        if found.packed_file is None:
+            found.pack()
+        loaded.append(found)
+    return tuple(loaded)
 
-    def node(kind, x, y, **props):
-        new = nodes.new(kind)
+
+def group_name(image, mode="HISTOGRAM"):
+    return GROUP_PREFIX + image.name + MODE_SUFFIX[mode]
+
+
+class _Builder:
+    """Adds nodes and links to one node tree; numbers become constant inputs."""
+
+    def __init__(self, tree):
+        self.nodes, self.links = tree.nodes, tree.links
+
+    def node(self, kind, x, y, **props):
+        new = self.nodes.new(kind)
         new.location = (x, y)
         for key, value in props.items():
             setattr(new, key, value)
         return new
 
-    def sample(uv_name, x, y):
-        uv = node("ShaderNodeUVMap", x, y, uv_map=uv_name)
-        texture = node("ShaderNodeTexImage", x + 200, y, image=image, interpolation="Linear",
-                       extension="EXTEND")
-        links.new(uv.outputs["UV"], texture.inputs["Vector"])
-        return texture
-
-    def scaled(color_socket, weight_socket, x, y):
-        scale = node("ShaderNodeVectorMath", x, y, operation="SCALE")
-        links.new(color_socket, scale.inputs[0])
-        links.new(weight_socket, scale.inputs[3])
-        return scale.outputs["Vector"]
-
-    def add(a, b, x, y):
-        if a is None:
-            return b
-        total = node("ShaderNodeVectorMath", x, y, operation="ADD")
-        links.new(a, total.inputs[0])
-        links.new(b, total.inputs[1])
-        return total.outputs["Vector"]
-
-    def math(operation, a, b, x, y, c=None):
-        op = node("ShaderNodeMath", x, y, operation=operation, use_clamp=operation == "SUBTRACT")
-        for index, value in enumerate((a, b, c)):
+    def connect(self, node, inputs):
+        for index, value in inputs:
             if value is None:
                 continue
-            if isinstance(value, float):
-                op.inputs[index].default_value = value
+            if isinstance(value, (int, float, tuple)):
+                node.inputs[index].default_value = value
             else:
-                links.new(value, op.inputs[index])
-        return op.outputs[0]
+                self.links.new(value, node.inputs[index])
+        return node
 
-    attribute = node("ShaderNodeAttribute", -900, 300, attribute_type="GEOMETRY",
-                     attribute_name=pipeline.WEIGHTS_NAME)
-    separate = compat.new_separate_color_node(nodes)
-    separate.location = (-700, 300)
-    links.new(attribute.outputs["Color"], separate.inputs[0])
+    def math(self, operation, a, b=None, x=0, y=0, clamp=False):
+        op = self.node("ShaderNodeMath", x, y, operation=operation, use_clamp=clamp)
+        return self.connect(op, ((0, a), (1, b))).outputs[0]
+
+    def vector(self, operation, a, b=None, x=0, y=0, scale=None):
+        op = self.node("ShaderNodeVectorMath", x, y, operation=operation)
+        self.connect(op, ((0, a), (1, b), (3, scale)))
+        return op.outputs["Vector"]
+
+    def combine(self, x_value, y_value, z_value=0.0, x=0, y=0):
+        op = self.node("ShaderNodeCombineXYZ", x, y)
+        return self.connect(op, ((0, x_value), (1, y_value), (2, z_value))).outputs[0]
+
+    def separate(self, vector, x=0, y=0):
+        op = self.node("ShaderNodeSeparateXYZ", x, y)
+        self.links.new(vector, op.inputs[0])
+        return list(op.outputs)
+
+    def attribute(self, name, x, y):
+        return self.node("ShaderNodeAttribute", x, y, attribute_type="GEOMETRY", attribute_name=name)
+
+    def texture(self, image, vector, x, y):
+        texture = self.node("ShaderNodeTexImage", x, y, image=image, interpolation="Linear", extension="EXTEND")
+        self.links.new(vector, texture.inputs["Vector"])
+        return texture
+
+
+def _blend_terms(b):
+    """[(uv socket, weight socket)] for the 4 blend sets and the base mapping (last)."""
+    weights = b.attribute(pipeline.WEIGHTS_NAME, -1600, 600)
+    w0, w1, w2 = b.separate(weights.outputs["Vector"], -1400, 600)
     # Alpha stores 1 - w3 (see pipeline.weights_rgba): a missing attribute reads (0,0,0,1) = no weights.
-    w3 = node("ShaderNodeMath", -700, 100, operation="SUBTRACT")
-    w3.inputs[0].default_value = 1.0
-    links.new(attribute.outputs["Alpha"], w3.inputs[1])
-    weights = compat.separate_color_outputs(separate) + [w3.outputs[0]]
+    w3 = b.math("SUBTRACT", 1.0, weights.outputs["Alpha"], -1400, 450)
+    set_uvs = []
+    for index, name in enumerate(pipeline.SET_ATTRIBUTE_NAMES):
+        y = 200 - 300 * index
+        sets = b.attribute(name, -1600, y)
+        # Vector = (u_a, v_a, u_b): an Image Texture reads x, y only; set b is (z, alpha).
+        set_uvs.append(sets.outputs["Vector"])
+        z = b.separate(sets.outputs["Vector"], -1400, y)[2]
+        set_uvs.append(b.combine(z, sets.outputs["Alpha"], 0.0, -1200, y))
+    total = b.math("ADD", b.math("ADD", w0, w1, -1200, 700), b.math("ADD", w2, w3, -1200, 550), -1000, 650)
+    base_weight = b.math("SUBTRACT", 1.0, total, -800, 650, clamp=True)
+    base_uv = b.node("ShaderNodeUVMap", -1600, -500, uv_map=pipeline.BASE_UV_NAME).outputs["UV"]
+    return list(zip(set_uvs, (w0, w1, w2, w3))) + [(base_uv, base_weight)]
 
-    color = alpha = weight_sum = None
-    for k in range(num_blend_sets):
-        y = -300 * k
-        texture = sample("%s%d" % (pipeline.BLEND_UV_PREFIX, k), -900, y)
-        color = add(color, scaled(texture.outputs["Color"], weights[k], -400, y), -200, y)
-        alpha = math("MULTIPLY_ADD", texture.outputs["Alpha"], weights[k], -250, y - 150,
-                     c=alpha if alpha is not None else 0.0)
-        weight_sum = weights[k] if weight_sum is None else math("ADD", weight_sum, weights[k], -500, 500 + 40 * k)
-    base_weight = math("SUBTRACT", 1.0, weight_sum, -300, 600) if weight_sum is not None else None
-    y = -300 * num_blend_sets
-    base = sample(pipeline.BASE_UV_NAME, -900, y)
-    if base_weight is None:
-        color, alpha = base.outputs["Color"], base.outputs["Alpha"]
-    else:
-        color = add(color, scaled(base.outputs["Color"], base_weight, -400, y), -200, y)
-        alpha = math("MULTIPLY_ADD", base.outputs["Alpha"], base_weight, -250, y - 150, c=alpha)
-    output = node("NodeGroupOutput", 200, 0)
-    links.new(color, output.inputs["Color"])
-    links.new(alpha, output.inputs["Alpha"])
+
+def _build(group, image, inputs):
+    b = _Builder(group)
+    terms = _blend_terms(b)
+    looked_up = inputs.gaussian if inputs.mode == "HISTOGRAM" else image
+    color = alpha = square_sum = None
+    for k, (uv, weight) in enumerate(terms):
+        y = 300 - 300 * k
+        texture = b.texture(looked_up, uv, -600, y)
+        scaled = b.vector("SCALE", texture.outputs["Color"], x=-300, y=y, scale=weight)
+        color = scaled if color is None else b.vector("ADD", color, scaled, x=-150, y=y)
+        multiply_add = b.node("ShaderNodeMath", -150, y - 150, operation="MULTIPLY_ADD")
+        alpha = b.connect(multiply_add, ((0, texture.outputs["Alpha"]), (1, weight),
+                                         (2, 0.0 if alpha is None else alpha))).outputs[0]
+        if inputs.mode != "LINEAR":
+            square = b.math("MULTIPLY", weight, weight, -300, y + 100)
+            square_sum = square if square_sum is None else b.math("ADD", square_sum, square, -150, y + 100)
+    if inputs.mode != "LINEAR":
+        # (sum w C - mu) / sqrt(sum w^2) + mu; sqrt(sum w^2) >= 1/sqrt(5) wherever the weights sum to 1.
+        mean = (0.5, 0.5, 0.5) if inputs.mode == "HISTOGRAM" else tuple(float(c) for c in inputs.mean[:3])
+        norm = b.math("MAXIMUM", b.math("SQRT", square_sum, x=0, y=500), 1e-3, 150, 500)
+        inverse = b.math("DIVIDE", 1.0, norm, 300, 500)
+        centred = b.vector("SUBTRACT", color, b.combine(*mean, x=0, y=300), x=150, y=300)
+        color = b.vector("ADD", b.vector("SCALE", centred, x=300, y=300, scale=inverse),
+                         b.combine(*mean, x=300, y=150), x=450, y=300)
+    if inputs.mode == "HISTOGRAM":
+        # Each channel's blended Gaussian value indexes that channel of the inverse look-up table.
+        channels = []
+        for c, value in enumerate(b.separate(color, 600, 300)):
+            lut = b.texture(inputs.inverse_lut, b.combine(value, 0.5, 0.0, 750, 300 - 250 * c), 900, 300 - 250 * c)
+            channels.append(b.separate(lut.outputs["Color"], 1150, 300 - 250 * c)[c])
+        color = b.combine(*channels, x=1300, y=300)
+    output = b.node("NodeGroupOutput", 1500, 0)
+    b.links.new(color, output.inputs["Color"])
+    b.links.new(alpha, output.inputs["Alpha"])
+
+
+def ensure_blend_group(image, inputs=None):
+    """Creates or rebuilds (idempotently) the blend group for (image, inputs.mode); returns it."""
+    inputs = (inputs or BlendInputs()).check()
+    name = group_name(image, inputs.mode)
+    group = bpy.data.node_groups.get(name)
+    if group is None:
+        group = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    compat.ensure_group_socket(group, "Color", "OUTPUT", "NodeSocketColor")
+    compat.ensure_group_socket(group, "Alpha", "OUTPUT", "NodeSocketFloat")
+    group.nodes.clear()
+    _build(group, image, inputs)
     return group
 
 
-def _group_node(material, image, target):
+def _group_node(material, image, target, inputs):
     """The group node for image in material (reused when present)."""
     nodes = material.node_tree.nodes
     name = NODE_PREFIX + image.name + (" -> " + target if target != "Base Color" else "")
@@ -111,7 +199,7 @@ def _group_node(material, image, target):
     if group_node is None:
         group_node = nodes.new("ShaderNodeGroup")
         group_node.name = name
-    group_node.node_tree = ensure_blend_group(image)
+    group_node.node_tree = ensure_blend_group(image, inputs)
     group_node.label = name
     return group_node
 
@@ -126,16 +214,20 @@ def _principled(material):
     return found
 
 
-def insert_into_material(material, image, target="Base Color"):
+def insert_into_material(material, image, target="Base Color", inputs=None):
     """Drives the Principled BSDF's `target` input of material with image through TexSynth's mapping.
 
-    target "Normal" goes through a Normal Map node (tangent space of the base TexSynth UV map).
+    target "Normal" goes through a Normal Map node (tangent space of the base TexSynth UV map) and
+    blends with VARIANCE around inputs.mean (the map's mean encoded vector) whatever inputs.mode says.
     """
     if target not in TARGETS:
         raise ValueError("unknown target %r (choose one of %s)" % (target, ", ".join(TARGETS)))
+    inputs = inputs or BlendInputs()
+    if target == "Normal":
+        inputs = BlendInputs(mode="VARIANCE", mean=inputs.mean if inputs.mode == "VARIANCE" else (0.5, 0.5, 1.0))
     material.use_nodes = True
     principled = _principled(material)
-    group_node = _group_node(material, image, target)
+    group_node = _group_node(material, image, target, inputs)
     group_node.location = (principled.location[0] - 400, principled.location[1] - 200 * TARGETS.index(target))
     links = material.node_tree.links
     if target == "Normal":
@@ -151,16 +243,16 @@ def insert_into_material(material, image, target="Base Color"):
     return group_node
 
 
-def build_material(image):
+def build_material(image, inputs=None):
     """A ready material "TexSynth: <image>" (Principled BSDF fed by the blend group), reused if present."""
     material = bpy.data.materials.get(MATERIAL_PREFIX + image.name)
     if material is None:
         material = bpy.data.materials.new(MATERIAL_PREFIX + image.name)
-    insert_into_material(material, image, "Base Color")
+    insert_into_material(material, image, "Base Color", inputs)
     return material
 
 
-def apply_material(obj, image, mode):
+def apply_material(obj, image, mode, inputs=None):
     """mode NEW: assign the ready material to every slot; INSERT: feed each existing material's Base
     Color (NEW when the object has none); NONE: leave materials alone."""
     if mode == "NONE":
@@ -168,9 +260,9 @@ def apply_material(obj, image, mode):
     materials = [slot.material for slot in obj.material_slots if slot.material is not None]
     if mode == "INSERT" and materials:
         for material in materials:
-            insert_into_material(material, image, "Base Color")
+            insert_into_material(material, image, "Base Color", inputs)
         return
-    material = build_material(image)
+    material = build_material(image, inputs)
     if not obj.material_slots:
         obj.data.materials.append(material)
     for slot in obj.material_slots:

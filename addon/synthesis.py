@@ -110,7 +110,8 @@ class Job:
         self.objects, self.sample, self.settings = objects, sample, settings
         self.cache_dir, self.material_mode, self.scene = cache_dir, material_mode, scene
         self.preprocessed = preprocessed  # given: preprocessing is skipped (live updates)
-        self.pixels = self.view = None
+        self.pixels = self.view = self.image = None
+        self.srgb, self.shading = False, ("LINEAR", (0.5, 0.5, 0.5), None)
         self.report, self.timings = pipeline.Report(), pipeline.Timings()
         self.items = []  # [obj, arrays, result]
         self.token = None
@@ -126,6 +127,8 @@ class Job:
         self.token = module.CancelToken() if hasattr(module, "CancelToken") else None
         with self.timings.phase("preprocess"):
             self.native_input = self.sample.native_input()
+            self.image = self.sample.shader_image() if self.material_mode != "NONE" else None
+        self.srgb = self.image is not None and self.image.colorspace_settings.name == "sRGB"
         self.cache_dir = self.cache_dir or default_cache_dir()
         if self.settings.method == "TEXTON":
             self.pixels = pipeline.sample_pixels(self.native_input)
@@ -141,7 +144,7 @@ class Job:
                     arrays.scale_multiplier = bridge.read_scale_multiplier(obj, self.settings)
                 if arrays.num_faces == 0:
                     raise pipeline.SettingsError("mesh %r has no faces" % obj.data.name)
-                bridge.check_capacity(obj.data, pipeline.needed_blend_sets(arrays, self.settings.blend))
+                bridge.check_capacity(obj.data)
                 self.items.append([obj, arrays, None])
             except (ValueError, RuntimeError) as error:
                 self.report.failures.append((obj.name, str(error)))
@@ -172,6 +175,14 @@ class Job:
             preprocessed = self.preprocessed
             self.report.cache_hit = bool(preprocessed.cache_hit)
             self.report.cache_status = str(getattr(preprocessed, "cache_status", ""))
+            if self.image is not None and self.items:
+                with self.timings.phase("preprocess"):
+                    mode, mean, files, note = pipeline.blend_shading(self.native_input, self.settings,
+                                                                     self.cache_dir, self.srgb)
+                self.shading = (mode, mean, files)
+                self.report.blend_mode = mode
+                if note:
+                    self.report.notes.append(note)
             scale = pipeline.texels_per_unit(int(preprocessed.width), self.settings.sample_world_size)
             for index, item in enumerate(self.items):
                 self._check_cancelled()
@@ -197,7 +208,12 @@ class Job:
         """Writes every computed result (main thread); returns the pipeline.Report."""
         progress = progress or (lambda fraction, text: None)
         self._check_cancelled()
-        image = self.sample.shader_image() if any(item[2] is not None for item in self.items) else None
+        inputs = None
+        if self.image is not None and any(item[2] is not None for item in self.items):
+            mode, mean, files = self.shading
+            inputs = shading.BlendInputs(mode=mode, mean=mean)
+            if files is not None:
+                inputs.gaussian, inputs.inverse_lut = shading.histogram_images(files, self.image)
         for obj, arrays, result in self.items:
             if result is None:
                 continue
@@ -208,7 +224,7 @@ class Job:
                 with self.timings.phase("material"):
                     try:
                         bridge.fail_point("material")
-                        shading.apply_material(obj, image, self.material_mode)
+                        shading.apply_material(obj, self.image, self.material_mode, inputs)
                     except Exception as error:
                         bridge.restore(obj.data, snapshot)
                         raise bridge.MeshWriteError("material setup failed (mesh restored): %s" % error) from error
@@ -218,6 +234,19 @@ class Job:
         progress(1.0, "TexSynth: done")
         self.report.seconds = self.timings.as_dict()
         return self.report
+
+
+def blend_inputs(image, mode="HISTOGRAM", cache_dir=None):
+    """shading.BlendInputs for any image of the .blend (e.g. a roughness or normal map driven through
+    the same mapping): Gaussianizes it for HISTOGRAM (cached), falling back to VARIANCE as Synthesize does."""
+    settings = pipeline.Settings(blend_mode=mode).validate()
+    srgb = image.colorspace_settings.name == "sRGB"
+    mode, mean, files, _ = pipeline.blend_shading(Sample(image=image).native_input(), settings,
+                                                  cache_dir or default_cache_dir(), srgb)
+    inputs = shading.BlendInputs(mode=mode, mean=mean)
+    if files is not None:
+        inputs.gaussian, inputs.inverse_lut = shading.histogram_images(files, image)
+    return inputs
 
 
 def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None, scene=None,

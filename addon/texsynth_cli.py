@@ -3,7 +3,8 @@
 
   blender -b [scene.blend] --python-exit-code 1 --python addon/texsynth_cli.py -- \\
       --sample IMAGE (--object NAME | --mesh FILE.obj|.ply|.stl) [--method jumpmap|texton] [--scale S]
-      [--seed N] [--no-blend] [--blend-threshold PHI] [--direction-attribute NAME]
+      [--seed N] [--no-blend] [--blend-mode histogram|variance|linear] [--blend-threshold PHI]
+      [--direction-attribute NAME]
       [--scale-attribute NAME | --scale-group NAME [--scale-range LO HI]] [--save OUT.blend]
       [--render OUT.png] [--resolution W H] [--stats OUT.json]
 
@@ -51,6 +52,8 @@ def parse_args(argv):
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--jump-rate", type=float, default=20.0)
     parser.add_argument("--no-blend", action="store_true", help="only the base UV layer, no blend sets")
+    parser.add_argument("--blend-mode", choices=("histogram", "variance", "linear"), default="histogram",
+                        help="how the shader cross-fades the blend sets (default: histogram)")
     parser.add_argument("--blend-threshold", type=float, default=0.0,
                         help="texton method: blend only edges whose blending metric from the scene camera "
                              "exceeds this (0 = every edge)")
@@ -178,7 +181,7 @@ def main(argv):
         raise CliError("sample image not found: %s" % args.sample)
     objects = find_objects(args, compat)
     settings = pipeline.Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
-                                 jump_rate=args.jump_rate, blend=not args.no_blend,
+                                 jump_rate=args.jump_rate, blend=not args.no_blend, blend_mode=args.blend_mode.upper(),
                                  allow_oversized=args.allow_oversized, blend_threshold=args.blend_threshold,
                                  orientation="FIELD" if args.direction_attribute else "AXIS",
                                  direction_attribute=args.direction_attribute,

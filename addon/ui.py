@@ -56,6 +56,8 @@ class TEXSYNTH_PT_main(bpy.types.Panel):
             row.prop(props, "scale_min")
             row.prop(props, "scale_max")
         layout.prop(props, "blend")
+        if props.blend:
+            layout.prop(props, "blend_mode")
         if props.method == "TEXTON" and props.blend:
             layout.prop(props, "blend_threshold")
             if props.blend_threshold > 0.0 and context.scene.camera is None:

@@ -20,7 +20,7 @@ def test_valid_settings_pass_and_each_bad_setting_is_named():
     bad = {"method": ("NOPE", "method"), "sample_world_size": (0.0, "scale"), "seed": (-1, "seed"),
            "jump_rate": (float("nan"), "jump rate"), "orientation": ("UP", "orientation"),
            "axis": ((0.0, 0.0, 0.0), "axis"), "neighbourhood": (4, "neighbourhood"),
-           "blend_threshold": (-0.5, "blend threshold")}
+           "blend_threshold": (-0.5, "blend threshold"), "blend_mode": ("SOFT", "blend mode")}
     for field, (value, word) in bad.items():
         with pytest.raises(pipeline.SettingsError, match=word):
             pipeline.Settings(**{field: value}).validate()
@@ -48,27 +48,39 @@ def test_object_seed_is_stable_distinct_and_in_range():
     assert all(0 <= s < 2 ** 63 for s in seeds)
 
 
-def test_uv_layer_names_and_capacity():
-    assert pipeline.uv_layer_names(0) == ["TexSynth"]
-    assert pipeline.uv_layer_names(4) == ["TexSynth", "TexSynth_B0", "TexSynth_B1", "TexSynth_B2", "TexSynth_B3"]
-    assert pipeline.is_texsynth_uv_name("TexSynth_B2")
+def test_one_uv_map_capacity_and_legacy_names():
+    assert pipeline.is_texsynth_uv_name("TexSynth") and pipeline.is_texsynth_uv_name("TexSynth_B2")  # 0.1 layers
     assert not pipeline.is_texsynth_uv_name("TexSynth_Bx") and not pipeline.is_texsynth_uv_name("UVMap")
-    pipeline.check_uv_capacity(["UVMap", "A", "B", "TexSynth", "TexSynth_B0"], 4)  # 3 foreign + 5 = 8
-    with pytest.raises(pipeline.SettingsError, match="remove 1 UV map"):
-        pipeline.check_uv_capacity(["UVMap", "A", "B", "C"], 4)
-    pipeline.check_uv_capacity(["U%d" % k for k in range(7)], 0)
+    # TexSynth needs one UV map: 7 foreign ones leave room, and its own (older ones too) are replaced.
+    pipeline.check_uv_capacity(["U%d" % k for k in range(7)])
+    pipeline.check_uv_capacity(["U%d" % k for k in range(3)] + ["TexSynth"] + ["TexSynth_B%d" % k for k in range(4)])
     with pytest.raises(pipeline.SettingsError, match="at most 8"):
-        pipeline.check_uv_capacity(["U%d" % k for k in range(8)], 0)
+        pipeline.check_uv_capacity(["U%d" % k for k in range(8)])
 
 
-def test_needed_blend_sets_matches_the_native_contract():
-    tris = pipeline.MeshArrays(np.zeros((3, 3), np.float32), np.arange(3, dtype=np.int32),
-                               np.array([0], np.int32), np.array([3], np.int32))
-    mixed = pipeline.MeshArrays(np.zeros((5, 3), np.float32), np.arange(7, dtype=np.int32) % 5,
-                                np.array([0, 3], np.int32), np.array([3, 4], np.int32))
-    assert pipeline.needed_blend_sets(tris, True) == 3
-    assert pipeline.needed_blend_sets(mixed, True) == 4
-    assert pipeline.needed_blend_sets(mixed, False) == 0
+def test_blend_set_rgba_packs_two_sets_per_attribute():
+    result = _result(5, 4)
+    result["blend_uv"] = np.arange(4 * 5 * 2, dtype=np.float32).reshape(4, 5, 2)
+    first, second = (b.reshape(5, 4) for b in pipeline.blend_set_rgba(result, 5))
+    corner = 3
+    assert list(first[corner]) == list(result["blend_uv"][0, corner]) + list(result["blend_uv"][1, corner])
+    assert list(second[corner]) == list(result["blend_uv"][2, corner]) + list(result["blend_uv"][3, corner])
+    three = _result(5, 3)
+    three["blend_uv"] += 7.0
+    first, second = (b.reshape(5, 4) for b in pipeline.blend_set_rgba(three, 5))
+    assert np.all(first == 7.0) and np.all(second[:, :2] == 7.0) and np.all(second[:, 2:] == 0.0)
+
+
+def test_shader_mean_decodes_srgb_like_blender():
+    pixels = np.full((2, 3, 4), 0.5, np.float32)
+    pixels[..., 3] = 0.25  # alpha is not colour
+    assert pipeline.shader_mean(pixels, srgb=False) == (0.5, 0.5, 0.5)
+    # sRGB 0.5 is linear 0.2140 (the sRGB curve: ((0.5 + 0.055) / 1.055) ** 2.4).
+    assert np.allclose(pipeline.shader_mean(pixels, srgb=True), 0.21404, atol=1e-4)
+    assert np.isclose(pipeline.srgb_to_linear(0.02), 0.02 / 12.92)
+    grey = np.zeros((2, 2, 1), np.float32)
+    grey[0, 0, 0] = 1.0
+    assert pipeline.shader_mean(grey, srgb=False) == (0.25, 0.25, 0.25)
 
 
 def test_blender_pixels_are_flipped_top_row_first():

@@ -88,3 +88,21 @@ def synthesize_texton(pre, sample_pixels, positions, corner_verts, poly_starts, 
     result["corner_edge_error"] = (np.arange(corners) * 0.001).astype(np.float32)
     result["stats"].update(blended_edges=corners // 2, searched_faces=len(poly_starts) - 1)
     return result
+
+
+def histogram_transform(image, *, cache_dir=None, lut_size=1024, **options):
+    """Stands in for the Gaussianization: two tiny grey PNGs (the shader only needs images to exist)."""
+    import os
+
+    import bpy
+    _image_size(image)
+    paths = []
+    for name, size in (("fake.gauss.png", (4, 4)), ("fake.lut.png", (16, 1))):
+        path = os.path.join(cache_dir, name)
+        if not os.path.exists(path):
+            fake = bpy.data.images.new("fake histogram image", *size)
+            fake.filepath_raw, fake.file_format = path, "PNG"
+            fake.save()
+            bpy.data.images.remove(fake)
+        paths.append(path)
+    return {"ok": True, "fallback_reason": "", "gaussian_path": paths[0], "lut_path": paths[1]}

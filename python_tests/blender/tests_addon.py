@@ -82,12 +82,23 @@ def check_written(obj, props, foreign=("UVMap",)):
     mesh = obj.data
     expected = expected_result(obj, props)
     sets = int(expected["num_blend_sets"]) if props.blend else 0  # no blending: base layer only
-    names = ["TexSynth"] + ["TexSynth_B%d" % k for k in range(sets)]
     present_foreign = [name for name in foreign if name in mesh.uv_layers]
-    assert [layer.name for layer in mesh.uv_layers] == present_foreign + names, [l.name for l in mesh.uv_layers]
+    # One UV map whatever the blending; the blend sets live in two RGBA corner attributes.
+    names = [layer.name for layer in mesh.uv_layers]
+    assert [n for n in names if n != "TexSynth"] == present_foreign and names.count("TexSynth") == 1, names
     assert np.array_equal(uv_values(mesh, "TexSynth"), expected["base_uv"])
+    set_uv = []
+    for name in ("TexSynth_Sets01", "TexSynth_Sets23"):
+        attribute = mesh.attributes.get(name)
+        if not sets:
+            assert attribute is None, name
+            continue
+        assert attribute.domain == "CORNER" and attribute.data_type == "FLOAT_COLOR"
+        rgba = np.empty(len(mesh.loops) * 4, np.float32)
+        attribute.data.foreach_get("color", rgba)
+        set_uv += [rgba.reshape(-1, 4)[:, :2], rgba.reshape(-1, 4)[:, 2:]]
     for k in range(sets):
-        assert np.array_equal(uv_values(mesh, names[k + 1]), expected["blend_uv"][k])
+        assert np.array_equal(set_uv[k], expected["blend_uv"][k]), k
     weights = mesh.attributes.get("TexSynth_Weights")
     if sets:
         assert weights.domain == "CORNER" and weights.data_type == "FLOAT_COLOR"
@@ -200,7 +211,8 @@ def test_synthesize_all_triangles_uses_three_sets():
     clean()
     obj = harness.add_primitive("ico_sphere", "Ico", subdivisions=2)
     expected = check_written(obj, synthesize_one(obj))
-    assert expected["num_blend_sets"] == 3 and "TexSynth_B3" not in obj.data.uv_layers
+    assert expected["num_blend_sets"] == 3
+    assert [layer.name for layer in obj.data.uv_layers if layer.name.startswith("TexSynth")] == ["TexSynth"]
 
 
 def test_synthesize_mesh_with_modifiers():
@@ -214,9 +226,9 @@ def test_synthesize_mesh_with_modifiers():
     evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
     try:
         assert len(evaluated.polygons) > len(obj.data.polygons)
-        for name in ("TexSynth", "TexSynth_B0", "TexSynth_B3"):
-            assert name in evaluated.uv_layers, "UV layer %s must flow through the modifiers" % name
-        assert "TexSynth_Weights" in evaluated.attributes
+        assert "TexSynth" in evaluated.uv_layers, "the UV map must flow through the modifiers"
+        for name in ("TexSynth_Weights", "TexSynth_Sets01", "TexSynth_Sets23"):
+            assert name in evaluated.attributes, "attribute %s must flow through the modifiers" % name
     finally:
         obj.to_mesh_clear()
 
@@ -335,16 +347,33 @@ def test_eight_uv_maps_refused_and_unchanged():
     configure(blend=False)
     expect_error(run_operator, "UV map")
     assert harness.mesh_hash(obj.data) == before
-    # 4 foreign maps: blending (5 layers) is refused, the base layer alone fits.
-    for k in range(4):
-        obj.data.uv_layers.remove(obj.data.uv_layers["Extra%d" % k])
-    before = harness.mesh_hash(obj.data)
+    # 7 foreign maps (a production mesh with 6 and more): blending fits in the one UV map left.
+    obj.data.uv_layers.remove(obj.data.uv_layers["Extra6"])
     configure(blend=True)
-    expect_error(run_operator, "disable blending")
-    assert harness.mesh_hash(obj.data) == before
-    configure(blend=False)
     assert run_operator() == {"FINISHED"}
-    assert obj.data.uv_layers[-1].name == "TexSynth" and len(obj.data.uv_layers) == 5
+    assert obj.data.uv_layers[-1].name == "TexSynth" and len(obj.data.uv_layers) == 8
+    assert obj.data.uv_layers.active_index == 0, "the artist's active UV map stays active"
+
+
+def test_results_of_older_versions_are_replaced_and_cleared():
+    """0.1 wrote 5 UV maps (TexSynth, TexSynth_B0..B3): Synthesize replaces them, Clear removes them."""
+    clean()
+    obj = harness.add_primitive("cube", "Old")
+    mesh = obj.data
+    for name in ["TexSynth"] + ["TexSynth_B%d" % k for k in range(4)]:
+        mesh.uv_layers.new(name=name)
+    for k in range(2):
+        mesh.uv_layers.new(name="Extra%d" % k)  # 8 maps: full, but 5 of them are TexSynth's
+    mesh.attributes.new("TexSynth_Weights", "FLOAT_COLOR", "CORNER")
+    synthesize_one(obj)
+    assert [layer.name for layer in mesh.uv_layers] == ["UVMap", "TexSynth", "Extra0", "Extra1"]
+    check_written(obj, bpy.context.scene.texsynth, foreign=("UVMap", "Extra0", "Extra1"))
+    for name in ["TexSynth_B%d" % k for k in range(4)]:
+        mesh.uv_layers.new(name=name)
+    harness.select_only([obj])
+    assert run_operator("clear") == {"FINISHED"}
+    assert [layer.name for layer in mesh.uv_layers] == ["UVMap", "Extra0", "Extra1"]
+    assert not [a.name for a in mesh.attributes if a.name.startswith("TexSynth")]
 
 
 def test_failed_write_restores_mesh_byte_identical():
@@ -416,8 +445,8 @@ def test_texton_method_writes_edge_attributes_and_clear_removes_them():
     obj = harness.add_primitive("cube", "Cube")
     synthesize_one(obj, method="TEXTON")
     mesh = obj.data
-    assert [layer.name for layer in mesh.uv_layers][-5:] == ["TexSynth"] + ["TexSynth_B%d" % k for k in range(4)]
-    for name in ("TexSynth_EdgeBlended", "TexSynth_EdgeError", "TexSynth_Weights"):
+    assert [layer.name for layer in mesh.uv_layers][-1:] == ["TexSynth"]
+    for name in ("TexSynth_EdgeBlended", "TexSynth_EdgeError", "TexSynth_Weights", "TexSynth_Sets01"):
         assert mesh.attributes[name].domain == "CORNER", name
     blended, error = corner_floats(mesh, "TexSynth_EdgeBlended"), corner_floats(mesh, "TexSynth_EdgeError")
     if getattr(texsynth.native.get(), "__name__", "") == "fake_native":
@@ -449,16 +478,19 @@ def test_material_group_created_idempotently():
     group = groups[0]
     outputs = [n for n in group.nodes if n.type == "GROUP_OUTPUT"][0]
     assert [s.name for s in outputs.inputs if s.is_linked] == ["Color", "Alpha"]
-    uv_maps = sorted(n.uv_map for n in group.nodes if n.type == "UVMAP")
-    assert uv_maps == ["TexSynth", "TexSynth_B0", "TexSynth_B1", "TexSynth_B2", "TexSynth_B3"]
-    assert [n.attribute_name for n in group.nodes if n.type == "ATTRIBUTE"] == ["TexSynth_Weights"]
+    assert sorted(n.uv_map for n in group.nodes if n.type == "UVMAP") == ["TexSynth"]
+    assert sorted(n.attribute_name for n in group.nodes if n.type == "ATTRIBUTE") == [
+        "TexSynth_Sets01", "TexSynth_Sets23", "TexSynth_Weights"]
     materials = [m for m in bpy.data.materials if m.name.startswith("TexSynth: ")]
     assert len(materials) == 1 and obj.material_slots[0].material == materials[0]
     principled = next(n for n in materials[0].node_tree.nodes if n.type == "BSDF_PRINCIPLED")
     link = principled.inputs["Base Color"].links[0]
     assert link.from_node.node_tree == group and link.from_socket.name == "Color"
     node_count = len(group.nodes)
-    shading.ensure_blend_group(bpy.data.images["bricks.png"])
+    images = bpy.data.images
+    assert images["TexSynth Gaussian: bricks.png"].packed_file and images["TexSynth LUT: bricks.png"].packed_file
+    shading.ensure_blend_group(images["bricks.png"], shading.BlendInputs(
+        "HISTOGRAM", gaussian=images["TexSynth Gaussian: bricks.png"], inverse_lut=images["TexSynth LUT: bricks.png"]))
     assert len(group.nodes) == node_count and len(bpy.data.node_groups) == 1
 
 
@@ -474,10 +506,13 @@ def test_insert_into_existing_material_and_extra_maps():
     principled = next(n for n in mine.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
     assert principled.inputs["Base Color"].links[0].from_node.node_tree.name == "TexSynth Blend: bricks.png"
     moss = bpy.data.images.load(os.path.join(harness.SAMPLES_DIR, "moss.png"))
-    shading.insert_into_material(mine, moss, "Roughness")
-    shading.insert_into_material(mine, moss, "Normal")
+    shading.insert_into_material(mine, moss, "Roughness", synthesis.blend_inputs(moss))
+    shading.insert_into_material(mine, moss, "Normal", synthesis.blend_inputs(moss, "VARIANCE"))
     assert principled.inputs["Roughness"].links[0].from_node.node_tree.name == "TexSynth Blend: moss.png"
-    assert principled.inputs["Normal"].links[0].from_node.type == "NORMAL_MAP"
+    normal_map = principled.inputs["Normal"].links[0].from_node
+    assert normal_map.type == "NORMAL_MAP"
+    # Normal maps never go through the histogram transform: variance-preserving around the map's mean.
+    assert normal_map.inputs["Color"].links[0].from_node.node_tree.name == "TexSynth Blend: moss.png (variance)"
     synthesize_one(obj, material_mode="NONE")
     assert obj.material_slots[0].material == mine
 
