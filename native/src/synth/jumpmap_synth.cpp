@@ -29,6 +29,7 @@ namespace texsynth {
 namespace {
 
 constexpr double kMaxOffset = 1e9;
+constexpr int32_t kMaxSetCorners = 4;  // polygons with more corners share sets between corner runs
 
 struct Box {  // texel-space offsets reachable from a vertex's address through its polygons
   float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
@@ -67,7 +68,8 @@ void validate_params(const Mesh& m, const float* orientation, const JumpSynthPar
 class Synthesizer {
  public:
   Synthesizer(const Preprocessed& pre, const Mesh& m, const float* orientation, const JumpSynthParams& p)
-      : pre_(pre), m_(m), p_(p), W_(float(pre.width)), H_(float(pre.height)), tileable_(pre.params.tileable) {
+      : pre_(pre), m_(m), p_(p), W_(float(pre.width)), H_(float(pre.height)), tileable_(pre.params.tileable),
+        blend_(p.blend) {
     border_ramp_ = p.border_ramp >= 0 ? float(p.border_ramp) : std::max(1.f, 0.05f * std::min(W_, H_));
     build_frames(orientation);
   }
@@ -104,7 +106,10 @@ class Synthesizer {
         V3 n = v3(&m_.normals[3 * size_t(v)]);
         V3 u = project_to_plane(v3(orientation + 3 * size_t(v)), n);
         const double len = norm(u);
-        u = len > 1e-12 && std::isfinite(len) ? u * (1.0 / len) : any_perpendicular(n);
+        // Near a singularity (orientation ~ normal) the projection is rounding noise, partly along n:
+        // then any tangent direction; otherwise project once more so up is exactly tangent.
+        u = len > 1e-6 && std::isfinite(len) ? normalized_or(project_to_plane(u * (1.0 / len), n), any_perpendicular(n))
+                                             : any_perpendicular(n);
         VertexState& st = state_[v];
         store(st.up, u);
         store(st.right, cross(u, n));
@@ -116,6 +121,50 @@ class Synthesizer {
   // Texel offsets of a polygon's corners relative to its corner 0 (shared with the texton synthesizer).
   void face_offsets(int32_t poly, float* xy) const {
     face_texel_offsets(m_, poly, [this](int32_t v) { return v3(state_[v].up); }, p_.scale, p_.scale_multiplier, xy);
+  }
+
+  // Edge from -> to unfolded into FROM's tangent frame: the direction of its tangent projection, its
+  // full 3D length (x scale x multiplier). It depends on the edge alone, not on the polygon.
+  void unfold_edge(int32_t from, int32_t to, float& dx, float& dy) const {
+    const VertexState& s = state_[from];
+    const V3 e = pos(to) - pos(from);
+    const double x = dot(e, v3(s.right)), y = dot(e, v3(s.up));
+    const double tangent = std::sqrt(x * x + y * y), length = norm(e);
+    const double k = tangent > 1e-12 * length && tangent > 0 ? p_.scale * double(multiplier(from)) * length / tangent : 0.0;
+    dx = float(x * k);
+    dy = float(-y * k);
+  }
+
+  // Offsets (texels) of polygon `poly`'s corners from the address of corner `from`'s vertex v in
+  // the blend set grown from v. Corners next to `from` are its edges unfolded (unfold_edge), so
+  // two polygons sharing an edge (v, w) give v's mapping the same value at w: both blend the same
+  // mappings with the same weights along the edge, and the colour is continuous across it (C0),
+  // also where polygon frames differ. A quad's opposite corner completes the parallelogram (plus the
+  // polygon's own deviation from one); other corners of n-gons follow the polygon frame.
+  void vertex_set_offsets(int32_t poly, int32_t from, float* out) const {
+    const int32_t n = m_.poly_sizes[poly];
+    const int32_t* cv = m_.corner_verts + m_.poly_starts[poly];
+    const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
+    const int32_t next = (from + 1) % n, prev = (from + n - 1) % n;
+    for (int32_t i = 0; i < n; ++i) {
+      if (i == from) {
+        out[2 * i] = out[2 * i + 1] = 0.f;
+      } else if (i == next || i == prev) {
+        unfold_edge(cv[from], cv[i], out[2 * i], out[2 * i + 1]);
+      }
+    }
+    for (int32_t i = 0; i < n; ++i) {
+      if (i == from || i == next || i == prev) continue;
+      if (n == 4) {  // deviation from a parallelogram, in the same (vertex) frame as the edges
+        const VertexState& s = state_[cv[from]];
+        const V3 d = pos(cv[i]) - pos(cv[next]) - pos(cv[prev]) + pos(cv[from]);
+        const double k = p_.scale * double(multiplier(cv[from]));
+        out[2 * i] = out[2 * next] + out[2 * prev] + float(dot(d, v3(s.right)) * k);
+        out[2 * i + 1] = out[2 * next + 1] + out[2 * prev + 1] - float(dot(d, v3(s.up)) * k);
+      } else {
+        for (int k = 0; k < 2; ++k) out[2 * i + k] = xy[2 * i + k] - xy[2 * from + k];
+      }
+    }
   }
 
   // Texel-space bounds of polygon `poly`'s corner offsets, including corner 0's (0, 0).
@@ -172,12 +221,28 @@ class Synthesizer {
       throw_if_cancelled(p_.cancel);
       for (int32_t v = r.begin(); v < r.end(); ++v) {
         Box reach;
+        auto include = [&reach](float x, float y) {
+          reach.min_x = std::min(reach.min_x, x), reach.max_x = std::max(reach.max_x, x);
+          reach.min_y = std::min(reach.min_y, y), reach.max_y = std::max(reach.max_y, y);
+        };
         for (int32_t k = m_.vertex_corner_start[v]; k < m_.vertex_corner_start[v + 1]; ++k) {
           const int32_t c = m_.vertex_corners[k];
-          const Box b = face_box(m_.corner_poly[c]);
+          const int32_t poly = m_.corner_poly[c];
+          const Box b = face_box(poly);
           const double x = corner_offset_[2 * size_t(c)], y = corner_offset_[2 * size_t(c) + 1];
-          reach.min_x = std::min(reach.min_x, float(b.min_x - x)), reach.max_x = std::max(reach.max_x, float(b.max_x - x));
-          reach.min_y = std::min(reach.min_y, float(b.min_y - y)), reach.max_y = std::max(reach.max_y, float(b.max_y - y));
+          include(float(b.min_x - x), float(b.min_y - y));  // the base mapping (polygon frame)
+          include(float(b.max_x - x), float(b.max_y - y));
+          if (blend_) {  // the blend set grown from v (see vertex_set_offsets)
+            float offsets[2 * kMaxSetCorners];
+            const int32_t n = m_.poly_sizes[poly];
+            if (n <= kMaxSetCorners) {
+              vertex_set_offsets(poly, c - m_.poly_starts[poly], offsets);
+              for (int32_t i = 0; i < n; ++i) include(offsets[2 * i], offsets[2 * i + 1]);
+            } else {  // n-gon sets follow the polygon frame (see write_corners)
+              include(float(b.min_x - x), float(b.min_y - y));
+              include(float(b.max_x - x), float(b.max_y - y));
+            }
+          }
         }
         reach_[v] = reach;
       }
@@ -456,16 +521,24 @@ class Synthesizer {
         const int32_t n = m_.poly_sizes[poly];
         const size_t first = size_t(m_.poly_starts[poly]);
         const float* xy = &corner_offset_[2 * first];
-        // Writes the polygon's mapping grown from corner `from` into uv (indexed by corner).
+        auto put = [&](float* uv, int32_t i, float x, float y) {
+          if (!tileable_) x = std::clamp(x, 0.f, W_), y = std::clamp(y, 0.f, H_);
+          uv[2 * (first + i)] = x * inv_w;
+          uv[2 * (first + i) + 1] = 1.f - y * inv_h;
+        };
+        // The polygon's own mapping grown from corner `from` (polygon frame: an exact similarity).
         auto grow = [&](int32_t from, float* uv) {
           const int32_t v = m_.corner_verts[first + from];
           const float ax = state_[v].address[0] - xy[2 * from], ay = state_[v].address[1] - xy[2 * from + 1];
-          for (int32_t i = 0; i < n; ++i) {
-            float x = ax + xy[2 * i], y = ay + xy[2 * i + 1];
-            if (!tileable_) x = std::clamp(x, 0.f, W_), y = std::clamp(y, 0.f, H_);
-            uv[2 * (first + i)] = x * inv_w;
-            uv[2 * (first + i) + 1] = 1.f - y * inv_h;
-          }
+          for (int32_t i = 0; i < n; ++i) put(uv, i, ax + xy[2 * i], ay + xy[2 * i + 1]);
+        };
+        // The mapping of corner `from`'s vertex, continuous across the polygon's edges (vertex_set_offsets).
+        auto grow_vertex = [&](int32_t from, float* uv) {
+          if (n > kMaxSetCorners) return grow(from, uv);
+          float offsets[2 * kMaxSetCorners];
+          vertex_set_offsets(poly, from, offsets);
+          const int32_t v = m_.corner_verts[first + from];
+          for (int32_t i = 0; i < n; ++i) put(uv, i, state_[v].address[0] + offsets[2 * i], state_[v].address[1] + offsets[2 * i + 1]);
         };
         const int32_t base = int32_t(((splitmix64(poly_seed + uint64_t(poly)) >> 32) * uint64_t(n)) >> 32);
         grow(base, out.base_uv);
@@ -474,9 +547,10 @@ class Synthesizer {
           if (S == 1) {
             grow(base, uv);
           } else if (n <= S) {
-            grow(set < n ? set : base, uv);
+            if (set < n) grow_vertex(set, uv);
+            else grow(base, uv);  // weight 0 everywhere
           } else {
-            grow(int32_t((int64_t(set) * n + S - 1) / S), uv);
+            grow_vertex(int32_t((int64_t(set) * n + S - 1) / S), uv);
           }
         }
         for (int32_t i = 0; i < n; ++i) {
@@ -493,6 +567,7 @@ class Synthesizer {
   const JumpSynthParams& p_;
   const float W_, H_;
   const bool tileable_;
+  const bool blend_;
   float border_ramp_;
   // Everything the walk reads per neighbour in one 32-byte record (one cache line, not four).
   struct VertexState {

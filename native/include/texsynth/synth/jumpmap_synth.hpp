@@ -9,12 +9,18 @@
 // offset e maps to texel offset (e·right, -e·up) × scale × multiplier.
 //
 // Blend sets (per polygon, S = 3 when every polygon is a triangle, else 4):
-//  - n ≤ S corners: set k < n is the polygon's mapping grown from corner k (that corner's vertex
-//    address + in-face offsets); corner i has the one-hot weight of set i; sets k ≥ n (triangles
-//    in a mesh with quads) repeat the base mapping with weight 0 everywhere.
+//  - n ≤ S corners: set k < n is the mapping of corner k's vertex v: v's address plus, at the two
+//    corners next to k, the edge unfolded into v's tangent frame (direction of its tangent
+//    projection, full length × scale × v's multiplier); a quad's opposite corner completes the
+//    parallelogram. Those values depend on the edge only, so two polygons sharing an edge (a, b)
+//    blend the same two mappings with the same weights along it: the blend is continuous across
+//    every edge (C0), also on curved meshes where polygon frames differ.
+//    Corner i has the one-hot weight of set i; sets k ≥ n (triangles in a mesh with quads) repeat
+//    the base mapping with weight 0 everywhere. The base mapping uses the polygon frame (face_frame.hpp),
+//    an exact similarity of the polygon.
 //  - n > S corners (n-gons): topology is never changed. Corner i has the one-hot weight of set
 //    (i·S)/n, so the corners form S contiguous runs; set k is grown from the first corner of run k,
-//    ceil(k·n/S). Blender interpolates one-hot corner weights into a partition of unity over the
+//    ceil(k·n/S), in the polygon frame. Blender interpolates one-hot corner weights into a partition of unity over the
 //    polygon, so Σ weights = 1 everywhere and the shader's cross-fade stays correct.
 // With blend = false, S = 1: the single set is the base mapping with weight 1.
 #include <atomic>
