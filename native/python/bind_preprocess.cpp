@@ -5,6 +5,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cstring>
 #include <memory>
 #include <optional>
 
@@ -12,6 +13,7 @@
 #include "image_arg.hpp"
 #include "texsynth/image/image.hpp"
 #include "texsynth/preprocess/cache.hpp"
+#include "texsynth/preprocess/gaussianize.hpp"
 #include "texsynth/preprocess/preprocess.hpp"
 
 namespace py = pybind11;
@@ -25,6 +27,14 @@ py::array_t<T> copy_array(const std::vector<T>& values, std::vector<py::ssize_t>
   py::array_t<T> out(shape);
   if (!values.empty()) std::memcpy(out.mutable_data(), values.data(), values.size() * sizeof(T));
   return out;
+}
+
+// Hands a large result over to numpy without copying it (the capsule frees it with the array).
+template <typename T>
+py::array_t<T> move_array(std::vector<T>&& values, std::vector<py::ssize_t> shape) {
+  auto* owned = new std::vector<T>(std::move(values));
+  py::capsule release(owned, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  return py::array_t<T>(shape, owned->data(), release);
 }
 
 PreprocessParams make_params(int neighbourhood, int num_textons, int jump_candidates, int feature_dims, bool tileable,
@@ -176,6 +186,44 @@ void bind_preprocess(py::module_& m) {
       py::arg("image"), py::kw_only(), py::arg("cache_dir"), py::arg("neighbourhood") = 11, py::arg("num_textons") = 0,
       py::arg("jump_candidates") = 4, py::arg("feature_dims") = 16, py::arg("tileable") = false, py::arg("seed") = 0,
       py::arg("color_space") = "auto", "\"fresh\" | \"missing\" | \"stale\" for the cache preprocess() would use (computes no textons).");
+
+  m.def(
+      "histogram_transform",
+      [](py::object image_arg, py::object cache_dir, int lut_size, int min_distinct_values,
+         const std::string& color_space) {
+        const texsynth::Image image = texsynth_python::image_from_python(image_arg, color_space);
+        std::optional<std::string> dir;
+        if (!cache_dir.is_none()) dir = cache_dir_string(cache_dir);
+        std::optional<std::string> stem;
+        texsynth::HistogramTransform t;
+        {
+          py::gil_scoped_release release;
+          if (dir) {
+            const uint64_t hash = texsynth::image_hash(image);
+            t = texsynth::histogram_transform_cached(image, hash, *dir, lut_size, min_distinct_values);
+            stem = texsynth::histogram_file_stem(*dir, hash, lut_size);
+          } else {
+            t = texsynth::gaussianize(image, lut_size, min_distinct_values);
+          }
+        }
+        py::dict d;
+        d["gaussian"] = move_array(std::move(t.gaussian), {t.height, t.width, t.channels});
+        d["inverse_lut"] = copy_array(t.inverse_lut, {t.lut_size, t.channels});
+        d["ok"] = t.ok;
+        d["fallback_reason"] = t.fallback_reason;
+        d["colour_channels"] = t.colour_channels;
+        d["gaussian_path"] = stem ? py::object(py::str(texsynth::histogram_gaussian_path(*stem))) : py::none();
+        d["lut_path"] = stem ? py::object(py::str(texsynth::histogram_lut_path(*stem))) : py::none();
+        return d;
+      },
+      py::arg("sample"), py::kw_only(), py::arg("cache_dir") = py::none(), py::arg("lut_size") = 1024,
+      py::arg("min_distinct_values") = 16, py::arg("color_space") = "auto",
+      "Histogram-preserving blending support (Heitz & Neyret 2018) for a sample (path or numpy array, as for "
+      "preprocess): its colour channels mapped onto a Gaussian (mean 0.5, std 1/6) and the inverse look-up table.\n"
+      "Returns a dict: gaussian (H, W, C) float32, inverse_lut (lut_size, C) float32 (entry i is for Gaussian value "
+      "(i+0.5)/lut_size), ok, fallback_reason (identity transform when a channel has fewer than "
+      "min_distinct_values distinct values), colour_channels, gaussian_path / lut_path (the OpenEXR files "
+      "in cache_dir, reused while valid; None without cache_dir).");
 
   m.def(
       "load_preprocessed",
