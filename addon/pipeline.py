@@ -19,6 +19,9 @@ IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON")
 ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
 SCALE_SOURCES = ("NONE", "ATTRIBUTE", "VERTEX_GROUP")
 BLEND_MODES = ("HISTOGRAM", "VARIANCE", "LINEAR")  # see shading.py
+# Texton method: each face shows its own patch beyond this distance from its edges (barycentric-like
+# units, 1/3 at a triangle's centre) and fades to the vertex mappings toward them (shading.py).
+TEXTON_PATCH_ZONE = 0.15
 MAX_UV_LAYERS = 8  # Blender's hard limit per mesh
 
 BASE_UV_NAME = "TexSynth"  # TexSynth's only UV map: the base mapping (normal-map tangents, no-blend look)

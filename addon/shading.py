@@ -36,6 +36,10 @@ class BlendInputs:
     mean: tuple = (0.5, 0.5, 0.5)  # VARIANCE: the image's mean colour as the shader reads it (linear)
     gaussian: object = None         # HISTOGRAM: bpy image, Gaussianized sample (Non-Color, channel packed)
     inverse_lut: object = None      # HISTOGRAM: bpy image, lut_size x 1, entry i for value (i + 0.5) / lut_size
+    # 0: the sets' weights sum to 1 (jump map). > 0 (texton): each polygon shows its own patch (base UV)
+    # in its middle and fades to the vertex mappings within this distance of its edges, in units of
+    # the barycentric-like weights (see texton_synth.hpp).
+    patch_zone: float = 0.0
 
     def check(self):
         if self.mode not in BLEND_MODES:
@@ -67,8 +71,8 @@ def histogram_images(files, image):
     return tuple(loaded)
 
 
-def group_name(image, mode="HISTOGRAM"):
-    return GROUP_PREFIX + image.name + MODE_SUFFIX[mode]
+def group_name(image, mode="HISTOGRAM", patch_zone=0.0):
+    return GROUP_PREFIX + image.name + MODE_SUFFIX[mode] + (" [patches]" if patch_zone > 0 else "")
 
 
 class _Builder:
@@ -121,7 +125,7 @@ class _Builder:
         return texture
 
 
-def _blend_terms(b):
+def _blend_terms(b, patch_zone):
     """[(uv socket, weight socket)] for the 4 blend sets and the base mapping (last)."""
     weights = b.attribute(pipeline.WEIGHTS_NAME, -1600, 600)
     w0, w1, w2 = b.separate(weights.outputs["Vector"], -1400, 600)
@@ -135,15 +139,31 @@ def _blend_terms(b):
         set_uvs.append(sets.outputs["Vector"])
         z = b.separate(sets.outputs["Vector"], -1400, y)[2]
         set_uvs.append(b.combine(z, sets.outputs["Alpha"], 0.0, -1200, y))
-    total = b.math("ADD", b.math("ADD", w0, w1, -1200, 700), b.math("ADD", w2, w3, -1200, 550), -1000, 650)
-    base_weight = b.math("SUBTRACT", 1.0, total, -800, 650, clamp=True)
+    weights = [w0, w1, w2, w3]
     base_uv = b.node("ShaderNodeUVMap", -1600, -500, uv_map=pipeline.BASE_UV_NAME).outputs["UV"]
-    return list(zip(set_uvs, (w0, w1, w2, w3))) + [(base_uv, base_weight)]
+    if patch_zone <= 0:
+        total = b.math("ADD", b.math("ADD", w0, w1, -1200, 700), b.math("ADD", w2, w3, -1200, 550), -1000, 650)
+        base_weight = b.math("SUBTRACT", 1.0, total, -800, 650, clamp=True)
+        return list(zip(set_uvs, weights)) + [(base_uv, base_weight)]
+    # Distance from the polygon's edges: 1 - max(w_a + w_b) over its edges; the channel pairs
+    # (0,1) (1,2) (2,3) (3,0) are a quad's edges, (0,1) (1,3) (3,0) a triangle's, and none is (0, 2),
+    # the diagonal Blender splits quads along. An unblended polygon (no weights) is at distance 1.
+    nearest = None
+    for k, (i, j) in enumerate(((0, 1), (1, 2), (2, 3), (3, 0), (1, 3))):
+        pair = b.math("ADD", weights[i], weights[j], -1200, 900 + 60 * k)
+        nearest = pair if nearest is None else b.math("MAXIMUM", nearest, pair, -1050, 900 + 60 * k)
+    distance = b.math("SUBTRACT", 1.0, nearest, -900, 900)
+    fade = b.node("ShaderNodeMapRange", -750, 900, interpolation_type="SMOOTHSTEP", clamp=True)
+    b.connect(fade, ((0, distance), (1, 0.0), (2, float(patch_zone)), (3, 0.0), (4, 1.0)))
+    base_weight = fade.outputs[0]
+    rest = b.math("SUBTRACT", 1.0, base_weight, -600, 900)
+    scaled = [b.math("MULTIPLY", w, rest, -450, 900 - 60 * k) for k, w in enumerate(weights)]
+    return list(zip(set_uvs, scaled)) + [(base_uv, base_weight)]
 
 
 def _build(group, image, inputs):
     b = _Builder(group)
-    terms = _blend_terms(b)
+    terms = _blend_terms(b, inputs.patch_zone)
     looked_up = inputs.gaussian if inputs.mode == "HISTOGRAM" else image
     color = alpha = square_sum = None
     for k, (uv, weight) in enumerate(terms):
@@ -180,7 +200,7 @@ def _build(group, image, inputs):
 def ensure_blend_group(image, inputs=None):
     """Creates or rebuilds (idempotently) the blend group for (image, inputs.mode); returns it."""
     inputs = (inputs or BlendInputs()).check()
-    name = group_name(image, inputs.mode)
+    name = group_name(image, inputs.mode, inputs.patch_zone)
     group = bpy.data.node_groups.get(name)
     if group is None:
         group = bpy.data.node_groups.new(name, "ShaderNodeTree")

@@ -211,7 +211,8 @@ class Job:
         inputs = None
         if self.image is not None and any(item[2] is not None for item in self.items):
             mode, mean, files = self.shading
-            inputs = shading.BlendInputs(mode=mode, mean=mean)
+            inputs = shading.BlendInputs(mode=mode, mean=mean, patch_zone=pipeline.TEXTON_PATCH_ZONE
+                                         if self.settings.method == "TEXTON" else 0.0)
             if files is not None:
                 inputs.gaussian, inputs.inverse_lut = shading.histogram_images(files, self.image)
         for obj, arrays, result in self.items:
@@ -236,14 +237,15 @@ class Job:
         return self.report
 
 
-def blend_inputs(image, mode="HISTOGRAM", cache_dir=None):
+def blend_inputs(image, mode="HISTOGRAM", cache_dir=None, method="JUMPMAP"):
     """shading.BlendInputs for any image of the .blend (e.g. a roughness or normal map driven through
     the same mapping): Gaussianizes it for HISTOGRAM (cached), falling back to VARIANCE as Synthesize does."""
     settings = pipeline.Settings(blend_mode=mode).validate()
     srgb = image.colorspace_settings.name == "sRGB"
     mode, mean, files, _ = pipeline.blend_shading(Sample(image=image).native_input(), settings,
                                                   cache_dir or default_cache_dir(), srgb)
-    inputs = shading.BlendInputs(mode=mode, mean=mean)
+    inputs = shading.BlendInputs(mode=mode, mean=mean,
+                                 patch_zone=pipeline.TEXTON_PATCH_ZONE if method == "TEXTON" else 0.0)
     if files is not None:
         inputs.gaussian, inputs.inverse_lut = shading.histogram_images(files, image)
     return inputs

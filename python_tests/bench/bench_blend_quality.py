@@ -2,7 +2,7 @@
 """Blending quality measured in renders. Not a test: prints figures and leaves the pictures.
 
   blender -b --factory-startup --python-exit-code 1 --python python_tests/bench/bench_blend_quality.py -- \\
-      [--sample blend_samples/bricks.png] [--modes tiling,box,jumpmap,jumpmap_noblend,texton,texton_noblend]
+      [--sample blend_samples/bricks.png] [--modes tiling,box,jumpmap,jumpmap_variance,jumpmap_linear,...]
       [--pixels 512] [--cells 10] [--seed 3] [--out out/bench_blend]
 
 Scene 1: a jittered triangulated plane seen from straight above by an orthographic camera, flat emission
@@ -36,7 +36,13 @@ import numpy as np  # noqa: E402
 import blend_metrics  # noqa: E402
 import harness  # noqa: E402
 
-MODES = ("tiling", "box", "jumpmap", "jumpmap_noblend", "texton", "texton_noblend")
+# <method>[_<blend mode>]: no suffix = the default, histogram-preserving blending.
+MODES = ("tiling", "box", "jumpmap", "jumpmap_variance", "jumpmap_linear", "jumpmap_noblend",
+         "texton", "texton_variance", "texton_linear", "texton_noblend")
+
+
+def blend_mode_of(mode):
+    return {"noblend": "LINEAR", "variance": "VARIANCE", "linear": "LINEAR"}.get(mode.rpartition("_")[2], "HISTOGRAM")
 PROFILE_DISTANCE = 10
 
 
@@ -149,12 +155,13 @@ def projected_material(name, image, world_size, projection="FLAT"):
     return emission_material(name, color)
 
 
-def texsynth_material(image):
-    from texsynth import shading
+def texsynth_material(image, blend_mode, cache_dir, method):
+    from texsynth import shading, synthesis
+    inputs = synthesis.blend_inputs(image, blend_mode, cache_dir, method)
 
     def color(nodes, links):
         group = nodes.new("ShaderNodeGroup")
-        group.node_tree = shading.ensure_blend_group(image)
+        group.node_tree = shading.ensure_blend_group(image, inputs)
         return group.outputs["Color"]
     return emission_material("TexSynth emission", color)
 
@@ -223,7 +230,8 @@ def apply_mode(obj, mode, image, world_size, args, cache_dir):
         material = projected_material(mode, image, world_size, "FLAT" if mode == "tiling" else "BOX")
     else:
         synthesize(obj, os.path.abspath(args.sample), mode, world_size, args.seed, cache_dir)
-        material = texsynth_material(image)
+        material = texsynth_material(image, blend_mode_of(mode), cache_dir,
+                                     "TEXTON" if mode.startswith("texton") else "JUMPMAP")
     obj.data.materials.clear()
     obj.data.materials.append(material)
 

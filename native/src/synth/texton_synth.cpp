@@ -238,6 +238,7 @@ class TextonSynthesizer {
   void measure_faces(TextonSynthStats& st) {
     offset_.resize(size_t(m_.num_corners) * 2);
     box_.resize(size_t(m_.num_polys) * 4);
+    frame_.resize(size_t(m_.num_polys));
     auto up_of = [&](int32_t v) {
       V3 n = v3(&m_.normals[3 * size_t(v)]);
       return normalized_or(project_to_plane(v3(orientation_ + 3 * size_t(v)), n), any_perpendicular(n));
@@ -246,7 +247,8 @@ class TextonSynthesizer {
       throw_if_cancelled(p_.cancel);
       for (int32_t poly = r.begin(); poly < r.end(); ++poly) {
         float* xy = &offset_[2 * size_t(m_.poly_starts[poly])];
-        face_texel_offsets(m_, poly, up_of, p_.scale, p_.scale_multiplier, xy);
+        frame_[poly] = face_frame(m_, poly, up_of, p_.scale, p_.scale_multiplier);
+        face_texel_offsets(m_, poly, frame_[poly], xy);
         float* b = &box_[4 * size_t(poly)];
         b[0] = b[1] = b[2] = b[3] = 0.f;
         for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i) {
@@ -288,6 +290,8 @@ class TextonSynthesizer {
   void grow(const MeshEdges& edges, TextonSynthStats& st) {
     texel_.assign(size_t(m_.num_corners) * 2, 0.f);
     textured_.assign(size_t(m_.num_polys), 0);
+    placed_at_.assign(size_t(m_.num_polys), std::numeric_limits<int32_t>::max());
+    placed_count_ = 0;
     std::vector<uint8_t> state(size_t(m_.num_polys), 0);  // 0 new, 1 queued/visited, 2 textured
     std::vector<int32_t> queue, component;
     queue.reserve(size_t(m_.num_polys));
@@ -391,6 +395,7 @@ class TextonSynthesizer {
       texel_[2 * size_t(first + i) + 1] = Y + off[2 * i + 1];
     }
     textured_[poly] = 1;
+    placed_at_[poly] = placed_count_++;
   }
 
   bool textured(int32_t poly) const { return textured_[poly] != 0; }
@@ -444,68 +449,125 @@ class TextonSynthesizer {
     }
   }
 
+  // Vertex mappings (see texton_synth.hpp): each vertex takes the mapping of one incident polygon
+  // (its owner): the mapping's texel at the vertex, and that polygon's frame.
+  struct VertexMapping {
+    float x = 0, y = 0;
+    int32_t poly = -1;
+  };
+  // Owner: the incident polygon textured first among those whose mapping, extended over every
+  // polygon around the vertex, stays inside a non-tileable sample (else clamped: smeared); when
+  // none does, the first textured.
+  std::vector<VertexMapping> vertex_mappings() const {
+    std::vector<VertexMapping> out(size_t(m_.num_vertices));
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 1024), [&](const tbb::blocked_range<int32_t>& r) {
+      std::vector<int32_t> candidates;
+      for (int32_t v = r.begin(); v < r.end(); ++v) {
+        candidates.assign(m_.vertex_corners.begin() + m_.vertex_corner_start[v],
+                          m_.vertex_corners.begin() + m_.vertex_corner_start[v + 1]);
+        if (candidates.empty()) continue;
+        std::sort(candidates.begin(), candidates.end(), [&](int32_t a, int32_t b) {
+          return placed_at_[m_.corner_poly[a]] < placed_at_[m_.corner_poly[b]];
+        });
+        out[v] = {texel_[2 * size_t(candidates[0])], texel_[2 * size_t(candidates[0]) + 1], m_.corner_poly[candidates[0]]};
+        if (tileable_) continue;
+        for (int32_t c : candidates) {
+          const VertexMapping vm{texel_[2 * size_t(c)], texel_[2 * size_t(c) + 1], m_.corner_poly[c]};
+          bool inside = true;
+          for (int32_t k = m_.vertex_corner_start[v]; k < m_.vertex_corner_start[v + 1] && inside; ++k) {
+            const int32_t corner = m_.vertex_corners[k], poly = m_.corner_poly[corner];
+            if (m_.poly_sizes[poly] > 4) continue;
+            float xy[8];
+            vertex_set_values(vm, poly, corner - m_.poly_starts[poly], xy);
+            for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i)
+              inside = inside && xy[2 * i] >= 0.f && xy[2 * i] <= W_ && xy[2 * i + 1] >= 0.f && xy[2 * i + 1] <= H_;
+          }
+          if (inside) {
+            out[v] = vm;
+            break;
+          }
+        }
+      }
+    });
+    return out;
+  }
+
+  // Texels of vertex mapping vm over polygon `poly` (at most 4 corners), whose corner i is the vertex.
+  void vertex_set_values(const VertexMapping& vm, int32_t poly, int32_t i, float* xy) const {
+    const int32_t n = m_.poly_sizes[poly];
+    const int32_t* cv = m_.corner_verts + m_.poly_starts[poly];
+    const int32_t next = (i + 1) % n, prev = (i + n - 1) % n;
+    xy[2 * i] = vm.x, xy[2 * i + 1] = vm.y;
+    for (int32_t j : {next, prev}) {
+      unfold_edge(vm, cv[i], cv[j], xy[2 * j], xy[2 * j + 1]);
+      xy[2 * j] += vm.x, xy[2 * j + 1] += vm.y;
+    }
+    if (n == 4) {  // opposite corner: the parallelogram, plus the quad's deviation from one
+      const int32_t o = (i + 2) % 4;
+      const FaceFrame& f = frame_[vm.poly];
+      const V3 d = v3(m_.positions + 3 * size_t(cv[o])) - v3(m_.positions + 3 * size_t(cv[next])) -
+                   v3(m_.positions + 3 * size_t(cv[prev])) + v3(m_.positions + 3 * size_t(cv[i]));
+      xy[2 * o] = xy[2 * next] + xy[2 * prev] - vm.x + float(dot(d, f.right) * f.scale);
+      xy[2 * o + 1] = xy[2 * next + 1] + xy[2 * prev + 1] - vm.y - float(dot(d, f.up) * f.scale);
+    }
+  }
+
+  // Texel offset of edge from -> to in vertex `from`'s mapping: the edge unfolded into the owner
+  // polygon's frame (direction of its projection on that plane, full 3D length). A function of the
+  // edge alone, so both polygons on the edge give the mapping the same value at `to`.
+  void unfold_edge(const VertexMapping& vm, int32_t from, int32_t to, float& dx, float& dy) const {
+    const FaceFrame& f = frame_[vm.poly];
+    const V3 e = v3(m_.positions + 3 * size_t(to)) - v3(m_.positions + 3 * size_t(from));
+    const double x = dot(e, f.right), y = dot(e, f.up);
+    const double tangent = std::sqrt(x * x + y * y), length = norm(e);
+    const double k = tangent > 1e-12 * length && tangent > 0 ? f.scale * length / tangent : 0.0;
+    dx = float(x * k);
+    dy = float(-y * k);
+  }
+
   // Pass 3 (parallel, each polygon writes its own corners): blend sets, see texton_synth.hpp.
   void write_blend_sets(TextonSynthResult& r) const {
     CornerMaps& out = r.maps;
     const MeshEdges& edges = r.edges;
-    const int32_t S = !p_.blend ? 1 : m_.all_triangles() ? 3 : 4;
+    const int32_t S = p_.blend ? 4 : 1;
     const size_t L = size_t(m_.num_corners);
     out.num_blend_sets = S;
     out.blend_uv.resize(size_t(S) * L * 2);
     out.blend_weights.assign(L * S, 0.f);
+    const std::vector<VertexMapping> mapping = S > 1 ? vertex_mappings() : std::vector<VertexMapping>();
     std::atomic<int64_t> clipped_sets{0};
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 2048), [&](const tbb::blocked_range<int32_t>& range) {
       throw_if_cancelled(p_.cancel);
       for (int32_t poly = range.begin(); poly < range.end(); ++poly) {
         const int32_t first = m_.poly_starts[poly], n = m_.poly_sizes[poly];
-        const float* off = &offset_[2 * size_t(first)];
-        for (int32_t set = 0; set < S; ++set) {
-          float* uv = out.blend_uv.data() + (size_t(set) * L + first) * 2;
-          std::copy(&out.base_uv[2 * size_t(first)], &out.base_uv[2 * size_t(first + n)], uv);
-          if (S == 1) {
-            for (int32_t i = 0; i < n; ++i) out.blend_weights[(first + i) * size_t(S)] = 1.f;
-            continue;
-          }
-          // The edge this set blends: opposite corner `set` (triangles), else edge `set`.
-          if (set >= n) continue;
-          const int32_t i = n == 3 ? (set + 1) % 3 : set;
-          const int32_t e = edges.corner_edge[first + i];
-          if (e < 0 || !r.edge_blended[e]) continue;
-          int32_t c = -1;  // the first other polygon on the edge
-          for (int32_t j = edges.edge_corner_start[e]; j < edges.edge_corner_start[e + 1] && c < 0; ++j)
-            if (edges.corner_poly[edges.edge_corners[j]] != poly) c = edges.edge_corners[j];
-          if (c < 0) continue;
-          const int32_t g = edges.corner_poly[c];
-          const int32_t c_next = m_.poly_starts[g] + (c - m_.poly_starts[g] + 1) % m_.poly_sizes[g];
-          const bool same = m_.corner_verts[c] == m_.corner_verts[first + i];
-          const float* ta = &texel_[2 * size_t(same ? c : c_next)];
-          const float* tb = &texel_[2 * size_t(same ? c_next : c)];
-          const float* oa = off + 2 * i;
-          float q[2];
-          edge_similarity(oa, off + 2 * ((i + 1) % n), ta, tb, q);
-          auto extended = [&](int32_t k, float& x, float& y) {
-            const float dx = off[2 * k] - oa[0], dy = off[2 * k + 1] - oa[1];
-            x = ta[0] + q[0] * dx - q[1] * dy, y = ta[1] + q[1] * dx + q[0] * dy;
-          };
-          bool inside = true;
-          for (int32_t k = 0; k < n && inside && !tileable_; ++k) {
-            float x, y;
-            extended(k, x, y);
-            inside = x >= 0.f && x <= W_ && y >= 0.f && y <= H_;
-          }
-          // An extension leaving a non-tileable sample would be clamped (smeared): this side keeps its base.
-          if (!inside) {
-            clipped_sets.fetch_add(1, std::memory_order_relaxed);
-            continue;
-          }
-          for (int32_t k = 0; k < n; ++k) {
-            float x, y;
-            extended(k, x, y);
-            texel_to_uv(x, y, uv + 2 * k);
-          }
-          out.blend_weights[(first + i) * size_t(S) + set] = kBlendEdgeWeight;
-          out.blend_weights[(first + (i + 1) % n) * size_t(S) + set] = kBlendEdgeWeight;
+        const int32_t* cv = m_.corner_verts + first;
+        for (int32_t set = 0; set < S; ++set)  // unused sets: the base, weight 0
+          std::copy(&out.base_uv[2 * size_t(first)], &out.base_uv[2 * size_t(first + n)],
+                    out.blend_uv.data() + (size_t(set) * L + first) * 2);
+        if (S == 1) {
+          for (int32_t i = 0; i < n; ++i) out.blend_weights[first + i] = 1.f;
+          continue;
         }
+        bool blended = false;
+        for (int32_t i = 0; i < n; ++i) {
+          const int32_t e = edges.corner_edge[first + i];
+          blended = blended || (e >= 0 && r.edge_blended[e]);
+        }
+        if (!blended || n > 4) continue;  // its own patch only (n-gons: no edge zones)
+        bool clipped = false;
+        for (int32_t i = 0; i < n; ++i) {
+          const int32_t set = kCornerSet[n - 3][i];
+          float xy[8];
+          vertex_set_values(mapping[cv[i]], poly, i, xy);
+          float* uv = out.blend_uv.data() + (size_t(set) * L + first) * 2;
+          for (int32_t k = 0; k < n; ++k) {
+            clipped = clipped || (!tileable_ && !(xy[2 * k] >= 0.f && xy[2 * k] <= W_ && xy[2 * k + 1] >= 0.f &&
+                                                  xy[2 * k + 1] <= H_));
+            texel_to_uv(xy[2 * k], xy[2 * k + 1], uv + 2 * k);
+          }
+          out.blend_weights[(first + i) * size_t(S) + set] = 1.f;
+        }
+        if (clipped) clipped_sets.fetch_add(1, std::memory_order_relaxed);
       }
     });
     r.stats.clipped_blend_sets = clipped_sets.load();
@@ -522,6 +584,9 @@ class TextonSynthesizer {
   std::vector<float> box_;      // per polygon: min x, min y, max x, max y of the offsets
   std::vector<float> texel_;    // per corner: texel coordinate once its polygon is textured
   std::vector<uint8_t> textured_;
+  std::vector<FaceFrame> frame_;   // per polygon: its texture frame (face_frame.hpp)
+  std::vector<int32_t> placed_at_; // per polygon: when it was textured (growth order)
+  int32_t placed_count_ = 0;
 };
 
 }  // namespace

@@ -41,9 +41,16 @@ inline void check_oversized_faces(int64_t oversized_faces, double max_oversize_r
   throw std::invalid_argument(msg.str());
 }
 
-// up_of(v) returns vertex v's unit tangent "up" (V3). xy receives poly_sizes[poly]*2 floats.
+// A polygon's texture frame: texel offset of a point p from corner 0 is
+// (dot(p - p0, right), -dot(p - p0, up)) × scale.
+struct FaceFrame {
+  V3 right, up;
+  double scale = 0;
+};
+
+// up_of(v) returns vertex v's unit tangent "up" (V3).
 template <class UpOf>
-void face_texel_offsets(const Mesh& m, int32_t poly, UpOf&& up_of, double scale, const float* multiplier, float* xy) {
+FaceFrame face_frame(const Mesh& m, int32_t poly, UpOf&& up_of, double scale, const float* multiplier) {
   const int32_t* cv = m.corner_verts + m.poly_starts[poly];
   const int32_t n = m.poly_sizes[poly];
   V3 up_sum;
@@ -68,14 +75,27 @@ void face_texel_offsets(const Mesh& m, int32_t poly, UpOf&& up_of, double scale,
   } else {  // vertex directions cancel out (next to a singularity): corner 0's, else any
     up = normalized_or(project_to_plane(up_of(cv[0]), nf), any_perpendicular(nf));
   }
-  V3 right = cross(up, nf);
-  const double s = scale * mult / n;
-  V3 origin = v3(m.positions + 3 * size_t(cv[0]));
-  for (int32_t i = 0; i < n; ++i) {
-    V3 e = v3(m.positions + 3 * size_t(cv[i])) - origin;
-    xy[2 * i] = float(dot(e, right) * s);
-    xy[2 * i + 1] = float(-dot(e, up) * s);
+  FaceFrame f;
+  f.up = up;
+  f.right = cross(up, nf);
+  f.scale = scale * mult / n;
+  return f;
+}
+
+// The polygon's corners as texel offsets from its corner 0; xy receives poly_sizes[poly]*2 floats.
+inline void face_texel_offsets(const Mesh& m, int32_t poly, const FaceFrame& f, float* xy) {
+  const int32_t* cv = m.corner_verts + m.poly_starts[poly];
+  const V3 origin = v3(m.positions + 3 * size_t(cv[0]));
+  for (int32_t i = 0; i < m.poly_sizes[poly]; ++i) {
+    const V3 e = v3(m.positions + 3 * size_t(cv[i])) - origin;
+    xy[2 * i] = float(dot(e, f.right) * f.scale);
+    xy[2 * i + 1] = float(-dot(e, f.up) * f.scale);
   }
+}
+
+template <class UpOf>
+void face_texel_offsets(const Mesh& m, int32_t poly, UpOf&& up_of, double scale, const float* multiplier, float* xy) {
+  face_texel_offsets(m, poly, face_frame(m, poly, up_of, scale, multiplier), xy);
 }
 
 }  // namespace texsynth

@@ -21,19 +21,23 @@
 // string picks among them, uniformly at random among near-ties (E <= E_min·(1 + tie_tolerance)).
 // Candidates keep the whole polygon inside the sample (wrap when tileable).
 //
-// Blend sets (edge blending, §3.3.1), in the CornerMaps contract (shader: Σ w_s·tex(uv_s) +
-// (1 - Σ w_s)·tex(base_uv)), S = 3 when all polygons are triangles, else 4:
-//  - triangle: set k = the neighbour's mapping across the edge OPPOSITE corner k, extended over
-//    this face (the similarity taking this face's edge to the neighbour's texel edge).
-//  - quad / n-gon: set k (k < 4) = the neighbour across edge k (corner k -> k+1); n-gon edges
-//    beyond the fourth are not blended (UV-map budget: base + 4 sets + Blender's 8 maps).
-//  - weight of a set: kBlendEdgeWeight (1/3) at the two corners of its edge, 0 at the others, so
-//    Blender's linear interpolation fades it from the edge toward the opposite corner. 1/3 makes
-//    the base and the across-edge mapping weigh the same (1/3 each) on the edge from both sides:
-//    those two terms then agree across the seam; the base keeps ≥ 1/3 everywhere.
-//  - unblended set (boundary edge, edge below the Φ threshold, or - non-tileable samples - the
-//    extension would leave the sample and be clamped, smearing it): uv = base, weight 0. With blend = false, S = 1 (the base mapping, weight 1), as the jump-map method.
-//
+// Blend sets (replaces the paper's edge blending, §3.3.1, whose attenuated seams stay visible):
+//  - every vertex v takes the mapping of its incident polygon textured first (its owner). The
+//    mapping's value at v is v's texel there; at a neighbour w it adds the edge v -> w unfolded in
+//    the owner's frame (direction of its projection, full length); at a quad's opposite corner it
+//    completes the parallelogram. The values depend on the edge alone, not on the polygon.
+//  - S = 4 sets per corner. Corner i of a blended polygon has weight 1 on set kCornerSet[n-3][i]
+//    (triangles 0, 1, 3; quads 0..3), holding its vertex's mapping over the polygon. Blender
+//    interpolates the one-hot weights into barycentric-like λ; on an edge only the edge's two
+//    vertices' mappings have weight, with the same values on both sides: the blend is continuous.
+//  - the shader (shading.py) shows the polygon's own patch (base UV) in its middle and fades to
+//    Σ λ_k · set_k toward the edges, over a distance read from λ: 1 − max(λ_a + λ_b) over the
+//    polygon's edges (a, b). Triangles use sets 0, 1, 3 so that those channel pairs never include
+//    (0, 2), the diagonal Blender splits quads along.
+//  - a polygon is blended when any of its edges is (interior, blend, Φ test passed). Unblended
+//    polygons and n-gons (n > 4) get weight 0 everywhere: their own patch only.
+//  - With blend = false, S = 1 (the base mapping, weight 1), as the jump-map method.
+// Search (E_t, texton strings) is unchanged: blending only hides what the search could not match.
 // E_t per edge (§3.3.2): mean Euclidean colour distance between the two sides' base mappings at
 // points spaced one texel along the edge (bilinear sample look-up, texel centres at +0.5, clamped
 // or wrapped). Boundary edges: 0; non-manifold edges: max over (first face, other face) pairs.
@@ -49,7 +53,8 @@
 
 namespace texsynth {
 
-constexpr float kBlendEdgeWeight = 1.f / 3.f;
+// Blend set of corner i of a blended triangle (kCornerSet[0]) or quad (kCornerSet[1]).
+constexpr int32_t kCornerSet[2][4] = {{0, 1, 3, -1}, {0, 1, 2, 3}};
 
 // Undirected edges of a mesh and the corners that use them.
 struct MeshEdges {
@@ -103,7 +108,7 @@ struct TextonSynthStats {
   int64_t oversized_faces = 0;
   double max_oversize_ratio = 0;
   int64_t blended_edges = 0;
-  int64_t clipped_blend_sets = 0;  // blend sets left unblended on one side: the extension leaves the sample
+  int64_t clipped_blend_sets = 0;  // blended polygons where a vertex mapping leaves the sample (clamped there)
   double seconds = 0;
 };
 
