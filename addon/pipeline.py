@@ -335,6 +335,35 @@ def shader_mean(pixels, srgb):
     return tuple(float(m) for m in (np.repeat(mean, 3) if mean.size == 1 else mean))
 
 
+def correlation_length(pixels, max_lag=64):
+    """Correlation length (texels) of an H x W x C sample: the smallest offset along x or y at which
+    its autocorrelation (colour channels standardised and averaged; circular, by FFT) falls below
+    exp(-1/2), the value a Gaussian autocorrelation exp(-d^2 / (2 l^2)) has at d = l. Constant
+    samples give 1."""
+    pixels = np.asarray(pixels, dtype=np.float64)
+    colour = pixels[:, :, :1] if pixels.shape[2] <= 2 else pixels[:, :, :3]
+    height, width = colour.shape[:2]
+    total = np.zeros((height, width))
+    used = 0
+    for c in range(colour.shape[2]):
+        channel = colour[:, :, c] - colour[:, :, c].mean()
+        power = np.abs(np.fft.rfft2(channel)) ** 2
+        auto = np.fft.irfft2(power, s=channel.shape)
+        if auto[0, 0] > 1e-12:
+            total += auto / auto[0, 0]
+            used += 1
+    if not used:
+        return 1.0
+    total /= used
+    threshold = math.exp(-0.5)
+    for lag in range(1, max(2, min(max_lag, width // 2, height // 2))):
+        if min(total[0, lag], total[lag, 0]) < threshold:
+            # Linear interpolation between lag - 1 and lag on the axis that crossed first.
+            row = total[0, lag - 1:lag + 1] if total[0, lag] < threshold else total[lag - 1:lag + 1, 0]
+            return float(lag - 1 + (row[0] - threshold) / max(row[0] - row[1], 1e-12))
+    return float(max_lag)
+
+
 @dataclasses.dataclass
 class HistogramFiles:
     """The Gaussianized sample and its inverse look-up table, as files next to the cache."""
@@ -342,23 +371,38 @@ class HistogramFiles:
     lut_path: str
 
 
+@dataclasses.dataclass
+class BlendShading:
+    """What the shader's blend needs from the sample (see shading.BlendInputs)."""
+    mode: str = "LINEAR"
+    mean: tuple = (0.5, 0.5, 0.5)
+    files: HistogramFiles = None
+    correlation_length: float = 1.0  # texels, of the image the blend reads (Gaussianized for HISTOGRAM)
+    note: str = ""                   # why HISTOGRAM fell back to VARIANCE, if it did
+
+
 def blend_shading(native_input, settings, cache_dir, srgb):
-    """(mode, mean, HistogramFiles or None, note) for the shader: the Gaussianization is computed
-    (or read from the cache) for HISTOGRAM; a sample it cannot serve falls back to VARIANCE, and
-    `note` says why."""
+    """BlendShading for the sample: the Gaussianization is computed (or read from the cache) for
+    HISTOGRAM; a sample it cannot serve falls back to VARIANCE, and `note` says why."""
     if not settings.blend:
-        return "LINEAR", (0.5, 0.5, 0.5), None, ""
-    mode, files, note = settings.blend_mode, None, ""
-    if mode == "HISTOGRAM":
+        return BlendShading()
+    result = BlendShading(mode=settings.blend_mode)
+    looked_up = None
+    if result.mode == "HISTOGRAM":
         transform = native.require().histogram_transform(load_sample(native_input), cache_dir=cache_dir)
         if transform["ok"]:
-            files = HistogramFiles(transform["gaussian_path"], transform["lut_path"])
+            result.files = HistogramFiles(transform["gaussian_path"], transform["lut_path"])
+            looked_up = transform.get("gaussian")
         else:
-            mode = "VARIANCE"
-            note = "histogram-preserving blending unavailable (%s): variance-preserving used" % (
+            result.mode = "VARIANCE"
+            result.note = "histogram-preserving blending unavailable (%s): variance-preserving used" % (
                 transform["fallback_reason"])
-    mean = shader_mean(sample_pixels(native_input), srgb) if mode == "VARIANCE" else (0.5, 0.5, 0.5)
-    return mode, mean, files, note
+    if result.mode == "VARIANCE":
+        looked_up = sample_pixels(native_input)
+        result.mean = shader_mean(looked_up, srgb)
+    if looked_up is not None and np.ndim(looked_up) == 3:
+        result.correlation_length = correlation_length(looked_up)
+    return result
 
 
 @dataclasses.dataclass

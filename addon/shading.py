@@ -16,6 +16,7 @@ maps always use VARIANCE around the map's mean vector, then Blender's Normal Map
 (the histogram transform remaps X, Y, Z independently, which the Normal Map encoding does not survive).
 """
 import dataclasses
+import math
 
 import bpy
 
@@ -40,6 +41,12 @@ class BlendInputs:
     # in its middle and fades to the vertex mappings within this distance of its edges, in units of
     # the barycentric-like weights (see texton_synth.hpp).
     patch_zone: float = 0.0
+    # VARIANCE / HISTOGRAM: the looked-up image's correlation length (texels) and size. Two mappings
+    # a distance d apart are correlated ~1 / (1 + d^2 / (2 l^2)) (identical where the method continued
+    # one patch): the blend is normalised by the mixture's actual standard deviation,
+    # sqrt(sum_ij w_i w_j rho_ij), not by sqrt(sum w^2), which would over-sharpen such areas.
+    correlation_length: float = 1.0
+    size: tuple = (1, 1)
 
     def check(self):
         if self.mode not in BLEND_MODES:
@@ -47,6 +54,16 @@ class BlendInputs:
         if self.mode == "HISTOGRAM" and (self.gaussian is None or self.inverse_lut is None):
             raise ValueError("histogram-preserving blending needs the Gaussianized image and its look-up table")
         return self
+
+
+def blend_inputs(blend, image, method="JUMPMAP"):
+    """BlendInputs for pipeline.BlendShading `blend` of `image` (loads the histogram images)."""
+    inputs = BlendInputs(mode=blend.mode, mean=blend.mean, correlation_length=blend.correlation_length,
+                         size=(int(image.size[0]), int(image.size[1])),
+                         patch_zone=pipeline.TEXTON_PATCH_ZONE if method == "TEXTON" else 0.0)
+    if blend.files is not None:
+        inputs.gaussian, inputs.inverse_lut = histogram_images(blend.files, image)
+    return inputs
 
 
 def histogram_images(files, image):
@@ -161,11 +178,41 @@ def _blend_terms(b, patch_zone):
     return list(zip(set_uvs, scaled)) + [(base_uv, base_weight)]
 
 
+def _mixture_variance(b, terms, inputs):
+    """sum_i w_i^2 + 2 sum_{i<j} w_i w_j rho_ij with rho_ij = 1 / (1 + d_ij^2 / (2 l^2)), d_ij the texel
+    distance between the mappings' coordinates (identical mappings: fully correlated; far apart:
+    independent). A Cauchy-shaped falloff, not the Gaussian: 5 nodes per pair instead of 7 (measured
+    render cost). The base mapping (last term) weighs 1 - sum(w) = 0 wherever the sets have weights,
+    so it only enters as w_base^2 (1 on meshes without TexSynth weights)."""
+    width, height = inputs.size
+    factor = 1.0 / (math.sqrt(2.0) * max(float(inputs.correlation_length), 1e-3))
+    sets = terms[:-1]
+    # Coordinates in units of sqrt(2) l (z dropped: set attributes carry another set there).
+    scaled = [b.vector("MULTIPLY", uv, (width * factor, height * factor, 0.0), x=-1000, y=-900 - 60 * k)
+              for k, (uv, _) in enumerate(sets)]
+    total = None
+    for i, (_, w_i) in enumerate(terms):
+        square = b.math("MULTIPLY", w_i, w_i, -800, -900 - 60 * i)
+        total = square if total is None else b.math("ADD", total, square, -650, -900 - 60 * i)
+    for i in range(len(sets)):
+        for j in range(i + 1, len(sets)):
+            y = -1300 - 60 * (i * len(sets) + j)
+            distance = b.node("ShaderNodeVectorMath", -850, y, operation="DISTANCE")
+            b.links.new(scaled[i], distance.inputs[0])
+            b.links.new(scaled[j], distance.inputs[1])
+            d = distance.outputs["Value"]
+            falloff = b.connect(b.node("ShaderNodeMath", -700, y, operation="MULTIPLY_ADD"), ((0, d), (1, d), (2, 1.0)))
+            pair = b.math("DIVIDE", b.math("MULTIPLY", sets[i][1], sets[j][1], -550, y - 30), falloff.outputs[0], -400, y)
+            total = b.connect(b.node("ShaderNodeMath", -250, y, operation="MULTIPLY_ADD"),
+                              ((0, pair), (1, 2.0), (2, total))).outputs[0]
+    return total
+
+
 def _build(group, image, inputs):
     b = _Builder(group)
     terms = _blend_terms(b, inputs.patch_zone)
     looked_up = inputs.gaussian if inputs.mode == "HISTOGRAM" else image
-    color = alpha = square_sum = None
+    color = alpha = None
     for k, (uv, weight) in enumerate(terms):
         y = 300 - 300 * k
         texture = b.texture(looked_up, uv, -600, y)
@@ -174,17 +221,18 @@ def _build(group, image, inputs):
         multiply_add = b.node("ShaderNodeMath", -150, y - 150, operation="MULTIPLY_ADD")
         alpha = b.connect(multiply_add, ((0, texture.outputs["Alpha"]), (1, weight),
                                          (2, 0.0 if alpha is None else alpha))).outputs[0]
-        if inputs.mode != "LINEAR":
-            square = b.math("MULTIPLY", weight, weight, -300, y + 100)
-            square_sum = square if square_sum is None else b.math("ADD", square_sum, square, -150, y + 100)
     if inputs.mode != "LINEAR":
-        # (sum w C - mu) / sqrt(sum w^2) + mu; sqrt(sum w^2) >= 1/sqrt(5) wherever the weights sum to 1.
+        # (sum w C - mu) / sigma + mu with sigma^2 = sum_ij w_i w_j rho_ij (see BlendInputs).
         mean = (0.5, 0.5, 0.5) if inputs.mode == "HISTOGRAM" else tuple(float(c) for c in inputs.mean[:3])
-        norm = b.math("MAXIMUM", b.math("SQRT", square_sum, x=0, y=500), 1e-3, 150, 500)
-        inverse = b.math("DIVIDE", 1.0, norm, 300, 500)
-        centred = b.vector("SUBTRACT", color, b.combine(*mean, x=0, y=300), x=150, y=300)
-        color = b.vector("ADD", b.vector("SCALE", centred, x=300, y=300, scale=inverse),
-                         b.combine(*mean, x=300, y=150), x=450, y=300)
+        # Texton patches meet neighbours the search matched along the edge: the mappings a polygon
+        # blends are strongly correlated there, so the mixture keeps its variance as it is (measured:
+        # compensating as for independent mappings raised the gradient by 9-12 % next to the edges).
+        if inputs.patch_zone <= 0:
+            norm = b.math("MAXIMUM", b.math("SQRT", _mixture_variance(b, terms, inputs), x=0, y=500), 1e-3, 150, 500)
+            inverse = b.math("DIVIDE", 1.0, norm, 300, 500)
+            centred = b.vector("SUBTRACT", color, b.combine(*mean, x=0, y=300), x=150, y=300)
+            color = b.vector("ADD", b.vector("SCALE", centred, x=300, y=300, scale=inverse),
+                             b.combine(*mean, x=300, y=150), x=450, y=300)
     if inputs.mode == "HISTOGRAM":
         # Each channel's blended Gaussian value indexes that channel of the inverse look-up table.
         channels = []
@@ -244,7 +292,8 @@ def insert_into_material(material, image, target="Base Color", inputs=None):
         raise ValueError("unknown target %r (choose one of %s)" % (target, ", ".join(TARGETS)))
     inputs = inputs or BlendInputs()
     if target == "Normal":
-        inputs = BlendInputs(mode="VARIANCE", mean=inputs.mean if inputs.mode == "VARIANCE" else (0.5, 0.5, 1.0))
+        inputs = dataclasses.replace(inputs, mode="VARIANCE", gaussian=None, inverse_lut=None,
+                                     mean=inputs.mean if inputs.mode == "VARIANCE" else (0.5, 0.5, 1.0))
     material.use_nodes = True
     principled = _principled(material)
     group_node = _group_node(material, image, target, inputs)

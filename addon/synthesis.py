@@ -111,7 +111,7 @@ class Job:
         self.cache_dir, self.material_mode, self.scene = cache_dir, material_mode, scene
         self.preprocessed = preprocessed  # given: preprocessing is skipped (live updates)
         self.pixels = self.view = self.image = None
-        self.srgb, self.shading = False, ("LINEAR", (0.5, 0.5, 0.5), None)
+        self.srgb, self.shading = False, pipeline.BlendShading()
         self.report, self.timings = pipeline.Report(), pipeline.Timings()
         self.items = []  # [obj, arrays, result]
         self.token = None
@@ -177,12 +177,11 @@ class Job:
             self.report.cache_status = str(getattr(preprocessed, "cache_status", ""))
             if self.image is not None and self.items:
                 with self.timings.phase("preprocess"):
-                    mode, mean, files, note = pipeline.blend_shading(self.native_input, self.settings,
-                                                                     self.cache_dir, self.srgb)
-                self.shading = (mode, mean, files)
-                self.report.blend_mode = mode
-                if note:
-                    self.report.notes.append(note)
+                    self.shading = pipeline.blend_shading(self.native_input, self.settings, self.cache_dir,
+                                                          self.srgb)
+                self.report.blend_mode = self.shading.mode
+                if self.shading.note:
+                    self.report.notes.append(self.shading.note)
             scale = pipeline.texels_per_unit(int(preprocessed.width), self.settings.sample_world_size)
             for index, item in enumerate(self.items):
                 self._check_cancelled()
@@ -210,11 +209,7 @@ class Job:
         self._check_cancelled()
         inputs = None
         if self.image is not None and any(item[2] is not None for item in self.items):
-            mode, mean, files = self.shading
-            inputs = shading.BlendInputs(mode=mode, mean=mean, patch_zone=pipeline.TEXTON_PATCH_ZONE
-                                         if self.settings.method == "TEXTON" else 0.0)
-            if files is not None:
-                inputs.gaussian, inputs.inverse_lut = shading.histogram_images(files, self.image)
+            inputs = shading.blend_inputs(self.shading, self.image, self.settings.method)
         for obj, arrays, result in self.items:
             if result is None:
                 continue
@@ -242,13 +237,8 @@ def blend_inputs(image, mode="HISTOGRAM", cache_dir=None, method="JUMPMAP"):
     the same mapping): Gaussianizes it for HISTOGRAM (cached), falling back to VARIANCE as Synthesize does."""
     settings = pipeline.Settings(blend_mode=mode).validate()
     srgb = image.colorspace_settings.name == "sRGB"
-    mode, mean, files, _ = pipeline.blend_shading(Sample(image=image).native_input(), settings,
-                                                  cache_dir or default_cache_dir(), srgb)
-    inputs = shading.BlendInputs(mode=mode, mean=mean,
-                                 patch_zone=pipeline.TEXTON_PATCH_ZONE if method == "TEXTON" else 0.0)
-    if files is not None:
-        inputs.gaussian, inputs.inverse_lut = shading.histogram_images(files, image)
-    return inputs
+    blend = pipeline.blend_shading(Sample(image=image).native_input(), settings, cache_dir or default_cache_dir(), srgb)
+    return shading.blend_inputs(blend, image, method)
 
 
 def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None, scene=None,

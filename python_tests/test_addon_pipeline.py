@@ -268,3 +268,33 @@ def test_texton_method_calls_the_native_texton_synthesizer_and_returns_corner_at
     far = pipeline.synthesize(pre, arrays, threshold, 1, 60.0, pixels=image,
                               view=pipeline.View(position=(0.2, 0.2, 1e6), pixels_per_radian=1000.0))
     assert far["stats"]["blended_edges"] == 0  # a far camera: every Φ is tiny
+
+
+def _blurred_noise(sigma, size=256, seed=0):
+    """White noise blurred by a Gaussian of std sigma (circular): its autocorrelation is a Gaussian of
+    std sigma * sqrt(2), so its correlation length is known without looking at the code."""
+    noise = np.random.RandomState(seed).rand(size, size, 3)
+    frequencies = np.fft.fftfreq(size)
+    kernel = np.exp(-2 * (np.pi * sigma) ** 2 * (frequencies[:, None] ** 2 + frequencies[None, :] ** 2))
+    return np.stack([np.real(np.fft.ifft2(np.fft.fft2(noise[:, :, c]) * kernel)) for c in range(3)], axis=2)
+
+
+def test_correlation_length_of_blurred_noise_is_sigma_sqrt2():
+    for sigma in (2.0, 4.0, 7.0):
+        assert abs(pipeline.correlation_length(_blurred_noise(sigma)) - sigma * np.sqrt(2)) < 0.05 * sigma
+    assert pipeline.correlation_length(np.random.RandomState(1).rand(64, 64, 1)) < 1.0  # white noise
+    assert pipeline.correlation_length(np.ones((16, 16, 4))) == 1.0  # constant: no NaN
+
+
+def test_blend_shading_falls_back_to_variance_for_flat_samples(tmp_path, real_native):
+    flat = np.zeros((32, 32, 3), np.float32)
+    flat[:, :, 0] = 0.25
+    flat[::2, :, 1] = 1.0  # two values only
+    shading = pipeline.blend_shading(flat, pipeline.Settings(), str(tmp_path), srgb=False)
+    assert shading.mode == "VARIANCE" and shading.files is None
+    assert "channel 0 is constant" in shading.note and "variance-preserving" in shading.note
+    assert np.allclose(shading.mean, (0.25, 0.5, 0.0)) and np.isfinite(shading.correlation_length)
+    textured = _blurred_noise(3.0, 64).astype(np.float32)
+    shading = pipeline.blend_shading(textured, pipeline.Settings(), str(tmp_path), srgb=False)
+    assert shading.mode == "HISTOGRAM" and shading.note == "" and os.path.isfile(shading.files.lut_path)
+    assert pipeline.blend_shading(textured, pipeline.Settings(blend=False), str(tmp_path), False).mode == "LINEAR"

@@ -60,7 +60,7 @@ def test_stats_json_on_the_sample_scene(tmp_path):
     assert stats["cache_hit"] is False
     check = ("import bpy\nm = bpy.data.objects['Suzanne'].data\n"
              "names = [l.name for l in m.uv_layers]\nprint('LAYERS', names)\n"
-             "assert names == ['TexSynth'], names\n"
+             "assert [n for n in names if n.startswith('TexSynth')] == ['TexSynth'], names\n"
              "assert 'TexSynth_Weights' in m.attributes\n"
              "assert bpy.data.objects['Suzanne'].material_slots[0].material.name == 'TexSynth: bricks.png'\n")
     reopened = blender_run.blender("--python-expr", check, blend_file=str(tmp_path / "out.blend"))
@@ -179,7 +179,7 @@ def test_texton_method_writes_layers_and_blended_edge_attributes(tmp_path):
         counts[name] = native_stats["blended_edges"]
         check = ("import bpy, numpy as np\nm = bpy.data.objects['Suzanne'].data\n"
                  "names = [l.name for l in m.uv_layers]\n"
-                 "assert names == ['TexSynth'], names\n"
+                 "assert [n for n in names if n.startswith('TexSynth')] == ['TexSynth'], names\n"
                  "a = m.attributes['TexSynth_EdgeBlended']\nassert (a.domain, a.data_type) == ('CORNER', 'FLOAT')\n"
                  "v = np.empty(len(m.loops), np.float32)\na.data.foreach_get('value', v)\n"
                  "print('BLENDED_CORNERS', int(v.sum()))\n"

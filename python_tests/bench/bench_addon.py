@@ -106,11 +106,12 @@ def smart_uv_project(obj):
     return seconds
 
 
-def blender_floor(obj, num_uv_layers, weights=True):
+def blender_floor(obj, num_uv_layers, num_colours=3):
     """Seconds of the Blender-only part of a Synthesize: the same bulk reads, num_uv_layers UV maps
-    and (weights) one float corner colour filled with foreach_set from ready float32 arrays
-    (allocated before timing), and the view-layer update bpy.ops runs after the operator. No
-    synthesis, no checks. With 1 UV map and no weights it is what Smart UV Project itself writes."""
+    and num_colours float corner colours (0.2: 1 UV map + blend sets 01, 23 + weights; 0.1 wrote
+    5 UV maps + weights) filled with foreach_set from ready float32 arrays (allocated before timing),
+    and the view-layer update bpy.ops runs after the operator. No synthesis, no checks. With 1 UV
+    map and no colours it is what Smart UV Project itself writes."""
     mesh = obj.data
     num_vertices, num_corners, num_polys = len(mesh.vertices), len(mesh.loops), len(mesh.polygons)
     uv = np.random.default_rng(0).random(num_corners * 2, dtype=np.float32)
@@ -126,8 +127,8 @@ def blender_floor(obj, num_uv_layers, weights=True):
     start = time.perf_counter()
     for index in range(num_uv_layers):
         mesh.uv_layers.new(name="Floor%d" % index, do_init=False).data.foreach_set("uv", uv)
-    if weights:
-        mesh.attributes.new("FloorWeights", "FLOAT_COLOR", "CORNER").data.foreach_set("color", colours)
+    for index in range(num_colours):
+        mesh.attributes.new("FloorColour%d" % index, "FLOAT_COLOR", "CORNER").data.foreach_set("color", colours)
     mesh.update()
     times["write"] = time.perf_counter() - start
     start = time.perf_counter()
@@ -174,7 +175,7 @@ def main():
         return report
 
     synthesis.Job.apply = recording_apply
-    operator_runs, undo_runs, floor_runs, minimal_floor_runs, smart_runs = [], [], [], [], []
+    operator_runs, undo_runs, floor_runs, minimal_floor_runs, smart_runs, old_floor_runs = [], [], [], [], [], []
     for run in range(args.repeat):
         target = copy_of(source, "Operator%d" % run)
         harness.select_only([target])
@@ -192,8 +193,11 @@ def main():
         target = copy_of(source, "Floor%d" % run)
         floor_runs.append(blender_floor(target, layer_counts[-1]))
         discard(target)
+        target = copy_of(source, "OldFloor%d" % run)
+        old_floor_runs.append(blender_floor(target, 5, 1))  # TexSynth 0.1's layers
+        discard(target)
         target = copy_of(source, "MinimalFloor%d" % run)
-        minimal_floor_runs.append(blender_floor(target, 1, weights=False)["total"])
+        minimal_floor_runs.append(blender_floor(target, 1, 0)["total"])
         discard(target)
 
         target = copy_of(source, "Smart%d" % run)
@@ -204,8 +208,12 @@ def main():
     floor = statistics.median(times["total"] for times in floor_runs)
     print("Smart UV Project:             %7.3f s" % smart)
     print("TexSynth Synthesize operator: %7.3f s  = %.3f x Smart UV Project (goal <= 0.1)" % (operator, operator / smart))
-    print("Blender-only floor:           %7.3f s  = %.3f x Smart UV Project (%d UV maps + weights, no synthesis)"
+    print("Blender-only floor:           %7.3f s  = %.3f x Smart UV Project (%d UV map + 3 corner colours, no synthesis)"
           % (floor, floor / smart, layer_counts[-1]))
+    old_floor = statistics.median(times["total"] for times in old_floor_runs)
+    write, old_write = (statistics.median(times["write"] for times in runs) for runs in (floor_runs, old_floor_runs))
+    print("0.1's layers (5 UV maps + weights) floor: %7.3f s; layer writes %.3f s now vs %.3f s then (%.2fx)"
+          % (old_floor, write, old_write, write / old_write))
     minimal_floor = statistics.median(minimal_floor_runs)
     print("Minimal floor:                %7.3f s  = %.3f x Smart UV Project (1 UV map, no weights, no synthesis)"
           % (minimal_floor, minimal_floor / smart))

@@ -176,10 +176,10 @@ def render(scene, path):
     return pixels.reshape(scene.render.resolution_y, scene.render.resolution_x, 4)[::-1].astype(np.float64)
 
 
-def synthesize(obj, sample_path, mode, world_size, seed, cache_dir):
+def synthesize(obj, sample_path, mode, world_size, seed, cache_dir, axis):
     from texsynth import pipeline, synthesis
     method = "TEXTON" if mode.startswith("texton") else "JUMPMAP"
-    settings = pipeline.Settings(method=method, sample_world_size=world_size, seed=seed,
+    settings = pipeline.Settings(method=method, sample_world_size=world_size, seed=seed, axis=axis,
                                  blend=not mode.endswith("_noblend"))
     report = synthesis.synthesize([obj], synthesis.Sample(path=sample_path), settings, cache_dir=cache_dir,
                                   material_mode="NONE")
@@ -225,11 +225,11 @@ def print_table(title, results, reference_mode):
         print("%-16s %6.3f %s %s  %s" % (mode, r["seam"], detail, repeat, " ".join("%.2f" % v for v in r["profile"])))
 
 
-def apply_mode(obj, mode, image, world_size, args, cache_dir):
+def apply_mode(obj, mode, image, world_size, args, cache_dir, axis=(0.0, 0.0, 1.0)):
     if mode in ("tiling", "box"):
         material = projected_material(mode, image, world_size, "FLAT" if mode == "tiling" else "BOX")
     else:
-        synthesize(obj, os.path.abspath(args.sample), mode, world_size, args.seed, cache_dir)
+        synthesize(obj, os.path.abspath(args.sample), mode, world_size, args.seed, cache_dir, axis)
         material = texsynth_material(image, blend_mode_of(mode), cache_dir,
                                      "TEXTON" if mode.startswith("texton") else "JUMPMAP")
     obj.data.materials.clear()
@@ -252,7 +252,8 @@ def plane_benchmark(args, cache_dir):
     own_repeat = blend_metrics.autocorrelation_peak(sample_luminance(image), sample_width // 4)
     results = {}
     for mode in args.modes:
-        apply_mode(obj, mode, image, world_size, args, cache_dir)
+        # Texture up = +y on the plane (the axis is projected on it): the same orientation as tiling.
+        apply_mode(obj, mode, image, world_size, args, cache_dir, axis=(0.0, 1.0, 0.0))
         rgba = render(scene, os.path.join(args.out, mode + ".png"))
         results[mode] = measure(rgba, distance, valid, sample_width // 4)
     print_table("plane: %d jittered triangles, %d edges, %dx%d px, 1 texel/px, sample %s (%dx%d); "

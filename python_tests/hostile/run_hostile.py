@@ -44,8 +44,9 @@ def run_cases(corpus, cases_file, cases, command=None):
             if not selector.select(timeout=max(0.0, limit - (time.monotonic() - started))):
                 worker.kill()
                 worker.wait()
-                results[running] = dict(outcome="hang", detail="no answer after %.0f s" % limit)
-                index = running + 1
+                stuck = running if running is not None else index  # None: hung before its first case
+                results[stuck] = dict(outcome="hang", detail="no answer after %.0f s: %s" % (limit, "".join(output)[-600:]))
+                index = stuck + 1
                 break
             line = worker.stdout.readline()
             if not line:  # worker exited
