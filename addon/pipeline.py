@@ -379,11 +379,20 @@ class BlendShading:
     files: HistogramFiles = None
     correlation_length: float = 1.0  # texels, of the image the blend reads (Gaussianized for HISTOGRAM)
     note: str = ""                   # why HISTOGRAM fell back to VARIANCE, if it did
+    means: dict = None               # VARIANCE: {srgb: mean} for both readings of the sample
+
+    def with_colour_space(self, srgb):
+        """Picks the mean for how Blender reads the image (known once the bpy image is loaded)."""
+        if self.means:
+            self.mean = self.means[bool(srgb)]
+        return self
 
 
-def blend_shading(native_input, settings, cache_dir, srgb):
+def blend_shading(native_input, settings, cache_dir, srgb=None):
     """BlendShading for the sample: the Gaussianization is computed (or read from the cache) for
-    HISTOGRAM; a sample it cannot serve falls back to VARIANCE, and `note` says why."""
+    HISTOGRAM; a sample it cannot serve falls back to VARIANCE, and `note` says why. Without `srgb`
+    (the bpy image not loaded yet: it is only loaded once the native calls accepted the file) both
+    means are kept; with_colour_space picks one."""
     if not settings.blend:
         return BlendShading()
     result = BlendShading(mode=settings.blend_mode)
@@ -399,7 +408,8 @@ def blend_shading(native_input, settings, cache_dir, srgb):
                 transform["fallback_reason"])
     if result.mode == "VARIANCE":
         looked_up = sample_pixels(native_input)
-        result.mean = shader_mean(looked_up, srgb)
+        result.means = {space: shader_mean(looked_up, space) for space in (False, True)}
+        result.with_colour_space(bool(srgb))
     if looked_up is not None and np.ndim(looked_up) == 3:
         result.correlation_length = correlation_length(looked_up)
     return result

@@ -110,8 +110,8 @@ class Job:
         self.objects, self.sample, self.settings = objects, sample, settings
         self.cache_dir, self.material_mode, self.scene = cache_dir, material_mode, scene
         self.preprocessed = preprocessed  # given: preprocessing is skipped (live updates)
-        self.pixels = self.view = self.image = None
-        self.srgb, self.shading = False, pipeline.BlendShading()
+        self.pixels = self.view = None
+        self.shading = pipeline.BlendShading()
         self.report, self.timings = pipeline.Report(), pipeline.Timings()
         self.items = []  # [obj, arrays, result]
         self.token = None
@@ -127,8 +127,6 @@ class Job:
         self.token = module.CancelToken() if hasattr(module, "CancelToken") else None
         with self.timings.phase("preprocess"):
             self.native_input = self.sample.native_input()
-            self.image = self.sample.shader_image() if self.material_mode != "NONE" else None
-        self.srgb = self.image is not None and self.image.colorspace_settings.name == "sRGB"
         self.cache_dir = self.cache_dir or default_cache_dir()
         if self.settings.method == "TEXTON":
             self.pixels = pipeline.sample_pixels(self.native_input)
@@ -175,10 +173,9 @@ class Job:
             preprocessed = self.preprocessed
             self.report.cache_hit = bool(preprocessed.cache_hit)
             self.report.cache_status = str(getattr(preprocessed, "cache_status", ""))
-            if self.image is not None and self.items:
+            if self.material_mode != "NONE" and self.items:
                 with self.timings.phase("preprocess"):
-                    self.shading = pipeline.blend_shading(self.native_input, self.settings, self.cache_dir,
-                                                          self.srgb)
+                    self.shading = pipeline.blend_shading(self.native_input, self.settings, self.cache_dir)
                 self.report.blend_mode = self.shading.mode
                 if self.shading.note:
                     self.report.notes.append(self.shading.note)
@@ -207,9 +204,13 @@ class Job:
         """Writes every computed result (main thread); returns the pipeline.Report."""
         progress = progress or (lambda fraction, text: None)
         self._check_cancelled()
-        inputs = None
-        if self.image is not None and any(item[2] is not None for item in self.items):
-            inputs = shading.blend_inputs(self.shading, self.image, self.settings.method)
+        # Loaded only now: Blender reads a file's header when loading it, and a hostile file must have
+        # been refused by the native checks before that (a truncated EXR header can hang Blender).
+        image = inputs = None
+        if self.material_mode != "NONE" and any(item[2] is not None for item in self.items):
+            image = self.sample.shader_image()
+            self.shading.with_colour_space(image.colorspace_settings.name == "sRGB")
+            inputs = shading.blend_inputs(self.shading, image, self.settings.method)
         for obj, arrays, result in self.items:
             if result is None:
                 continue
@@ -220,7 +221,7 @@ class Job:
                 with self.timings.phase("material"):
                     try:
                         bridge.fail_point("material")
-                        shading.apply_material(obj, self.image, self.material_mode, inputs)
+                        shading.apply_material(obj, image, self.material_mode, inputs)
                     except Exception as error:
                         bridge.restore(obj.data, snapshot)
                         raise bridge.MeshWriteError("material setup failed (mesh restored): %s" % error) from error

@@ -294,6 +294,8 @@ def test_blend_shading_falls_back_to_variance_for_flat_samples(tmp_path, real_na
     assert shading.mode == "VARIANCE" and shading.files is None
     assert "channel 0 is constant" in shading.note and "variance-preserving" in shading.note
     assert np.allclose(shading.mean, (0.25, 0.5, 0.0)) and np.isfinite(shading.correlation_length)
+    # Read as sRGB by Blender: the mean of the decoded values (0.25 -> 0.0508, 1 -> 1, 0 -> 0).
+    assert np.allclose(shading.with_colour_space(True).mean, (0.05087, 0.5, 0.0), atol=1e-4)
     textured = _blurred_noise(3.0, 64).astype(np.float32)
     shading = pipeline.blend_shading(textured, pipeline.Settings(), str(tmp_path), srgb=False)
     assert shading.mode == "HISTOGRAM" and shading.note == "" and os.path.isfile(shading.files.lut_path)

@@ -54,7 +54,7 @@ def generate(corpus, native_cases):
     for case in corrupt[::max(1, len(corrupt) // 12)]:
         cases.append(dict(id="blender/corrupt_" + case["id"], kind="mesh", mesh="meshes/grid_quads.npz",
                           settings=dict(scale=8.0), corrupt_cache=case["file"], expect="ok"))
-    for point in ("uv_layer", "sets", "weights", "extras", "material"):
+    for point in ("uv_layer", "sets", "weights", "material"):  # jump map: no "extras" (texton only)
         cases.append(dict(id="blender/fail_at/" + point, kind="mesh", mesh="meshes/tris_quads_20gon.npz",
                           settings=dict(scale=4.0), fail_at=point, expect="error"))
     with open(os.path.join(corpus, "blender_cases.json"), "w") as f:
