@@ -429,7 +429,8 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale, pixels=None, vi
     module = native.require()
     if mesh_arrays.num_faces == 0:
         raise SettingsError("mesh has no faces")
-    kwargs = dict(scale=float(scale), seed=int(seed),
+    # pack_sets: blend sets come back as blend_set_pairs, the layout of the RGBA set attributes.
+    kwargs = dict(scale=float(scale), seed=int(seed), pack_sets=True,
                   blend=bool(settings.blend), allow_oversized=bool(settings.allow_oversized))
     if settings.orientation == "AXIS":
         kwargs.update(orientation="axis", axis=tuple(float(c) for c in settings.axis))
@@ -466,7 +467,7 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale, pixels=None, vi
         result = dict(module.synthesize_jumpmap(preprocessed, *mesh, **kwargs))
     if not settings.blend:
         # Without blending the native single set is the base mapping with weight 1: write the base only.
-        result.update(num_blend_sets=0, blend_uv=None, blend_weights=None)
+        result.update(num_blend_sets=0, blend_uv=None, blend_set_pairs=None, blend_weights=None)
     return result  # validated by bridge.write_result before anything is written
 
 
@@ -484,7 +485,11 @@ def check_result(result, num_corners):
         raise SettingsError("native result has %d blend sets (at most %d supported)" % (sets, MAX_BLEND_SETS))
     expected = {"base_uv": (num_corners, 2)}
     if sets:
-        expected.update(blend_uv=(sets, num_corners, 2), blend_weights=(num_corners, sets))
+        expected.update(blend_weights=(num_corners, sets))
+        if result.get("blend_set_pairs") is not None:
+            expected.update(blend_set_pairs=((sets + 1) // 2, num_corners, 4))
+        else:
+            expected.update(blend_uv=(sets, num_corners, 2))
     for key, shape in expected.items():
         array = result[key]
         if array.shape != shape or array.dtype != np.float32:
@@ -514,8 +519,13 @@ def corner_attributes(result, num_corners):
 
 def blend_set_rgba(result, num_corners):
     """The blend-set coordinates as two flat float32 RGBA corner buffers: (u0, v0, u1, v1) and
-    (u2, v2, u3, v3); unused sets (3-set results) are 0."""
+    (u2, v2, u3, v3); unused sets (3-set results) are 0. Views of the native result when it came
+    packed (blend_set_pairs), else a repacking copy."""
     sets = int(result["num_blend_sets"])
+    pairs = result.get("blend_set_pairs")
+    if pairs is not None:
+        return [pairs[k].ravel() for k in range(2)] if pairs.shape[0] == 2 else \
+            [pairs[0].ravel(), np.zeros(num_corners * 4, np.float32)]
     blend_uv = result["blend_uv"]
     buffers = []
     for first in (0, 2):

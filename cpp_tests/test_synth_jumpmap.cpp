@@ -569,3 +569,32 @@ TEST(SynthJumpMap, RandomMalformedInputsNeverCrash) {
   EXPECT_GT(valid, 50);
   EXPECT_GT(rejected, 50);
 }
+
+// The add-on asks for the sets in RGBA pairs (CornerMapsView::packed_pairs); same values as set-major,
+// zeros in the unused half when S is odd, and pack_set_pairs repacks set-major arrays identically.
+TEST(SynthJumpMap, PackedPairsViewHoldsTheSameSets) {
+  auto pre = fixtures::planted(64, 64, 2, 1.0f, false, 4);
+  for (bool triangles : {true, false}) {
+    auto t = fixtures::grid(6, 6, 0.25, triangles, 0.3);
+    auto mesh = texsynth::build_mesh(t.input());
+    auto field = texsynth::compute_orientation_field(mesh, texsynth::FieldParams());
+    JumpSynthParams p;
+    p.scale = 9.0;
+    const auto plain = texsynth::synthesize_jumpmap(pre, mesh, field.data(), p);
+    const int32_t S = plain.maps.num_blend_sets, L = plain.maps.num_corners;
+    std::vector<float> base(size_t(L) * 2), pairs(size_t((S + 1) / 2) * L * 4, -7.f), weights(size_t(L) * S);
+    texsynth::CornerMapsView view{L, S, base.data(), pairs.data(), weights.data()};
+    view.packed_pairs = true;
+    texsynth::synthesize_jumpmap(pre, mesh, field.data(), p, view);
+    std::vector<float> repacked(pairs.size(), -7.f);
+    texsynth::pack_set_pairs(plain.maps.blend_uv.data(), S, L, repacked.data());
+    EXPECT_EQ(pairs, repacked);
+    for (int32_t c = 0; c < L; ++c)
+      for (int32_t s = 0; s < S + S % 2; ++s)
+        for (int k = 0; k < 2; ++k)
+          ASSERT_EQ(pairs[(size_t(s / 2) * L + c) * 4 + (s % 2) * 2 + k],
+                    s < S ? plain.maps.blend_uv[(size_t(s) * L + c) * 2 + k] : 0.f);
+    EXPECT_EQ(base, plain.maps.base_uv);
+    EXPECT_EQ(weights, plain.maps.blend_weights);
+  }
+}

@@ -71,6 +71,18 @@ def test_blend_set_rgba_packs_two_sets_per_attribute():
     assert np.all(first == 7.0) and np.all(second[:, :2] == 7.0) and np.all(second[:, 2:] == 0.0)
 
 
+def test_blend_set_rgba_uses_packed_native_pairs_without_copying():
+    result = _result(5, 4)
+    result["blend_set_pairs"] = np.arange(2 * 5 * 4, dtype=np.float32).reshape(2, 5, 4)
+    first, second = pipeline.blend_set_rgba(result, 5)
+    assert np.shares_memory(first, result["blend_set_pairs"]) and np.shares_memory(second, result["blend_set_pairs"])
+    assert list(second[:4]) == [20.0, 21.0, 22.0, 23.0]
+    pipeline.check_result(result, 5)  # shapes of the packed form are accepted
+    result["blend_set_pairs"] = result["blend_set_pairs"][:, :, :2].copy()
+    with pytest.raises(pipeline.SettingsError, match="blend_set_pairs"):
+        pipeline.check_result(result, 5)
+
+
 def test_shader_mean_decodes_srgb_like_blender():
     pixels = np.full((2, 3, 4), 0.5, np.float32)
     pixels[..., 3] = 0.25  # alpha is not colour

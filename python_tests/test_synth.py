@@ -195,3 +195,21 @@ def test_compute_field_modes(pre):
     painted[::2] = [0.0, -3.0, 0.0]
     filled = ts.compute_field(pos, corner_verts, starts, sizes, orientation="field", direction=painted)
     np.testing.assert_allclose(filled, np.tile([0.0, -1.0, 0.0], (pos.shape[0], 1)), atol=1e-6)
+
+
+@pytest.mark.parametrize("triangles", [True, False])
+def test_packed_set_pairs_hold_the_same_sets_as_blend_uv(pre, triangles):
+    """pack_sets=True: the sets come as (u0, v0, u1, v1), (u2, v2, u3, v3) per corner (the add-on's
+    RGBA attributes), bit-identical to blend_uv; an odd number of sets leaves zeros."""
+    mesh = grid(6, 0.3, triangles=triangles, jitter=0.3)
+    plain = ts.synthesize_jumpmap(pre, *mesh, scale=20.0, seed=4)
+    packed = ts.synthesize_jumpmap(pre, *mesh, scale=20.0, seed=4, pack_sets=True)
+    assert "blend_uv" not in packed and "blend_set_pairs" in plain.keys() | packed.keys()
+    sets, corners = plain["num_blend_sets"], len(mesh[1])
+    pairs = packed["blend_set_pairs"]
+    assert pairs.shape == ((sets + 1) // 2, corners, 4) and pairs.dtype == np.float32
+    for k in range(4):
+        expected = plain["blend_uv"][k] if k < sets else np.zeros((corners, 2), np.float32)
+        np.testing.assert_array_equal(pairs[k // 2][:, (k % 2) * 2:(k % 2) * 2 + 2], expected)
+    np.testing.assert_array_equal(packed["base_uv"], plain["base_uv"])
+    np.testing.assert_array_equal(packed["blend_weights"], plain["blend_weights"])

@@ -176,3 +176,15 @@ def test_deterministic_and_seed_dependent(pre, sample):
     c = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=10)
     np.testing.assert_array_equal(a["blend_uv"], b["blend_uv"])
     assert not np.array_equal(a["base_uv"], c["base_uv"])
+
+
+def test_packed_set_pairs_hold_the_same_sets_as_blend_uv(pre, sample):
+    mesh = grid(6, 0.2, triangles=True, jitter=0.3)
+    plain = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=2)
+    packed = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=2, pack_sets=True)
+    assert "blend_uv" not in packed
+    pairs = packed["blend_set_pairs"]
+    assert pairs.shape == (2, len(mesh[1]), 4) and pairs.dtype == np.float32
+    for k in range(4):
+        np.testing.assert_array_equal(pairs[k // 2][:, (k % 2) * 2:(k % 2) * 2 + 2], plain["blend_uv"][k])
+    np.testing.assert_array_equal(packed["blend_weights"], plain["blend_weights"])

@@ -18,7 +18,7 @@ void bind_synth(py::module_& m) {
          py::object poly_sizes, double scale, double jump_rate, uint64_t seed, bool blend, const std::string& orientation,
          py::object axis, py::object direction, py::object anchor_vertices, py::object anchor_directions,
          py::object sources, py::object sinks, py::object normals, py::object scale_multiplier, bool allow_oversized,
-         py::object cancel) {
+         py::object cancel, bool pack_sets) {
         OrientedMeshArgs args = oriented_mesh_args(positions, corner_verts, poly_starts, poly_sizes, normals, orientation,
                                                    axis, direction, anchor_vertices, anchor_directions, sources, sinks);
         const texsynth::PolyMeshInput& input = args.arrays.input;
@@ -34,10 +34,12 @@ void bind_synth(py::module_& m) {
         // Outputs allocated here (uninitialised) and written once by the core, no copies.
         const py::ssize_t L = input.num_corners;
         const int32_t S = texsynth::jumpmap_blend_sets(input.poly_sizes, input.num_polys, blend);
-        py::array_t<float> base_uv({L, py::ssize_t(2)}), blend_uv({py::ssize_t(S), L, py::ssize_t(2)}),
-            blend_weights({L, py::ssize_t(S)});
-        const texsynth::CornerMapsView view{input.num_corners, S, base_uv.mutable_data(), blend_uv.mutable_data(),
-                                            blend_weights.mutable_data()};
+        py::array_t<float> base_uv({L, py::ssize_t(2)}), blend_weights({L, py::ssize_t(S)});
+        py::array_t<float> blend_uv = pack_sets ? py::array_t<float>({py::ssize_t((S + 1) / 2), L, py::ssize_t(4)})
+                                                : py::array_t<float>({py::ssize_t(S), L, py::ssize_t(2)});
+        texsynth::CornerMapsView view{input.num_corners, S, base_uv.mutable_data(), blend_uv.mutable_data(),
+                                      blend_weights.mutable_data()};
+        view.packed_pairs = pack_sets;
         texsynth::JumpSynthResult r;
         {
           py::gil_scoped_release release;
@@ -57,7 +59,7 @@ void bind_synth(py::module_& m) {
         stats["seconds"] = r.stats.seconds;
         py::dict out;
         out["base_uv"] = base_uv;
-        out["blend_uv"] = blend_uv;
+        out[pack_sets ? "blend_set_pairs" : "blend_uv"] = blend_uv;
         out["blend_weights"] = blend_weights;
         out["num_blend_sets"] = S;
         out["stats"] = stats;
@@ -68,9 +70,11 @@ void bind_synth(py::module_& m) {
       py::arg("orientation") = "axis", py::arg("axis") = py::make_tuple(0.0, 0.0, 1.0), py::arg("direction") = py::none(),
       py::arg("anchor_vertices") = py::none(), py::arg("anchor_directions") = py::none(), py::arg("sources") = py::none(),
       py::arg("sinks") = py::none(), py::arg("normals") = py::none(), py::arg("scale_multiplier") = py::none(),
-      py::arg("allow_oversized") = false, py::arg("cancel") = py::none(),
+      py::arg("allow_oversized") = false, py::arg("cancel") = py::none(), py::arg("pack_sets") = false,
       "Jump-map synthesis (Zelinka & Garland 2003) on a Blender-layout mesh. scale = texels per object unit.\n"
-      "Returns dict: base_uv (L, 2), blend_uv (S, L, 2), blend_weights (L, S) float32 (one-hot per corner), "
+      "Returns dict: base_uv (L, 2), blend_uv (S, L, 2) (with pack_sets=True instead blend_set_pairs "
+      "((S+1)/2, L, 4): (u0, v0, u1, v1), (u2, v2, u3, v3) per corner, 0 in an odd S's last slot), "
+      "blend_weights (L, S) float32 (one-hot per corner), "
       "num_blend_sets S (3 all triangles, 4 otherwise, 1 when blend=False) and stats (faces, vertices, corners, "
       "components, jumps, fallback_vertices, fallback_faces, oversized_faces, max_oversize_ratio, seconds). ValueError on bad input "
       "and, unless allow_oversized, when faces are larger than the sample at this scale. cancel: a CancelToken; "

@@ -42,7 +42,7 @@ void bind_texton(py::module_& m) {
          int max_vote_points, int max_votes, double tie_tolerance, const std::string& orientation, py::object axis, py::object direction,
          py::object anchor_vertices, py::object anchor_directions, py::object sources, py::object sinks,
          py::object normals, py::object scale_multiplier, py::object camera_position, py::object blend_threshold,
-         double lambda, bool allow_oversized, py::object cancel) {
+         double lambda, bool allow_oversized, py::object cancel, bool pack_sets) {
         OrientedMeshArgs args = oriented_mesh_args(positions, corner_verts, poly_starts, poly_sizes, normals, orientation,
                                                    axis, direction, anchor_vertices, anchor_directions, sources, sinks);
         FloatArray pixels = float_array(sample_pixels, "sample_pixels");
@@ -70,10 +70,16 @@ void bind_texton(py::module_& m) {
           if (std::isnan(params.blend_threshold)) throw std::invalid_argument("blend_threshold must not be NaN");
         }
         texsynth::TextonSynthResult r;
+        std::vector<float> pairs;  // pack_sets: the sets in the add-on's RGBA-pair layout
         {
           py::gil_scoped_release release;
           const OrientedMeshArgs::Built built = args.build();
           r = texsynth::synthesize_texton(pre, built.mesh, built.up.data(), sample, params);
+          if (pack_sets) {
+            pairs.resize(size_t((r.maps.num_blend_sets + 1) / 2) * size_t(r.maps.num_corners) * 4);
+            texsynth::pack_set_pairs(r.maps.blend_uv.data(), r.maps.num_blend_sets, r.maps.num_corners, pairs.data());
+            std::vector<float>().swap(r.maps.blend_uv);
+          }
         }
         const py::ssize_t L = r.maps.num_corners, S = r.maps.num_blend_sets, E = r.edges.num_edges();
         // Per corner: the edge from this corner to the next (what the add-on shows as attributes).
@@ -97,7 +103,10 @@ void bind_texton(py::module_& m) {
         stats["seconds"] = r.stats.seconds;
         py::dict out;
         out["base_uv"] = to_numpy(std::move(r.maps.base_uv), {L, 2});
-        out["blend_uv"] = to_numpy(std::move(r.maps.blend_uv), {S, L, 2});
+        if (pack_sets)
+          out["blend_set_pairs"] = to_numpy(std::move(pairs), {(S + 1) / 2, L, 4});
+        else
+          out["blend_uv"] = to_numpy(std::move(r.maps.blend_uv), {S, L, 2});
         out["blend_weights"] = to_numpy(std::move(r.maps.blend_weights), {L, S});
         out["num_blend_sets"] = r.maps.num_blend_sets;
         out["stats"] = stats;
@@ -117,7 +126,7 @@ void bind_texton(py::module_& m) {
       py::arg("anchor_vertices") = py::none(), py::arg("anchor_directions") = py::none(), py::arg("sources") = py::none(),
       py::arg("sinks") = py::none(), py::arg("normals") = py::none(), py::arg("scale_multiplier") = py::none(),
       py::arg("camera_position") = py::none(), py::arg("blend_threshold") = py::none(), py::arg("lambda_") = 1.0,
-      py::arg("allow_oversized") = false, py::arg("cancel") = py::none(),
+      py::arg("allow_oversized") = false, py::arg("cancel") = py::none(), py::arg("pack_sets") = false,
       "Texton-string patch synthesis (Magda & Kriegman 2003) on a Blender-layout mesh. sample_pixels: the (H, W[, C]) "
       "float image given to preprocess (for E_t). scale = texels per object unit.\n"
       "Returns dict with synthesize_jumpmap's keys (base_uv, blend_uv, blend_weights, num_blend_sets, stats) plus "

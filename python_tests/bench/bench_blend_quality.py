@@ -3,7 +3,7 @@
 
   blender -b --factory-startup --python-exit-code 1 --python python_tests/bench/bench_blend_quality.py -- \\
       [--sample blend_samples/bricks.png] [--modes tiling,box,jumpmap,jumpmap_variance,jumpmap_linear,...]
-      [--pixels 512] [--cells 10] [--seed 3] [--out out/bench_blend]
+      [--pixels 512] [--cells 10] [--seed 3] [--out out/bench_blend] [--scenes plane,curved]
 
 Scene 1: a jittered triangulated plane seen from straight above by an orthographic camera, flat emission
 shading (no lights), scaled so that one sample texel covers one pixel. Each mode renders the same view
@@ -54,6 +54,7 @@ def parse_args():
     parser.add_argument("--cells", type=int, default=10, help="grid cells per side (2 triangles each)")
     parser.add_argument("--seed", type=int, default=3)
     parser.add_argument("--out", default=os.path.join(ROOT, "out", "bench_blend"))
+    parser.add_argument("--scenes", default="plane,curved", help="plane and/or curved")
     args = parser.parse_args(harness.script_args())
     args.modes = [m for m in args.modes.split(",") if m]
     unknown = set(args.modes) - set(MODES)
@@ -326,8 +327,10 @@ def main():
     args = parse_args()
     os.makedirs(args.out, exist_ok=True)
     cache_dir = tempfile.mkdtemp(prefix="texsynth_bench_cache_")
-    plane_benchmark(args, cache_dir)
-    curved_benchmark(args, cache_dir)
+    if "plane" in args.scenes:
+        plane_benchmark(args, cache_dir)
+    if "curved" in args.scenes:
+        curved_benchmark(args, cache_dir)
     print("\nbench_blend_quality: renders and edge masks in %s" % args.out)
 
 

@@ -512,7 +512,6 @@ class Synthesizer {
   // its own corners, so this is order-independent and runs in parallel.
   void write_corners(const CornerMapsView& out) const {
     const int32_t S = out.num_blend_sets;
-    const size_t L = size_t(m_.num_corners);
     const uint64_t poly_seed = splitmix64(p_.seed ^ 0x62617365ull);  // "base"
     const float inv_w = 1.f / W_, inv_h = 1.f / H_;
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 2048), [&](const tbb::blocked_range<int32_t>& range) {
@@ -521,38 +520,41 @@ class Synthesizer {
         const int32_t n = m_.poly_sizes[poly];
         const size_t first = size_t(m_.poly_starts[poly]);
         const float* xy = &corner_offset_[2 * first];
-        auto put = [&](float* uv, int32_t i, float x, float y) {
+        // Writes corner i of the polygon in set `set` (-1: the base mapping).
+        auto put = [&](int32_t set, int32_t i, float x, float y) {
           if (!tileable_) x = std::clamp(x, 0.f, W_), y = std::clamp(y, 0.f, H_);
-          uv[2 * (first + i)] = x * inv_w;
-          uv[2 * (first + i) + 1] = 1.f - y * inv_h;
+          float* uv = set < 0 ? out.base_uv + 2 * (first + i) : out.set_uv(set, first + i);
+          uv[0] = x * inv_w;
+          uv[1] = 1.f - y * inv_h;
         };
         // The polygon's own mapping grown from corner `from` (polygon frame: an exact similarity).
-        auto grow = [&](int32_t from, float* uv) {
+        auto grow = [&](int32_t from, int32_t set) {
           const int32_t v = m_.corner_verts[first + from];
           const float ax = state_[v].address[0] - xy[2 * from], ay = state_[v].address[1] - xy[2 * from + 1];
-          for (int32_t i = 0; i < n; ++i) put(uv, i, ax + xy[2 * i], ay + xy[2 * i + 1]);
+          for (int32_t i = 0; i < n; ++i) put(set, i, ax + xy[2 * i], ay + xy[2 * i + 1]);
         };
         // The mapping of corner `from`'s vertex, continuous across the polygon's edges (vertex_set_offsets).
-        auto grow_vertex = [&](int32_t from, float* uv) {
-          if (n > kMaxSetCorners) return grow(from, uv);
+        auto grow_vertex = [&](int32_t from, int32_t set) {
+          if (n > kMaxSetCorners) return grow(from, set);
           float offsets[2 * kMaxSetCorners];
           vertex_set_offsets(poly, from, offsets);
           const int32_t v = m_.corner_verts[first + from];
-          for (int32_t i = 0; i < n; ++i) put(uv, i, state_[v].address[0] + offsets[2 * i], state_[v].address[1] + offsets[2 * i + 1]);
+          for (int32_t i = 0; i < n; ++i) put(set, i, state_[v].address[0] + offsets[2 * i], state_[v].address[1] + offsets[2 * i + 1]);
         };
         const int32_t base = int32_t(((splitmix64(poly_seed + uint64_t(poly)) >> 32) * uint64_t(n)) >> 32);
-        grow(base, out.base_uv);
+        grow(base, -1);
         for (int32_t set = 0; set < S; ++set) {
-          float* uv = out.blend_uv + size_t(set) * L * 2;
           if (S == 1) {
-            grow(base, uv);
+            grow(base, set);
           } else if (n <= S) {
-            if (set < n) grow_vertex(set, uv);
-            else grow(base, uv);  // weight 0 everywhere
+            if (set < n) grow_vertex(set, set);
+            else grow(base, set);  // weight 0 everywhere
           } else {
-            grow_vertex(int32_t((int64_t(set) * n + S - 1) / S), uv);
+            grow_vertex(int32_t((int64_t(set) * n + S - 1) / S), set);
           }
         }
+        if (out.packed_pairs && S % 2 == 1)  // the last pair's unused half
+          for (int32_t i = 0; i < n; ++i) out.set_uv(S, first + i)[0] = out.set_uv(S, first + i)[1] = 0.f;
         for (int32_t i = 0; i < n; ++i) {
           const int32_t one = S == 1 ? 0 : n <= S ? i : int32_t(int64_t(i) * S / n);
           float* w = out.blend_weights + (first + i) * S;
@@ -581,6 +583,17 @@ class Synthesizer {
 };
 
 }  // namespace
+
+void pack_set_pairs(const float* blend_uv, int32_t num_blend_sets, int32_t num_corners, float* pairs) {
+  const size_t L = size_t(num_corners);
+  for (int32_t set = 0; set < num_blend_sets + num_blend_sets % 2; ++set)
+    for (size_t c = 0; c < L; ++c) {
+      float* to = pairs + (size_t(set / 2) * L + c) * 4 + size_t(set % 2) * 2;
+      const bool used = set < num_blend_sets;
+      to[0] = used ? blend_uv[(size_t(set) * L + c) * 2] : 0.f;
+      to[1] = used ? blend_uv[(size_t(set) * L + c) * 2 + 1] : 0.f;
+    }
+}
 
 int32_t jumpmap_blend_sets(const int32_t* poly_sizes, int32_t num_polys, bool blend) {
   if (!blend) return 1;
