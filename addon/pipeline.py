@@ -18,7 +18,11 @@ METHODS = ("JUMPMAP", "TEXTON")
 IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON")
 ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
 SCALE_SOURCES = ("NONE", "ATTRIBUTE", "VERTEX_GROUP")
-BLEND_MODES = ("HISTOGRAM", "VARIANCE", "LINEAR")  # see shading.py
+BLEND_MODES = ("AUTO", "HISTOGRAM", "VARIANCE", "LINEAR")  # see shading.py
+# AUTO: what measured best per method (README, Blending): the jump map blends up to three unrelated
+# patches everywhere, and keeps its contrast only with HISTOGRAM; texton patches blend in narrow
+# zones with neighbours the search matched, where LINEAR keeps detail (1.028 of tiling) and is cheaper.
+AUTO_BLEND_MODE = {"JUMPMAP": "HISTOGRAM", "TEXTON": "LINEAR"}
 # Texton method: each face shows its own patch beyond this distance from its edges (barycentric-like
 # units, 1/3 at a triangle's centre) and fades to the vertex mappings toward them (shading.py).
 TEXTON_PATCH_ZONE = 0.15
@@ -54,7 +58,10 @@ class Settings:
     blend: bool = True
     # How the shader cross-fades the blend sets: HISTOGRAM keeps the sample's histogram (Gaussianized
     # look-ups, variance-preserving blend, inverse look-up table), VARIANCE keeps its variance, LINEAR averages.
-    blend_mode: str = "HISTOGRAM"
+    blend_mode: str = "AUTO"
+
+    def resolved_blend_mode(self):
+        return AUTO_BLEND_MODE.get(self.method, "HISTOGRAM") if self.blend_mode == "AUTO" else self.blend_mode
     orientation: str = "AXIS"
     axis: tuple = (0.0, 0.0, 1.0)
     direction_attribute: str = ""    # FIELD: per-vertex vectors; ANCHORS: non-zero vectors mark anchors
@@ -395,7 +402,7 @@ def blend_shading(native_input, settings, cache_dir, srgb=None):
     means are kept; with_colour_space picks one."""
     if not settings.blend:
         return BlendShading()
-    result = BlendShading(mode=settings.blend_mode)
+    result = BlendShading(mode=settings.resolved_blend_mode())
     looked_up = None
     if result.mode == "HISTOGRAM":
         transform = native.require().histogram_transform(load_sample(native_input), cache_dir=cache_dir)

@@ -73,11 +73,12 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                   description="Write blend sets and weights that hide patch seams")
     blend_mode: bpy.props.EnumProperty(
         name="Blend Mode",
-        items=(("HISTOGRAM", "Histogram", "Keep the sample's contrast and colours where patches overlap "
+        items=(("AUTO", "Auto", "Histogram for jump maps, Linear for texton patches (what measured best for each)"),
+               ("HISTOGRAM", "Histogram", "Keep the sample's contrast and colours where patches overlap "
                 "(Gaussianized look-ups; slightly more shader work)"),
                ("VARIANCE", "Variance", "Keep the sample's contrast where patches overlap"),
                ("LINEAR", "Linear", "Plain cross-fade: cheapest, but overlaps look washed out")),
-        default="HISTOGRAM")
+        default="AUTO")
     blend_threshold: bpy.props.FloatProperty(
         name="Blend Threshold", default=0.0, min=0.0, soft_max=50.0,
         description="Texton method: blend only edges whose seam, seen from the scene camera, exceeds this "

@@ -26,7 +26,7 @@ GROUP_PREFIX = "TexSynth Blend: "
 MATERIAL_PREFIX = "TexSynth: "
 NODE_PREFIX = "TexSynth "
 TARGETS = ("Base Color", "Roughness", "Metallic", "Normal")  # Principled inputs named alike in 3.x and 4.x
-BLEND_MODES = ("HISTOGRAM", "VARIANCE", "LINEAR")
+BLEND_MODES = ("HISTOGRAM", "VARIANCE", "LINEAR")  # resolved modes (pipeline.Settings also has AUTO)
 MODE_SUFFIX = {"HISTOGRAM": "", "VARIANCE": " (variance)", "LINEAR": " (linear)"}
 
 

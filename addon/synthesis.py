@@ -236,7 +236,7 @@ class Job:
 def blend_inputs(image, mode="HISTOGRAM", cache_dir=None, method="JUMPMAP"):
     """shading.BlendInputs for any image of the .blend (e.g. a roughness or normal map driven through
     the same mapping): Gaussianizes it for HISTOGRAM (cached), falling back to VARIANCE as Synthesize does."""
-    settings = pipeline.Settings(blend_mode=mode).validate()
+    settings = pipeline.Settings(blend_mode=mode, method=method).validate()
     srgb = image.colorspace_settings.name == "sRGB"
     blend = pipeline.blend_shading(Sample(image=image).native_input(), settings, cache_dir or default_cache_dir(), srgb)
     return shading.blend_inputs(blend, image, method)

@@ -3,7 +3,7 @@
 
   blender -b [scene.blend] --python-exit-code 1 --python addon/texsynth_cli.py -- \\
       --sample IMAGE (--object NAME | --mesh FILE.obj|.ply|.stl) [--method jumpmap|texton] [--scale S]
-      [--seed N] [--no-blend] [--blend-mode histogram|variance|linear] [--blend-threshold PHI]
+      [--seed N] [--no-blend] [--blend-mode auto|histogram|variance|linear] [--blend-threshold PHI]
       [--direction-attribute NAME]
       [--scale-attribute NAME | --scale-group NAME [--scale-range LO HI]] [--save OUT.blend]
       [--render OUT.png] [--resolution W H] [--stats OUT.json]
@@ -52,8 +52,9 @@ def parse_args(argv):
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--jump-rate", type=float, default=20.0)
     parser.add_argument("--no-blend", action="store_true", help="only the base UV layer, no blend sets")
-    parser.add_argument("--blend-mode", choices=("histogram", "variance", "linear"), default="histogram",
-                        help="how the shader cross-fades the blend sets (default: histogram)")
+    parser.add_argument("--blend-mode", choices=("auto", "histogram", "variance", "linear"), default="auto",
+                        help="how the shader cross-fades the blend sets (default auto: histogram for jump maps, "
+                             "linear for texton patches)")
     parser.add_argument("--blend-threshold", type=float, default=0.0,
                         help="texton method: blend only edges whose blending metric from the scene camera "
                              "exceeds this (0 = every edge)")

@@ -32,6 +32,13 @@ def test_valid_settings_pass_and_each_bad_setting_is_named():
             pipeline.Settings(sample_world_size=inf).validate()
 
 
+def test_auto_blend_mode_is_histogram_for_jump_maps_and_linear_for_texton():
+    assert pipeline.Settings().blend_mode == "AUTO"
+    assert pipeline.Settings(method="JUMPMAP").resolved_blend_mode() == "HISTOGRAM"
+    assert pipeline.Settings(method="TEXTON").resolved_blend_mode() == "LINEAR"
+    assert pipeline.Settings(method="TEXTON", blend_mode="VARIANCE").resolved_blend_mode() == "VARIANCE"
+
+
 def test_texels_per_unit_is_width_over_world_size():
     # A 256-texel sample spanning 2 world units puts 128 texels on each unit.
     assert pipeline.texels_per_unit(256, 2.0) == 128.0
