@@ -62,19 +62,6 @@ def ensure_group_socket(group, name, in_out, socket_type):
         sockets.new(socket_type, name)
 
 
-def new_separate_color_node(nodes):
-    """A node splitting a colour into R, G, B outputs (ShaderNodeSeparateColor since 3.3)."""
-    if hasattr(bpy.types, "ShaderNodeSeparateColor"):
-        return nodes.new("ShaderNodeSeparateColor")
-    return nodes.new("ShaderNodeSeparateRGB")
-
-
-def separate_color_outputs(node):
-    """The three channel outputs of new_separate_color_node()."""
-    names = ("Red", "Green", "Blue") if node.bl_idname == "ShaderNodeSeparateColor" else ("R", "G", "B")
-    return [node.outputs[name] for name in names]
-
-
 def import_mesh_file(path):
     """Imports an .obj/.ply/.stl with whichever operator this Blender has; returns the new objects."""
     extension = os.path.splitext(path)[1].lower()
