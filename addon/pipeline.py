@@ -59,9 +59,6 @@ class Settings:
     # How the shader cross-fades the blend sets: HISTOGRAM keeps the sample's histogram (Gaussianized
     # look-ups, variance-preserving blend, inverse look-up table), VARIANCE keeps its variance, LINEAR averages.
     blend_mode: str = "AUTO"
-
-    def resolved_blend_mode(self):
-        return AUTO_BLEND_MODE.get(self.method, "HISTOGRAM") if self.blend_mode == "AUTO" else self.blend_mode
     orientation: str = "AXIS"
     axis: tuple = (0.0, 0.0, 1.0)
     direction_attribute: str = ""    # FIELD: per-vertex vectors; ANCHORS: non-zero vectors mark anchors
@@ -116,6 +113,9 @@ class Settings:
         if not isinstance(self.neighbourhood, int) or self.neighbourhood < 3 or self.neighbourhood % 2 == 0:
             raise SettingsError("neighbourhood must be an odd integer >= 3, got %r" % (self.neighbourhood,))
         return self
+
+    def resolved_blend_mode(self):
+        return AUTO_BLEND_MODE.get(self.method, "HISTOGRAM") if self.blend_mode == "AUTO" else self.blend_mode
 
     def preprocess_params(self):
         """Keyword arguments of texsynth_native.preprocess / cache_status that key the cache."""
@@ -342,12 +342,15 @@ def shader_mean(pixels, srgb):
     return tuple(float(m) for m in (np.repeat(mean, 3) if mean.size == 1 else mean))
 
 
-def correlation_length(pixels, max_lag=64):
+def correlation_length(pixels, max_lag=64, max_side=512):
     """Correlation length (texels) of an H x W x C sample: the smallest offset along x or y at which
     its autocorrelation (colour channels standardised and averaged; circular, by FFT) falls below
     exp(-1/2), the value a Gaussian autocorrelation exp(-d^2 / (2 l^2)) has at d = l. Constant
-    samples give 1."""
-    pixels = np.asarray(pixels, dtype=np.float64)
+    samples give 1. Lags go up to max_lag, so a centred crop of max_side texels is enough: a 4K
+    sample would otherwise cost seconds and GBs of FFT buffers on every run."""
+    pixels = np.asarray(pixels)
+    top, left = max(0, (pixels.shape[0] - max_side) // 2), max(0, (pixels.shape[1] - max_side) // 2)
+    pixels = pixels[top:top + max_side, left:left + max_side].astype(np.float64)
     colour = pixels[:, :, :1] if pixels.shape[2] <= 2 else pixels[:, :, :3]
     height, width = colour.shape[:2]
     total = np.zeros((height, width))

@@ -123,48 +123,14 @@ class Synthesizer {
     face_texel_offsets(m_, poly, [this](int32_t v) { return v3(state_[v].up); }, p_.scale, p_.scale_multiplier, xy);
   }
 
-  // Edge from -> to unfolded into FROM's tangent frame: the direction of its tangent projection, its
-  // full 3D length (x scale x multiplier). It depends on the edge alone, not on the polygon.
-  void unfold_edge(int32_t from, int32_t to, float& dx, float& dy) const {
-    const VertexState& s = state_[from];
-    const V3 e = pos(to) - pos(from);
-    const double x = dot(e, v3(s.right)), y = dot(e, v3(s.up));
-    const double tangent = std::sqrt(x * x + y * y), length = norm(e);
-    const double k = tangent > 1e-12 * length && tangent > 0 ? p_.scale * double(multiplier(from)) * length / tangent : 0.0;
-    dx = float(x * k);
-    dy = float(-y * k);
-  }
-
-  // Offsets (texels) of polygon `poly`'s corners from the address of corner `from`'s vertex v in
-  // the blend set grown from v. Corners next to `from` are its edges unfolded (unfold_edge), so
-  // two polygons sharing an edge (v, w) give v's mapping the same value at w: both blend the same
-  // mappings with the same weights along the edge, and the colour is continuous across it (C0),
-  // also where polygon frames differ. A quad's opposite corner completes the parallelogram (plus the
-  // polygon's own deviation from one); other corners of n-gons follow the polygon frame.
-  void vertex_set_offsets(int32_t poly, int32_t from, float* out) const {
-    const int32_t n = m_.poly_sizes[poly];
-    const int32_t* cv = m_.corner_verts + m_.poly_starts[poly];
-    const float* xy = &corner_offset_[2 * size_t(m_.poly_starts[poly])];
-    const int32_t next = (from + 1) % n, prev = (from + n - 1) % n;
-    for (int32_t i = 0; i < n; ++i) {
-      if (i == from) {
-        out[2 * i] = out[2 * i + 1] = 0.f;
-      } else if (i == next || i == prev) {
-        unfold_edge(cv[from], cv[i], out[2 * i], out[2 * i + 1]);
-      }
-    }
-    for (int32_t i = 0; i < n; ++i) {
-      if (i == from || i == next || i == prev) continue;
-      if (n == 4) {  // deviation from a parallelogram, in the same (vertex) frame as the edges
-        const VertexState& s = state_[cv[from]];
-        const V3 d = pos(cv[i]) - pos(cv[next]) - pos(cv[prev]) + pos(cv[from]);
-        const double k = p_.scale * double(multiplier(cv[from]));
-        out[2 * i] = out[2 * next] + out[2 * prev] + float(dot(d, v3(s.right)) * k);
-        out[2 * i + 1] = out[2 * next + 1] + out[2 * prev + 1] - float(dot(d, v3(s.up)) * k);
-      } else {
-        for (int k = 0; k < 2; ++k) out[2 * i + k] = xy[2 * i + k] - xy[2 * from + k];
-      }
-    }
+  // Vertex v's frame as the blend set grown from v uses it (vertex_mapping_offsets): its tangent
+  // frame, scale × v's multiplier.
+  FaceFrame vertex_frame(int32_t v) const {
+    FaceFrame f;
+    f.right = v3(state_[v].right);
+    f.up = v3(state_[v].up);
+    f.scale = p_.scale * double(multiplier(v));
+    return f;
   }
 
   // Texel-space bounds of polygon `poly`'s corner offsets, including corner 0's (0, 0).
@@ -232,11 +198,11 @@ class Synthesizer {
           const double x = corner_offset_[2 * size_t(c)], y = corner_offset_[2 * size_t(c) + 1];
           include(float(b.min_x - x), float(b.min_y - y));  // the base mapping (polygon frame)
           include(float(b.max_x - x), float(b.max_y - y));
-          if (blend_) {  // the blend set grown from v (see vertex_set_offsets)
+          if (blend_) {  // the blend set grown from v (see vertex_mapping_offsets)
             float offsets[2 * kMaxSetCorners];
             const int32_t n = m_.poly_sizes[poly];
             if (n <= kMaxSetCorners) {
-              vertex_set_offsets(poly, c - m_.poly_starts[poly], offsets);
+              vertex_mapping_offsets(m_, poly, c - m_.poly_starts[poly], vertex_frame(v), offsets);
               for (int32_t i = 0; i < n; ++i) include(offsets[2 * i], offsets[2 * i + 1]);
             } else {  // n-gon sets follow the polygon frame (see write_corners)
               include(float(b.min_x - x), float(b.min_y - y));
@@ -533,12 +499,12 @@ class Synthesizer {
           const float ax = state_[v].address[0] - xy[2 * from], ay = state_[v].address[1] - xy[2 * from + 1];
           for (int32_t i = 0; i < n; ++i) put(set, i, ax + xy[2 * i], ay + xy[2 * i + 1]);
         };
-        // The mapping of corner `from`'s vertex, continuous across the polygon's edges (vertex_set_offsets).
+        // The mapping of corner `from`'s vertex, continuous across the polygon's edges (vertex_mapping_offsets).
         auto grow_vertex = [&](int32_t from, int32_t set) {
           if (n > kMaxSetCorners) return grow(from, set);
           float offsets[2 * kMaxSetCorners];
-          vertex_set_offsets(poly, from, offsets);
           const int32_t v = m_.corner_verts[first + from];
+          vertex_mapping_offsets(m_, poly, from, vertex_frame(v), offsets);
           for (int32_t i = 0; i < n; ++i) put(set, i, state_[v].address[0] + offsets[2 * i], state_[v].address[1] + offsets[2 * i + 1]);
         };
         const int32_t base = int32_t(((splitmix64(poly_seed + uint64_t(poly)) >> 32) * uint64_t(n)) >> 32);

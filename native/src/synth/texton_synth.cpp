@@ -492,37 +492,11 @@ class TextonSynthesizer {
     return out;
   }
 
-  // Texels of vertex mapping vm over polygon `poly` (at most 4 corners), whose corner i is the vertex.
+  // Texels of vertex mapping vm over polygon `poly` (at most 4 corners), whose corner i is the vertex:
+  // the owner polygon's frame (see texton_synth.hpp).
   void vertex_set_values(const VertexMapping& vm, int32_t poly, int32_t i, float* xy) const {
-    const int32_t n = m_.poly_sizes[poly];
-    const int32_t* cv = m_.corner_verts + m_.poly_starts[poly];
-    const int32_t next = (i + 1) % n, prev = (i + n - 1) % n;
-    xy[2 * i] = vm.x, xy[2 * i + 1] = vm.y;
-    for (int32_t j : {next, prev}) {
-      unfold_edge(vm, cv[i], cv[j], xy[2 * j], xy[2 * j + 1]);
-      xy[2 * j] += vm.x, xy[2 * j + 1] += vm.y;
-    }
-    if (n == 4) {  // opposite corner: the parallelogram, plus the quad's deviation from one
-      const int32_t o = (i + 2) % 4;
-      const FaceFrame& f = frame_[vm.poly];
-      const V3 d = v3(m_.positions + 3 * size_t(cv[o])) - v3(m_.positions + 3 * size_t(cv[next])) -
-                   v3(m_.positions + 3 * size_t(cv[prev])) + v3(m_.positions + 3 * size_t(cv[i]));
-      xy[2 * o] = xy[2 * next] + xy[2 * prev] - vm.x + float(dot(d, f.right) * f.scale);
-      xy[2 * o + 1] = xy[2 * next + 1] + xy[2 * prev + 1] - vm.y - float(dot(d, f.up) * f.scale);
-    }
-  }
-
-  // Texel offset of edge from -> to in vertex `from`'s mapping: the edge unfolded into the owner
-  // polygon's frame (direction of its projection on that plane, full 3D length). A function of the
-  // edge alone, so both polygons on the edge give the mapping the same value at `to`.
-  void unfold_edge(const VertexMapping& vm, int32_t from, int32_t to, float& dx, float& dy) const {
-    const FaceFrame& f = frame_[vm.poly];
-    const V3 e = v3(m_.positions + 3 * size_t(to)) - v3(m_.positions + 3 * size_t(from));
-    const double x = dot(e, f.right), y = dot(e, f.up);
-    const double tangent = std::sqrt(x * x + y * y), length = norm(e);
-    const double k = tangent > 1e-12 * length && tangent > 0 ? f.scale * length / tangent : 0.0;
-    dx = float(x * k);
-    dy = float(-y * k);
+    vertex_mapping_offsets(m_, poly, i, frame_[vm.poly], xy);
+    for (int32_t k = 0; k < m_.poly_sizes[poly]; ++k) xy[2 * k] += vm.x, xy[2 * k + 1] += vm.y;
   }
 
   // Pass 3 (parallel, each polygon writes its own corners): blend sets, see texton_synth.hpp.

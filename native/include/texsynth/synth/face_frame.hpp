@@ -98,4 +98,34 @@ void face_texel_offsets(const Mesh& m, int32_t poly, UpOf&& up_of, double scale,
   face_texel_offsets(m, poly, face_frame(m, poly, up_of, scale, multiplier), xy);
 }
 
+// Edge vector e unfolded into frame f: the direction of its projection on the frame, its full 3D
+// length (× scale). A function of the edge and the frame alone, whichever polygon asks.
+inline void unfold_edge(const V3& e, const FaceFrame& f, float& dx, float& dy) {
+  const double x = dot(e, f.right), y = dot(e, f.up);
+  const double tangent = std::sqrt(x * x + y * y), length = norm(e);
+  const double k = tangent > 1e-12 * length && tangent > 0 ? f.scale * length / tangent : 0.0;
+  dx = float(x * k);
+  dy = float(-y * k);
+}
+
+// Blend sets as vertex mappings (jumpmap_synth.hpp, texton_synth.hpp): texel offsets of polygon
+// `poly`'s corners (at most 4) from its corner i in the mapping of corner i's vertex, whose frame is
+// f. The two corners next to i are their edges unfolded, so both polygons on an edge give the
+// mapping the same value there (C0 blending); a quad's opposite corner completes the parallelogram,
+// plus the quad's own deviation from one in the same frame. Corner i gets (0, 0).
+inline void vertex_mapping_offsets(const Mesh& m, int32_t poly, int32_t i, const FaceFrame& f, float* out) {
+  const int32_t n = m.poly_sizes[poly];
+  const int32_t* cv = m.corner_verts + m.poly_starts[poly];
+  auto pos = [&](int32_t corner) { return v3(m.positions + 3 * size_t(cv[corner])); };
+  const int32_t next = (i + 1) % n, prev = (i + n - 1) % n;
+  out[2 * i] = out[2 * i + 1] = 0.f;
+  for (int32_t j : {next, prev}) unfold_edge(pos(j) - pos(i), f, out[2 * j], out[2 * j + 1]);
+  if (n == 4) {
+    const int32_t o = (i + 2) % 4;
+    const V3 d = pos(o) - pos(next) - pos(prev) + pos(i);
+    out[2 * o] = out[2 * next] + out[2 * prev] + float(dot(d, f.right) * f.scale);
+    out[2 * o + 1] = out[2 * next + 1] + out[2 * prev + 1] - float(dot(d, f.up) * f.scale);
+  }
+}
+
 }  // namespace texsynth
