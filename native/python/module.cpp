@@ -16,6 +16,8 @@ void bind_texton(py::module_& m);
 void bind_raycast(py::module_& m);
 void bind_curvature(py::module_& m);
 void bind_field_mesh(py::module_& m);
+void bind_surface(py::module_& m);
+void bind_neighbourhood(py::module_& m);
 
 PYBIND11_MODULE(texsynth_native, m) {
   m.doc() = "TexSynth native core: sample preprocessing and texture synthesis on meshes.";
@@ -44,4 +46,6 @@ PYBIND11_MODULE(texsynth_native, m) {
   bind_raycast(m);
   bind_curvature(m);
   bind_field_mesh(m);
+  bind_surface(m);
+  bind_neighbourhood(m);
 }
