@@ -182,6 +182,11 @@ def write_result(mesh, result):
     if sets:
         colors.update(zip(pipeline.SET_ATTRIBUTE_NAMES, pipeline.blend_set_rgba(result, num_corners)))
         colors[pipeline.WEIGHTS_NAME] = pipeline.weights_rgba(result, num_corners, consume=True)
+        if result.get("mapping_groups") is not None:
+            groups = result["mapping_groups"]
+            if groups.shape != (num_corners * 4,) or groups.dtype != np.float32 or not pipeline.all_finite(groups):
+                raise pipeline.SettingsError("mapping groups must be finite float32 of shape (%d,)" % (num_corners * 4))
+            colors[pipeline.GROUPS_NAME] = groups
 
     snapshot = _snapshot(mesh)
     had_uv = len(mesh.uv_layers) > 0
@@ -206,8 +211,8 @@ def write_result(mesh, result):
                 if attribute is None:
                     attribute = mesh.attributes.new(name, data_type, "CORNER")
                 attribute.data.foreach_set(key, values)
-                fail_point({pipeline.WEIGHTS_NAME: "weights"}.get(name, "sets" if name in pipeline.SET_ATTRIBUTE_NAMES
-                                                                else "extras"))
+                fail_point({pipeline.WEIGHTS_NAME: "weights", pipeline.GROUPS_NAME: "weights"}.get(
+                    name, "sets" if name in pipeline.SET_ATTRIBUTE_NAMES else "extras"))
         # Last: removed layers would come back in another order if a later step failed.
         _remove_uv_layers(mesh, [n for n in texsynth_uv_names(mesh) if n != pipeline.BASE_UV_NAME])
         if had_uv:

@@ -23,6 +23,13 @@ BLEND_MODES = ("AUTO", "HISTOGRAM", "VARIANCE", "LINEAR")  # see shading.py
 # patches everywhere, and keeps its contrast only with HISTOGRAM; texton patches blend in narrow
 # zones with neighbours the search matched, where LINEAR keeps detail (1.028 of tiling) and is cheaper.
 AUTO_BLEND_MODE = {"JUMPMAP": "HISTOGRAM", "TEXTON": "LINEAR"}
+# Auto takes VARIANCE instead of HISTOGRAM when the sample keeps less of its detail than this through
+# the histogram transform's interpolation (interpolation_fidelity; moss 0.93, bark 1.00, bricks 1.04).
+AUTO_HISTOGRAM_MIN_FIDELITY = 0.97
+# Auto, texton: Linear for periodic samples (the search matches patches that continue the period, so
+# blending them loses nothing and rescaling over-sharpens: bricks, periodicity 0.95), Variance for
+# stochastic ones (matched only along the edge, nearly independent inside: moss 0.09, bark 0.10).
+AUTO_TEXTON_LINEAR_PERIODICITY = 0.5
 # Texton method: each face shows its own patch beyond this distance from its edges (barycentric-like
 # units, 1/3 at a triangle's centre) and fades to the vertex mappings toward them (shading.py).
 TEXTON_PATCH_ZONE = 0.15
@@ -40,7 +47,9 @@ WEIGHTS_NAME = "TexSynth_Weights"
 EDGE_BLENDED_NAME = "TexSynth_EdgeBlended"
 EDGE_ERROR_NAME = "TexSynth_EdgeError"
 EXTRA_ATTRIBUTE_NAMES = (EDGE_BLENDED_NAME, EDGE_ERROR_NAME)
-ATTRIBUTE_NAMES = (WEIGHTS_NAME,) + SET_ATTRIBUTE_NAMES + EXTRA_ATTRIBUTE_NAMES
+# Texton results: per corner, the weights summed per group of identical mappings (mapping_groups_rgba).
+GROUPS_NAME = "TexSynth_Groups"
+ATTRIBUTE_NAMES = (WEIGHTS_NAME,) + SET_ATTRIBUTE_NAMES + (GROUPS_NAME,) + EXTRA_ATTRIBUTE_NAMES
 MAX_BLEND_SETS = 4  # the weight attribute is RGBA
 
 
@@ -205,6 +214,7 @@ class Report:
     native_stats: dict = dataclasses.field(default_factory=dict)  # per object name
     seconds: dict = dataclasses.field(default_factory=dict)
     blend_mode: str = ""   # the shader's blend mode actually used
+    blend_reason: str = ""  # why Auto chose it
     notes: list = dataclasses.field(default_factory=list)       # warnings that did not stop the run
 
     def add_object(self, name, mesh_arrays, stats):
@@ -220,6 +230,8 @@ class Report:
         total = self.seconds.get("total", 0.0)
         text = "TexSynth: %d object(s), %d faces in %.2f s (cache %s)" % (
             len(self.objects), self.faces, total, "hit" if self.cache_hit else "miss")
+        if self.blend_reason:
+            text += "; %s blending (%s)" % (self.blend_mode.lower(), self.blend_reason)
         if self.notes:
             text += "; " + "; ".join(self.notes)
         if self.failures:
@@ -233,7 +245,7 @@ class Report:
             "faces": self.faces, "vertices": self.vertices, "corners": self.corners,
             "cache_hit": bool(self.cache_hit), "cache_status": self.cache_status,
             "seconds": dict(self.seconds), "native": self.native_stats,
-            "blend_mode": self.blend_mode, "notes": list(self.notes),
+            "blend_mode": self.blend_mode, "blend_reason": self.blend_reason, "notes": list(self.notes),
         }
 
 
@@ -342,18 +354,14 @@ def shader_mean(pixels, srgb):
     return tuple(float(m) for m in (np.repeat(mean, 3) if mean.size == 1 else mean))
 
 
-def correlation_length(pixels, max_lag=64, max_side=512):
-    """Correlation length (texels) of an H x W x C sample: the smallest offset along x or y at which
-    its autocorrelation (colour channels standardised and averaged; circular, by FFT) falls below
-    exp(-1/2), the value a Gaussian autocorrelation exp(-d^2 / (2 l^2)) has at d = l. Constant
-    samples give 1. Lags go up to max_lag, so a centred crop of max_side texels is enough: a 4K
-    sample would otherwise cost seconds and GBs of FFT buffers on every run."""
+def _autocorrelation(pixels, max_side):
+    """Circular autocorrelation (by FFT) of a centred crop of max_side texels, colour channels
+    standardised and averaged; None when every channel is constant."""
     pixels = np.asarray(pixels)
     top, left = max(0, (pixels.shape[0] - max_side) // 2), max(0, (pixels.shape[1] - max_side) // 2)
     pixels = pixels[top:top + max_side, left:left + max_side].astype(np.float64)
     colour = pixels[:, :, :1] if pixels.shape[2] <= 2 else pixels[:, :, :3]
-    height, width = colour.shape[:2]
-    total = np.zeros((height, width))
+    total = np.zeros(colour.shape[:2])
     used = 0
     for c in range(colour.shape[2]):
         channel = colour[:, :, c] - colour[:, :, c].mean()
@@ -362,9 +370,32 @@ def correlation_length(pixels, max_lag=64, max_side=512):
         if auto[0, 0] > 1e-12:
             total += auto / auto[0, 0]
             used += 1
-    if not used:
+    return total / used if used else None
+
+
+def periodicity(pixels, max_side=512):
+    """The sample's largest autocorrelation at offsets beyond a quarter of its width or height (the
+    render benchmark's repetition measure): ~0.95 for bricks, ~0.1 for moss or bark. 0 if constant."""
+    total = _autocorrelation(pixels, max_side)
+    if total is None:
+        return 0.0
+    height, width = total.shape
+    dy = np.minimum(np.arange(height), height - np.arange(height))[:, None]
+    dx = np.minimum(np.arange(width), width - np.arange(width))[None, :]
+    far = (dx > width // 4) | (dy > height // 4)
+    return float(total[far].max()) if far.any() else 0.0
+
+
+def correlation_length(pixels, max_lag=64, max_side=512):
+    """Correlation length (texels) of an H x W x C sample: the smallest offset along x or y at which
+    its autocorrelation (colour channels standardised and averaged; circular, by FFT) falls below
+    exp(-1/2), the value a Gaussian autocorrelation exp(-d^2 / (2 l^2)) has at d = l. Constant
+    samples give 1. Lags go up to max_lag, so a centred crop of max_side texels is enough: a 4K
+    sample would otherwise cost seconds and GBs of FFT buffers on every run."""
+    total = _autocorrelation(pixels, max_side)
+    if total is None:
         return 1.0
-    total /= used
+    height, width = total.shape
     threshold = math.exp(-0.5)
     for lag in range(1, max(2, min(max_lag, width // 2, height // 2))):
         if min(total[0, lag], total[lag, 0]) < threshold:
@@ -372,6 +403,40 @@ def correlation_length(pixels, max_lag=64, max_side=512):
             row = total[0, lag - 1:lag + 1] if total[0, lag] < threshold else total[lag - 1:lag + 1, 0]
             return float(lag - 1 + (row[0] - threshold) / max(row[0] - row[1], 1e-12))
     return float(max_lag)
+
+
+def interpolation_fidelity(pixels, gaussian, inverse_lut, shift=0.5, max_side=256):
+    """How much luminance gradient survives when the sample is interpolated in Gaussianized space
+    (as the histogram blend's texture look-ups do) instead of in colour space: mean |grad L| of the
+    image resampled half a texel off in both axes through the Gaussian image and the inverse table,
+    divided by the same resampling of the sample itself. Near 1 for most samples; well below 1 when
+    the histogram is skewed (moss: rare bright speckles shrink, 0.93), where a render through the
+    histogram blend loses that much detail (measured in README, "Blending"). Centred crop of max_side."""
+    def crop(a):
+        a = np.asarray(a, dtype=np.float64)
+        top, left = max(0, (a.shape[0] - max_side) // 2), max(0, (a.shape[1] - max_side) // 2)
+        a = a[top:top + max_side, left:left + max_side]
+        return a[:, :, :1] if a.shape[2] <= 2 else a[:, :, :3]
+
+    def resample(a):
+        f = float(shift)
+        return ((1 - f) * (1 - f) * a[:-1, :-1] + f * (1 - f) * (a[1:, :-1] + a[:-1, 1:]) + f * f * a[1:, 1:])
+
+    def gradient(colour):
+        lum = colour.mean(axis=2) if colour.shape[2] != 3 else colour @ np.array([0.2126, 0.7152, 0.0722])
+        return float(np.hypot(np.diff(lum, axis=1)[:-1], np.diff(lum, axis=0)[:, :-1]).mean())
+
+    colour, gauss = crop(pixels), crop(gaussian)
+    table = np.asarray(inverse_lut, dtype=np.float64).reshape(-1, np.shape(inverse_lut)[-1])
+    size = table.shape[0]
+    shifted = resample(gauss)
+    looked_up = np.empty_like(shifted)
+    entries = np.arange(size)
+    for c in range(shifted.shape[2]):
+        position = np.clip(shifted[..., c] * size - 0.5, 0, size - 1)
+        looked_up[..., c] = np.interp(position.ravel(), entries, table[:, min(c, table.shape[1] - 1)]).reshape(position.shape)
+    reference = gradient(resample(colour))
+    return gradient(looked_up) / reference if reference > 1e-9 else 1.0
 
 
 @dataclasses.dataclass
@@ -388,7 +453,8 @@ class BlendShading:
     mean: tuple = (0.5, 0.5, 0.5)
     files: HistogramFiles = None
     correlation_length: float = 1.0  # texels, of the image the blend reads (Gaussianized for HISTOGRAM)
-    note: str = ""                   # why HISTOGRAM fell back to VARIANCE, if it did
+    note: str = ""                   # why HISTOGRAM fell back to VARIANCE, if it did (a warning)
+    reason: str = ""                 # why Auto chose the mode (information)
     means: dict = None               # VARIANCE: {srgb: mean} for both readings of the sample
 
     def with_colour_space(self, srgb):
@@ -406,12 +472,22 @@ def blend_shading(native_input, settings, cache_dir, srgb=None):
     if not settings.blend:
         return BlendShading()
     result = BlendShading(mode=settings.resolved_blend_mode())
+    if settings.blend_mode == "AUTO" and settings.method == "TEXTON":
+        repeat = periodicity(sample_pixels(native_input))
+        result.mode = "LINEAR" if repeat >= AUTO_TEXTON_LINEAR_PERIODICITY else "VARIANCE"
+        result.reason = "Auto: %s sample, periodicity %.2f" % (
+            "periodic" if result.mode == "LINEAR" else "stochastic", repeat)
     looked_up = None
     if result.mode == "HISTOGRAM":
         transform = native.require().histogram_transform(load_sample(native_input), cache_dir=cache_dir)
-        if transform["ok"]:
+        fidelity = (interpolation_fidelity(sample_pixels(native_input), transform["gaussian"], transform["inverse_lut"])
+                    if transform["ok"] and settings.blend_mode == "AUTO" else 1.0)
+        if transform["ok"] and fidelity >= AUTO_HISTOGRAM_MIN_FIDELITY:
             result.files = HistogramFiles(transform["gaussian_path"], transform["lut_path"])
             looked_up = transform.get("gaussian")
+        elif transform["ok"]:
+            result.mode = "VARIANCE"
+            result.reason = "Auto: the histogram transform keeps %.0f %% of this sample's detail" % (100.0 * fidelity)
         else:
             result.mode = "VARIANCE"
             result.note = "histogram-preserving blending unavailable (%s): variance-preserving used" % (
@@ -472,6 +548,9 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale, pixels=None, vi
         result["corner_attributes"] = {
             EDGE_BLENDED_NAME: np.asarray(result.pop("corner_edge_blended"), dtype=np.float32),
             EDGE_ERROR_NAME: np.asarray(result.pop("corner_edge_error"), dtype=np.float32)}
+        if settings.blend and int(result["num_blend_sets"]):
+            check_result(result, int(mesh_arrays.corner_verts.size))
+            result["mapping_groups"] = mapping_groups_rgba(result, mesh_arrays.poly_starts, mesh_arrays.poly_sizes)
     else:
         kwargs.update(jump_rate=float(settings.jump_rate))
         result = dict(module.synthesize_jumpmap(preprocessed, *mesh, **kwargs))
@@ -525,6 +604,55 @@ def corner_attributes(result, num_corners):
         if values.shape != (num_corners,) or values.dtype != np.float32 or not all_finite(values):
             raise SettingsError("native result %s must be finite float32 of shape (%d,)" % (name, num_corners))
     return extras
+
+
+def mapping_groups_rgba(result, poly_starts, poly_sizes, tolerance=1e-6):
+    """Texton blending's variance in four numbers per corner, as a flat float32 RGBA buffer.
+
+    Per polygon, the blend sets fall into groups of identical mappings: group 0 = the sets equal to
+    the polygon's own patch (the base mapping), groups 1..3 the other distinct mappings (a 4th
+    distinct one, possible on quads only, shares group 3). A set k in group g adds its weight w_k to
+    channel g. Groups are constant over a polygon and the weights are interpolated linearly, so the
+    interpolated channels are the groups' total weights G_g anywhere inside it, and the shader gets
+    the blend's variance, with identical mappings fully correlated and distinct ones independent, as
+    (b + (1 - b) G_0)^2 + (1 - b)^2 (G_1^2 + G_2^2 + G_3^2) (b: the base's fade-in weight): a few
+    nodes instead of the pairwise correlations (render cost). Alpha holds G_3 itself: a mesh without
+    the attribute reads (0, 0, 0, 1), i.e. all set weight in one independent group, a safe variance."""
+    sets = int(result["num_blend_sets"])
+    weights = np.asarray(result["blend_weights"], dtype=np.float32)
+    base = result["base_uv"]
+    num_corners = base.shape[0]
+    pairs = result.get("blend_set_pairs")
+    set_uv = ([pairs[k // 2][:, 2 * (k % 2):2 * (k % 2) + 2] for k in range(sets)] if pairs is not None
+              else [result["blend_uv"][k] for k in range(sets)])
+    starts = np.asarray(poly_starts, dtype=np.int64)
+    sizes = np.asarray(poly_sizes, dtype=np.int64)
+
+    def per_polygon_all(flags):
+        return np.logical_and.reduceat(flags, starts) if starts.size else np.zeros(0, bool)
+
+    def same(a, b):
+        return per_polygon_all(np.all(np.abs(a - b) <= tolerance, axis=1))
+
+    used = [np.logical_or.reduceat(weights[:, k] > 0, starts) if starts.size else np.zeros(0, bool)
+            for k in range(sets)]
+    group = []
+    next_id = np.ones(starts.size, np.int64)
+    for k in range(sets):
+        g = np.where(same(set_uv[k], base), 0, -1)
+        for j in range(k):
+            join = (g < 0) & used[j] & same(set_uv[j], set_uv[k])
+            g[join] = group[j][join]
+        new = (g < 0) & used[k]
+        g[new] = np.minimum(next_id[new], 3)
+        next_id[new] += 1
+        group.append(np.maximum(g, 0))
+    corner_poly = np.repeat(np.arange(starts.size), sizes)
+    rgba = np.zeros((num_corners, 4), dtype=np.float32)
+    rows = np.arange(num_corners)
+    for k in range(sets):
+        rgba[rows, group[k][corner_poly]] += weights[:, k]
+    return rgba.ravel()
 
 
 def blend_set_rgba(result, num_corners):

@@ -11,6 +11,11 @@ weight is 1 - sum(w) (so a mesh without weights shows the base mapping alone). T
   HISTOGRAM  the same operator on a Gaussianized copy of the image (mu = 0.5), then each channel back
              through the inverse look-up table: the blend keeps the sample's histogram, not just its variance.
 
+In VARIANCE and HISTOGRAM the jump map's weights are squared (narrower three-way zones, lower seam
+ratio on curved meshes) and sqrt(sum w^2) becomes the mixture's deviation with correlated mappings
+(see BlendInputs.correlation_length). The groups are written for few shader instructions (vector
+nodes, no fifth look-up): Cycles' render cost was the limit (README, "Blending").
+
 The same nodes run in Eevee and Cycles on every supported Blender. One group per (image, mode); normal
 maps always use VARIANCE around the map's mean vector, then Blender's Normal Map node renormalises
 (the histogram transform remaps X, Y, Z independently, which the Normal Map encoding does not survive).
@@ -109,20 +114,27 @@ class _Builder:
         for index, value in inputs:
             if value is None:
                 continue
-            if isinstance(value, (int, float, tuple)):
+            if isinstance(value, (int, float)) and node.inputs[index].type == "VECTOR":
+                node.inputs[index].default_value = (value, value, value)
+            elif isinstance(value, (int, float, tuple)):
                 node.inputs[index].default_value = value
             else:
                 self.links.new(value, node.inputs[index])
         return node
 
-    def math(self, operation, a, b=None, x=0, y=0, clamp=False):
+    def math(self, operation, a, b=None, x=0, y=0, clamp=False, c=None):
         op = self.node("ShaderNodeMath", x, y, operation=operation, use_clamp=clamp)
-        return self.connect(op, ((0, a), (1, b))).outputs[0]
+        return self.connect(op, ((0, a), (1, b), (2, c))).outputs[0]
 
-    def vector(self, operation, a, b=None, x=0, y=0, scale=None):
+    def vector(self, operation, a, b=None, x=0, y=0, scale=None, c=None):
         op = self.node("ShaderNodeVectorMath", x, y, operation=operation)
-        self.connect(op, ((0, a), (1, b), (3, scale)))
+        self.connect(op, ((0, a), (1, b), (2, c), (3, scale)))
         return op.outputs["Vector"]
+
+    def vector_dot(self, a, b, x=0, y=0):
+        op = self.node("ShaderNodeVectorMath", x, y, operation="DOT_PRODUCT")
+        self.connect(op, ((0, a), (1, b)))
+        return op.outputs["Value"]
 
     def combine(self, x_value, y_value, z_value=0.0, x=0, y=0):
         op = self.node("ShaderNodeCombineXYZ", x, y)
@@ -136,16 +148,32 @@ class _Builder:
     def attribute(self, name, x, y):
         return self.node("ShaderNodeAttribute", x, y, attribute_type="GEOMETRY", attribute_name=name)
 
-    def texture(self, image, vector, x, y):
-        texture = self.node("ShaderNodeTexImage", x, y, image=image, interpolation="Linear", extension="EXTEND")
+    def texture(self, image, vector, x, y, interpolation="Linear"):
+        texture = self.node("ShaderNodeTexImage", x, y, image=image, interpolation=interpolation, extension="EXTEND")
         self.links.new(vector, texture.inputs["Vector"])
         return texture
 
 
-def _blend_terms(b, patch_zone):
-    """[(uv socket, weight socket)] for the 4 blend sets and the base mapping (last)."""
+@dataclasses.dataclass
+class _Terms:
+    """The blend group's mappings as sockets: `terms` [(uv, weight)] are what gets looked up and summed.
+    For the variance: the 4 sets' uvs and weights (w012 a vector socket, w3 a float), scaled by
+    `rest` in texton zones, whose base mapping (weight `base`) pairs with every set; weight_sum is
+    None where the weights sum to 1."""
+    terms: list
+    set_uvs: list
+    w012: object
+    w3: object
+    base_uv: object = None
+    base: object = None
+    rest: object = None
+    weight_sum: object = None
+
+
+def _blend_terms(b, patch_zone, sharpen=False):
     weights = b.attribute(pipeline.WEIGHTS_NAME, -1600, 600)
-    w0, w1, w2 = b.separate(weights.outputs["Vector"], -1400, 600)
+    w012 = weights.outputs["Vector"]
+    w0, w1, w2 = b.separate(w012, -1400, 600)
     # Alpha stores 1 - w3 (see pipeline.weights_rgba): a missing attribute reads (0,0,0,1) = no weights.
     w3 = b.math("SUBTRACT", 1.0, weights.outputs["Alpha"], -1400, 450)
     set_uvs = []
@@ -159,9 +187,24 @@ def _blend_terms(b, patch_zone):
     weights = [w0, w1, w2, w3]
     base_uv = b.node("ShaderNodeUVMap", -1600, -500, uv_map=pipeline.BASE_UV_NAME).outputs["UV"]
     if patch_zone <= 0:
-        total = b.math("ADD", b.math("ADD", w0, w1, -1200, 700), b.math("ADD", w2, w3, -1200, 550), -1000, 650)
+        total = b.math("ADD", b.vector_dot(w012, (1.0, 1.0, 1.0), -1200, 700), w3, -1000, 650)
         base_weight = b.math("SUBTRACT", 1.0, total, -800, 650, clamp=True)
-        return list(zip(set_uvs, weights)) + [(base_uv, base_weight)]
+        if not sharpen:
+            return _Terms(list(zip(set_uvs, weights)) + [(base_uv, base_weight)], set_uvs, w012, w3)
+        # Jump map, variance/histogram blending: weights w_k^2 narrow the zone where three mappings
+        # mix (measured: curved-mesh seam ratio 1.043-1.120 -> 1.000-1.095 over 9 views) and stay C0,
+        # since both sides of an edge see the same w_k. They are left unnormalised: the blend centres
+        # each term and divides by the mixture's deviation, which scales with them (fewer shader
+        # instructions, measured render cost). The base mapping weighs 1 - sum(w) = 0 wherever
+        # weights exist, so instead of a fifth texture look-up it replaces set 0 where they do not
+        # (a mesh without TexSynth weights then shows the base mapping, as in the other groups).
+        s012 = b.vector("MULTIPLY_ADD", w012, w012, x=-1050, y=800, c=b.combine(base_weight, 0.0, 0.0, -1200, 800))
+        s0, s1, s2 = b.separate(s012, -900, 800)
+        s3 = b.math("MULTIPLY", w3, w3, -1050, 860)
+        weight_sum = b.math("ADD", b.vector_dot(s012, (1.0, 1.0, 1.0), -900, 740), s3, -750, 740)
+        towards_base = b.vector("SUBTRACT", base_uv, set_uvs[0], x=-1000, y=200)
+        set_uvs[0] = b.vector("MULTIPLY_ADD", towards_base, base_weight, x=-850, y=200, c=set_uvs[0])
+        return _Terms(list(zip(set_uvs, [s0, s1, s2, s3])), set_uvs, s012, s3, weight_sum=weight_sum)
     # Distance from the polygon's edges: 1 - max(w_a + w_b) over its edges; the channel pairs
     # (0,1) (1,2) (2,3) (3,0) are a quad's edges, (0,1) (1,3) (3,0) a triangle's, and none is (0, 2),
     # the diagonal Blender splits quads along. An unblended polygon (no weights) is at distance 1.
@@ -174,72 +217,99 @@ def _blend_terms(b, patch_zone):
     b.connect(fade, ((0, distance), (1, 0.0), (2, float(patch_zone)), (3, 0.0), (4, 1.0)))
     base_weight = fade.outputs[0]
     rest = b.math("SUBTRACT", 1.0, base_weight, -600, 900)
-    scaled = [b.math("MULTIPLY", w, rest, -450, 900 - 60 * k) for k, w in enumerate(weights)]
-    return list(zip(set_uvs, scaled)) + [(base_uv, base_weight)]
+    r0, r1, r2 = b.separate(b.vector("SCALE", w012, x=-450, y=900, scale=rest), -300, 900)
+    scaled = [r0, r1, r2, b.math("MULTIPLY", w3, rest, -450, 840)]
+    return _Terms(list(zip(set_uvs, scaled)) + [(base_uv, base_weight)], set_uvs, w012, w3,
+                  base_uv=base_uv, base=base_weight, rest=rest)
+
+
+def _falloffs(b, scaled, pairs, y):
+    """Vector (1 + d_p^2) for 3 pairs p, d the distance between the pair's scaled coordinates:
+    rho_p is its inverse. Three pairs per vector node (render cost)."""
+    distances = []
+    for k, (i, j) in enumerate(pairs):
+        node = b.node("ShaderNodeVectorMath", -850, y - 40 * k, operation="DISTANCE")
+        b.links.new(scaled[i], node.inputs[0])
+        b.links.new(scaled[j], node.inputs[1])
+        distances.append(node.outputs["Value"])
+    d = b.combine(*distances, x=-700, y=y)
+    return b.vector("MULTIPLY_ADD", d, d, x=-550, y=y, c=(1.0, 1.0, 1.0))
 
 
 def _mixture_variance(b, terms, inputs):
-    """sum_i w_i^2 + 2 sum_{i<j} w_i w_j rho_ij with rho_ij = 1 / (1 + d_ij^2 / (2 l^2)), d_ij the texel
-    distance between the mappings' coordinates (identical mappings: fully correlated; far apart:
-    independent). A Cauchy-shaped falloff, not the Gaussian: 5 nodes per pair instead of 7 (measured
-    render cost). The base mapping (last term) weighs 1 - sum(w) = 0 wherever the sets have weights,
-    so it only enters as w_base^2 (1 on meshes without TexSynth weights)."""
+    """Jump map: sum_ij w_i w_j rho_ij over the 4 sets (the base mapping is folded into set 0, see
+    _blend_terms), with rho_ij = 1 / (1 + d_ij^2 / (2 l^2)), d_ij the texel distance between the
+    mappings' coordinates (identical mappings: fully correlated; far apart: independent). A
+    Cauchy-shaped falloff, not the Gaussian, and pairs three to a vector node: fewer shader
+    instructions (measured render cost)."""
     width, height = inputs.size
     factor = 1.0 / (math.sqrt(2.0) * max(float(inputs.correlation_length), 1e-3))
-    sets = terms[:-1]
     # Coordinates in units of sqrt(2) l (z dropped: set attributes carry another set there).
     scaled = [b.vector("MULTIPLY", uv, (width * factor, height * factor, 0.0), x=-1000, y=-900 - 60 * k)
-              for k, (uv, _) in enumerate(sets)]
-    total = None
-    for i, (_, w_i) in enumerate(terms):
-        square = b.math("MULTIPLY", w_i, w_i, -800, -900 - 60 * i)
-        total = square if total is None else b.math("ADD", total, square, -650, -900 - 60 * i)
-    for i in range(len(sets)):
-        for j in range(i + 1, len(sets)):
-            y = -1300 - 60 * (i * len(sets) + j)
-            distance = b.node("ShaderNodeVectorMath", -850, y, operation="DISTANCE")
-            b.links.new(scaled[i], distance.inputs[0])
-            b.links.new(scaled[j], distance.inputs[1])
-            d = distance.outputs["Value"]
-            falloff = b.connect(b.node("ShaderNodeMath", -700, y, operation="MULTIPLY_ADD"), ((0, d), (1, d), (2, 1.0)))
-            pair = b.math("DIVIDE", b.math("MULTIPLY", sets[i][1], sets[j][1], -550, y - 30), falloff.outputs[0], -400, y)
-            total = b.connect(b.node("ShaderNodeMath", -250, y, operation="MULTIPLY_ADD"),
-                              ((0, pair), (1, 2.0), (2, total))).outputs[0]
-    return total
+              for k, uv in enumerate(terms.set_uvs)]
+    w012, w3 = terms.w012, terms.w3
+    squares = b.math("MULTIPLY_ADD", w3, w3, -250, -900, c=b.vector_dot(w012, w012, -400, -900))
+    # Pairs (0,1) (1,2) (2,0) take w012 * (w1, w2, w0); pairs (0,3) (1,3) (2,3) take w012 * w3.
+    w0, w1, w2 = b.separate(w012, -700, -1000)
+    around = b.vector("MULTIPLY", w012, b.combine(w1, w2, w0, x=-550, y=-1000), x=-400, y=-1000)
+    cross = b.vector("DIVIDE", around, _falloffs(b, scaled, ((0, 1), (1, 2), (2, 0)), -1100), x=-250, y=-1000)
+    with_3 = b.vector("DIVIDE", b.vector("SCALE", w012, x=-400, y=-1300, scale=w3),
+                      _falloffs(b, scaled, ((0, 3), (1, 3), (2, 3)), -1300), x=-250, y=-1300)
+    cross = b.vector("ADD", cross, with_3, x=-100, y=-1100)
+    return b.math("ADD", b.vector_dot(cross, (2.0, 2.0, 2.0), 50, -1000), squares, 200, -1000)
+
+
+def _group_variance(b, terms):
+    """Texton zones: sigma^2 = (b + r G_0)^2 + r^2 (G_1^2 + G_2^2 + G_3^2) with r = 1 - b and G the
+    per-corner group weights (pipeline.mapping_groups_rgba: identical mappings summed, distinct ones
+    independent). A mesh without the attribute reads G = (0, 0, 0, 1): one independent group."""
+    groups = b.attribute(pipeline.GROUPS_NAME, -1600, 1200)
+    g012, g3 = groups.outputs["Vector"], groups.outputs["Alpha"]
+    g0 = b.separate(g012, -1400, 1200)[0]
+    base, rest = terms.base, terms.rest
+    own = b.math("MULTIPLY_ADD", rest, g0, -1200, 1200, c=base)
+    others = b.math("MULTIPLY_ADD", g3, g3, -1100, 1100,
+                    c=b.vector_dot(b.vector("MULTIPLY", g012, (0.0, 1.0, 1.0), x=-1250, y=1100), g012, -1150, 1050))
+    return b.math("MULTIPLY_ADD", own, own, -500, 1100,
+                  c=b.math("MULTIPLY", b.math("MULTIPLY", rest, rest, -800, 1150), others, -650, 1100))
 
 
 def _build(group, image, inputs):
     b = _Builder(group)
-    terms = _blend_terms(b, inputs.patch_zone)
+    sharpen = inputs.mode != "LINEAR" and inputs.patch_zone <= 0
+    blend = _blend_terms(b, inputs.patch_zone, sharpen)
     looked_up = inputs.gaussian if inputs.mode == "HISTOGRAM" else image
-    color = alpha = None
-    for k, (uv, weight) in enumerate(terms):
+    color = alpha = 0.0
+    for k, (uv, weight) in enumerate(blend.terms):
         y = 300 - 300 * k
         texture = b.texture(looked_up, uv, -600, y)
-        scaled = b.vector("SCALE", texture.outputs["Color"], x=-300, y=y, scale=weight)
-        color = scaled if color is None else b.vector("ADD", color, scaled, x=-150, y=y)
-        multiply_add = b.node("ShaderNodeMath", -150, y - 150, operation="MULTIPLY_ADD")
-        alpha = b.connect(multiply_add, ((0, texture.outputs["Alpha"]), (1, weight),
-                                         (2, 0.0 if alpha is None else alpha))).outputs[0]
+        color = b.vector("MULTIPLY_ADD", texture.outputs["Color"], weight, x=-300, y=y, c=color)
+        alpha = b.math("MULTIPLY_ADD", texture.outputs["Alpha"], weight, -300, y - 150, c=alpha)
     if inputs.mode != "LINEAR":
         # (sum w C - mu) / sigma + mu with sigma^2 = sum_ij w_i w_j rho_ij (see BlendInputs).
         mean = (0.5, 0.5, 0.5) if inputs.mode == "HISTOGRAM" else tuple(float(c) for c in inputs.mean[:3])
-        # Texton patches meet neighbours the search matched along the edge: the mappings a polygon
-        # blends are strongly correlated there, so the mixture keeps its variance as it is (measured:
-        # compensating as for independent mappings raised the gradient by 9-12 % next to the edges).
-        if inputs.patch_zone <= 0:
-            norm = b.math("MAXIMUM", b.math("SQRT", _mixture_variance(b, terms, inputs), x=0, y=500), 1e-3, 150, 500)
-            inverse = b.math("DIVIDE", 1.0, norm, 300, 500)
-            centred = b.vector("SUBTRACT", color, b.combine(*mean, x=0, y=300), x=150, y=300)
-            color = b.vector("ADD", b.vector("SCALE", centred, x=300, y=300, scale=inverse),
-                             b.combine(*mean, x=300, y=150), x=450, y=300)
+        # Texton zones are rescaled too, from groups of identical mappings: on stochastic samples
+        # (moss, bark) distinct patches are nearly independent and the unscaled mix lost 9-12 % of
+        # the gradient next to the edges. Periodic samples (bricks), whose matched patches are
+        # strongly correlated, are left to Linear by Auto (pipeline.blend_shading).
+        variance = _mixture_variance(b, blend, inputs) if inputs.patch_zone <= 0 else _group_variance(b, blend)
+        variance = b.math("MAXIMUM", variance, 1e-6, 0, 500)
+        inverse = b.math("INVERSE_SQRT", variance, None, 150, 500)
+        if blend.weight_sum is None:
+            centred = b.vector("SUBTRACT", color, mean, x=150, y=300)
+        else:  # sum_k w_k (C_k - mu)
+            centred = b.vector("MULTIPLY_ADD", blend.weight_sum, tuple(-m for m in mean), x=150, y=300, c=color)
+            alpha = b.math("DIVIDE", alpha, b.math("MAXIMUM", blend.weight_sum, 1e-8, 150, 150), 300, 150)
+        color = b.vector("MULTIPLY_ADD", centred, inverse, x=300, y=300, c=mean)
     if inputs.mode == "HISTOGRAM":
-        # Each channel's blended Gaussian value indexes that channel of the inverse look-up table.
-        channels = []
+        # Channel c of the blended Gaussian value indexes channel c of the inverse look-up table (a
+        # float into the Vector socket reads the 1-row table at x = value; masks keep channel c).
+        masks = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+        result = 0.0
         for c, value in enumerate(b.separate(color, 600, 300)):
-            lut = b.texture(inputs.inverse_lut, b.combine(value, 0.5, 0.0, 750, 300 - 250 * c), 900, 300 - 250 * c)
-            channels.append(b.separate(lut.outputs["Color"], 1150, 300 - 250 * c)[c])
-        color = b.combine(*channels, x=1300, y=300)
+            lut = b.texture(inputs.inverse_lut, value, 900, 300 - 250 * c)
+            result = b.vector("MULTIPLY_ADD", lut.outputs["Color"], masks[c], x=1150, y=300 - 250 * c, c=result)
+        color = result
     output = b.node("NodeGroupOutput", 1500, 0)
     b.links.new(color, output.inputs["Color"])
     b.links.new(alpha, output.inputs["Alpha"])

@@ -177,6 +177,7 @@ class Job:
                 with self.timings.phase("preprocess"):
                     self.shading = pipeline.blend_shading(self.native_input, self.settings, self.cache_dir)
                 self.report.blend_mode = self.shading.mode
+                self.report.blend_reason = self.shading.reason
                 if self.shading.note:
                     self.report.notes.append(self.shading.note)
             scale = pipeline.texels_per_unit(int(preprocessed.width), self.settings.sample_world_size)

@@ -319,3 +319,87 @@ def test_blend_shading_falls_back_to_variance_for_flat_samples(tmp_path, real_na
     shading = pipeline.blend_shading(textured, pipeline.Settings(), str(tmp_path), srgb=False)
     assert shading.mode == "HISTOGRAM" and shading.note == "" and os.path.isfile(shading.files.lut_path)
     assert pipeline.blend_shading(textured, pipeline.Settings(blend=False), str(tmp_path), False).mode == "LINEAR"
+
+
+def _speckles(size=96, seed=2):
+    """Dark noise with rare bright dots: a skewed histogram, like moss's highlights."""
+    rng = np.random.RandomState(seed)
+    image = 0.1 + 0.05 * rng.rand(size, size, 3)
+    dots = rng.rand(size, size) < 0.04
+    image[dots] = 0.9 + 0.1 * rng.rand(int(dots.sum()), 3)
+    return image.astype(np.float32)
+
+
+def test_interpolation_fidelity_flags_skewed_histograms(tmp_path, real_native):
+    """Interpolating a near-Gaussian sample in Gaussianized space is close to an affine change, so it
+    keeps the gradient; rare bright dots shrink when interpolated there (half-way between a dot and
+    the dark ground sits near the ground's quantiles), so their gradient drops."""
+    module = native.require()
+    gaussianish = ((_blurred_noise(1.5, 96) - 0.5) * 0.5 + 0.5).astype(np.float32)
+    for image, check in ((gaussianish, lambda f: abs(f - 1.0) < 0.03), (_speckles(), lambda f: f < 0.95)):
+        transform = module.histogram_transform(image, cache_dir=str(tmp_path))
+        fidelity = pipeline.interpolation_fidelity(image, transform["gaussian"], transform["inverse_lut"])
+        assert check(fidelity), fidelity
+    # Auto blending avoids the histogram transform for such a sample and says why; asked for, it stays.
+    auto = pipeline.blend_shading(_speckles(), pipeline.Settings(), str(tmp_path), srgb=False)
+    assert auto.mode == "VARIANCE" and auto.files is None and "Auto" in auto.reason and "%" in auto.reason
+    assert auto.note == ""  # a choice, not a warning
+    forced = pipeline.blend_shading(_speckles(), pipeline.Settings(blend_mode="HISTOGRAM"), str(tmp_path), srgb=False)
+    assert forced.mode == "HISTOGRAM" and forced.note == ""
+
+
+def test_periodicity_separates_periodic_from_stochastic_samples():
+    """A tile repeated 3 x 3 correlates perfectly with itself one tile away (beyond a quarter of the
+    width); blurred noise has no correlation that far; a constant sample has none at all."""
+    tile = _blurred_noise(2.0, 32, seed=4)
+    assert pipeline.periodicity(np.tile(tile, (3, 3, 1))) > 0.99
+    assert pipeline.periodicity(_blurred_noise(2.0, 96)) < 0.2
+    assert pipeline.periodicity(np.ones((16, 16, 3))) == 0.0
+
+
+def test_auto_texton_blending_is_linear_for_periodic_and_variance_for_stochastic(tmp_path, real_native):
+    settings = pipeline.Settings(method="TEXTON")
+    periodic = np.tile(_blurred_noise(2.0, 32, seed=4), (3, 3, 1)).astype(np.float32)
+    stochastic = _blurred_noise(2.0, 96).astype(np.float32)
+    chosen = {name: pipeline.blend_shading(image, settings, str(tmp_path), srgb=False)
+              for name, image in (("periodic", periodic), ("stochastic", stochastic))}
+    assert chosen["periodic"].mode == "LINEAR" and "periodic" in chosen["periodic"].reason
+    assert chosen["stochastic"].mode == "VARIANCE" and "stochastic" in chosen["stochastic"].reason
+    assert all(c.note == "" for c in chosen.values())
+    explicit = pipeline.blend_shading(periodic, pipeline.Settings(method="TEXTON", blend_mode="VARIANCE"), str(tmp_path), False)
+    assert explicit.mode == "VARIANCE" and explicit.reason == ""
+
+
+def test_mapping_groups_sum_weights_of_identical_mappings():
+    """Two triangles and a quad, hand-made: on polygon 0 set 0 is the polygon's own patch and sets 1, 3
+    are one other mapping; on polygon 1 all three used sets differ from the patch and from each other;
+    on the quad, four distinct mappings: the fourth shares group 3. Set 2 is unused on triangles."""
+    starts, sizes = np.array([0, 3, 6], np.int32), np.array([3, 3, 4], np.int32)
+    corners = 10
+    base = np.random.RandomState(3).rand(corners, 2).astype(np.float32)
+    sets = np.zeros((4, corners, 2), np.float32)
+    weights = np.zeros((corners, 4), np.float32)
+    # polygon 0: corners 0..2, sets 0, 1, 3 one-hot at its corners
+    sets[0, 0:3] = base[0:3]
+    sets[1, 0:3] = sets[3, 0:3] = base[0:3] + 0.25
+    weights[0:3, [0, 1, 3]] = np.eye(3)
+    # polygon 1: three distinct mappings, none the patch
+    for k, shift in ((0, 0.1), (1, 0.2), (3, 0.3)):
+        sets[k, 3:6] = base[3:6] + shift
+    weights[3:6, [0, 1, 3]] = np.eye(3)
+    # polygon 2 (quad): four distinct mappings
+    for k in range(4):
+        sets[k, 6:10] = base[6:10] + 0.1 * (k + 1)
+    weights[6:10] = np.eye(4)
+    pairs = np.concatenate([sets[0:2].transpose(1, 0, 2).reshape(corners, 4)[None],
+                            sets[2:4].transpose(1, 0, 2).reshape(corners, 4)[None]])
+    result = dict(base_uv=base, num_blend_sets=4, blend_weights=weights, blend_set_pairs=pairs)
+    groups = pipeline.mapping_groups_rgba(result, starts, sizes).reshape(corners, 4)
+    expected = np.zeros((corners, 4), np.float32)
+    expected[0, 0] = 1.0             # set 0 = own patch
+    expected[1, 1] = expected[2, 1] = 1.0  # sets 1 and 3: one mapping, group 1
+    expected[3, 1], expected[4, 2], expected[5, 3] = 1.0, 1.0, 1.0
+    expected[6, 1], expected[7, 2], expected[8, 3], expected[9, 3] = 1.0, 1.0, 1.0, 1.0
+    assert np.allclose(groups, expected), groups
+    # Inside a polygon the weights interpolate: the groups' totals still sum to the weights' sum.
+    assert np.allclose(groups.sum(axis=1), weights.sum(axis=1))

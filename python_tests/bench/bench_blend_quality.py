@@ -11,6 +11,9 @@ shading (no lights), scaled so that one sample texel covers one pixel. Each mode
 projection (blend 0.2; on this flat view it is planar tiling too), then TexSynth's methods with and
 without blending. Mesh edges are rasterised from the known projection (exact for
 this view) into a mask; blend_metrics.py turns render + mask into:
+  tiling_shifted: tiling moved half a texel; tiling_rotated: turned by 3 degrees, so that every
+  sub-texel phase occurs (what a synthesized mapping, landing anywhere between texel centres, pays in
+  bilinear resampling; plain tiling here samples one phase only)
   seam     mean |grad L| within 1 px of an edge / from 3 px on (1.00 = no visible seam)
   detail   mean |grad L| / that of tiling (< 1: blending washed detail out)
   profile  mean |grad L| by distance 0..10 px from the nearest edge, relative to its mean
@@ -37,7 +40,7 @@ import blend_metrics  # noqa: E402
 import harness  # noqa: E402
 
 # <method>[_<blend mode>]: no suffix = the default, histogram-preserving blending.
-MODES = ("tiling", "box", "jumpmap", "jumpmap_variance", "jumpmap_linear", "jumpmap_noblend",
+MODES = ("tiling", "tiling_shifted", "tiling_rotated", "box", "jumpmap", "jumpmap_variance", "jumpmap_linear", "jumpmap_noblend",
          "texton", "texton_variance", "texton_linear", "texton_noblend")
 
 
@@ -139,18 +142,25 @@ def emission_material(name, build_color):
     return material
 
 
-def projected_material(name, image, world_size, projection="FLAT"):
+def projected_material(name, image, world_size, projection="FLAT", shift=(0.0, 0.0), turn=0.0):
     """Emission of the sample repeated every world_size units through object coordinates: FLAT is plain
-    tiling (the reference), BOX Blender's box projection."""
+    tiling (the reference), BOX Blender's box projection. `shift` (texels) moves the texture off the
+    pixel grid: what bilinear resampling costs any mapping that does not land on texel centres."""
     def color(nodes, links):
         coordinates = nodes.new("ShaderNodeTexCoord")
         scale = nodes.new("ShaderNodeVectorMath")
-        scale.operation = "SCALE"
-        scale.inputs[3].default_value = 1.0 / world_size
+        scale.operation = "MULTIPLY_ADD"
+        # world_size is the sample's width; its height spans world_size * H / W (square texels).
+        aspect = image.size[0] / image.size[1]
+        scale.inputs[1].default_value = (1.0 / world_size, aspect / world_size, 1.0 / world_size)
+        scale.inputs[2].default_value = (shift[0] / image.size[0], shift[1] / image.size[1], 0.0)
         texture = nodes.new("ShaderNodeTexImage")
         texture.image, texture.interpolation, texture.extension = image, "Linear", "REPEAT"
         texture.projection, texture.projection_blend = projection, 0.2
-        links.new(coordinates.outputs["Object"], scale.inputs[0])
+        rotate = nodes.new("ShaderNodeVectorRotate")
+        rotate.rotation_type, rotate.inputs["Angle"].default_value = "Z_AXIS", turn
+        links.new(coordinates.outputs["Object"], rotate.inputs["Vector"])
+        links.new(rotate.outputs["Vector"], scale.inputs[0])
         links.new(scale.outputs["Vector"], texture.inputs["Vector"])
         return texture.outputs["Color"]
     return emission_material(name, color)
@@ -227,8 +237,10 @@ def print_table(title, results, reference_mode):
 
 
 def apply_mode(obj, mode, image, world_size, args, cache_dir, axis=(0.0, 0.0, 1.0)):
-    if mode in ("tiling", "box"):
-        material = projected_material(mode, image, world_size, "FLAT" if mode == "tiling" else "BOX")
+    if mode in ("tiling", "tiling_shifted", "tiling_rotated", "box"):
+        material = projected_material(mode, image, world_size, "BOX" if mode == "box" else "FLAT",
+                                      (0.5, 0.5) if mode == "tiling_shifted" else (0.0, 0.0),
+                                      math.radians(3.0) if mode == "tiling_rotated" else 0.0)
     else:
         synthesize(obj, os.path.abspath(args.sample), mode, world_size, args.seed, cache_dir, axis)
         material = texsynth_material(image, blend_mode_of(mode), cache_dir,
