@@ -23,8 +23,9 @@ from . import compat  # noqa: E402
 # gets one sentence in the sidebar and the console, never a traceback at enable time.
 UNSUPPORTED = compat.unsupported_version_message(bpy.app.version) or compat.missing_requirement_message()
 if not UNSUPPORTED:
-    from . import field_ops, operators, overlay, properties, ui  # noqa: E402
-    classes = properties.classes + operators.classes + field_ops.classes + ui.classes
+    from .fields import overlay, tools  # noqa: E402
+    from .ui import operators, panels, properties  # noqa: E402
+    classes = properties.classes + operators.classes + tools.classes + panels.classes
 else:
     class TEXSYNTH_PT_unavailable(bpy.types.Panel):
         bl_label = "TexSynth"
@@ -67,7 +68,7 @@ def register():
         bpy.utils.register_class(cls)
     bpy.types.Scene.texsynth = bpy.props.PointerProperty(type=properties.TexSynthSettings)
     overlay.register()
-    field_ops.register_tool()
+    tools.register_tool()
 
 
 def unregister():
@@ -75,7 +76,7 @@ def unregister():
         if getattr(classes[0], "is_registered", False):
             bpy.utils.unregister_class(classes[0])
         return
-    field_ops.unregister_tool()
+    tools.unregister_tool()
     overlay.unregister()
     if hasattr(bpy.types.Scene, "texsynth"):
         del bpy.types.Scene.texsynth

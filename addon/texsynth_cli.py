@@ -175,7 +175,9 @@ def main(argv):
     addon = load_addon()
     if addon.UNSUPPORTED:
         raise CliError(addon.UNSUPPORTED)
-    from texsynth import compat, native, pipeline, synthesis  # noqa: F401  (registered by load_addon)
+    from texsynth import compat, native  # noqa: F401  (registered by load_addon)
+    from texsynth.core import pipeline  # noqa: F401  (registered by load_addon)
+    from texsynth.uv_methods import synthesis  # noqa: F401  (registered by load_addon)
     if native.get() is None:
         raise CliError(native.reason())
     if not os.path.isfile(args.sample):

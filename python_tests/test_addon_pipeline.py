@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""bpy-free core of the add-on (addon/pipeline.py, addon/native.py), under plain pytest."""
+"""bpy-free core of the add-on (addon/core/pipeline.py, addon/native.py), under plain pytest."""
 
 import os
 import shutil
@@ -11,7 +11,7 @@ import pytest
 
 import addon_package
 
-pipeline = addon_package.load("pipeline")
+pipeline = addon_package.load("core.pipeline")
 native = addon_package.load("native")
 
 

@@ -12,4 +12,4 @@ def test_blend_group_renders_inside_blender():
     process = blender_run.blender("--python", os.path.join(blender_run.BLENDER_TESTS, "tests_shading.py"))
     output = process.stdout + process.stderr
     assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-6000:]
-    assert output.count("PASS test_") == 3, output[-3000:]
+    assert output.count("PASS test_") == 4, output[-3000:]

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Field authoring core (addon/fields.py) and native ray casting, against independent computations:
+"""Field authoring core (addon/authoring.py) and native ray casting, against independent computations:
 brute-force ray/triangle tests, geometric expectations, and UV Jacobians of the synthesized output."""
 import math
 
@@ -10,8 +10,8 @@ import addon_package
 import texsynth_native as ts
 from test_synth import face_jacobians, grid, pack
 
-fields = addon_package.load("fields")
-pipeline = addon_package.load("pipeline")
+authoring = addon_package.load("fields.authoring")
+pipeline = addon_package.load("core.pipeline")
 native = addon_package.load("native")
 # One copy of the extension per process: texsynth.texsynth_native would register its types twice.
 native._module, native._reason, native._tried = ts, None, True
@@ -23,9 +23,9 @@ def mesh_arrays(pos, corner_verts, starts, sizes):
 
 def new_state(arrays, axis=(0.0, 1.0, 0.0)):
     n = arrays.num_vertices
-    state = fields.FieldState(arrays, np.zeros((n, 3), np.float32), np.zeros(n, np.int32),
+    state = authoring.FieldState(arrays, np.zeros((n, 3), np.float32), np.zeros(n, np.int32),
                               np.zeros((n, 3), np.float32), axis)
-    fields.relax(state)
+    authoring.relax(state)
     return state
 
 
@@ -120,7 +120,7 @@ def test_vertex_normals_match_newell_area_weighting():
     pos, cv, st, sz = grid(12, 0.1, triangles=False, jitter=0.3)
     pos = pos.copy()
     pos[:, 2] = 0.3 * np.sin(pos[:, 0] * 5) * np.cos(pos[:, 1] * 4)
-    got = fields.vertex_normals(mesh_arrays(pos, cv, st, sz))
+    got = authoring.vertex_normals(mesh_arrays(pos, cv, st, sz))
     np.testing.assert_allclose(got, newell_vertex_normals(pos, cv, st, sz), atol=1e-5)
 
 
@@ -145,9 +145,9 @@ def test_synthetic_stroke_on_a_plane_sets_directions_under_the_brush_and_a_smoot
     pos, cv, st, sz = grid(60, 1.0 / 60)  # unit square, triangles
     arrays = mesh_arrays(pos, cv, st, sz)
     state = new_state(arrays, axis=(0.0, 1.0, 0.0))  # before: +Y everywhere
-    caster = fields.ray_caster(arrays)
+    caster = authoring.ray_caster(arrays)
     radius = 0.08
-    brush = fields.CombBrush(state, caster, radius)
+    brush = authoring.CombBrush(state, caster, radius)
     stroke_dir = np.array([1.0, 1.0, 0.0]) / math.sqrt(2)  # diagonal stroke through the middle
     for s in np.linspace(0.25, 0.75, 30):
         point = np.array([s, s, 0.0])
@@ -165,7 +165,7 @@ def test_synthetic_stroke_on_a_plane_sets_directions_under_the_brush_and_a_smoot
     assert core.sum() > 40
     assert np.max(angle_deg(d[core], stroke_dir)) < 3.0
     # The rest follows the stroke (only anchors) and is smooth: neighbours differ by little.
-    e = fields.edges(arrays)
+    e = authoring.edges(arrays)
     assert np.percentile(angle_deg(d[e[:, 0]], d[e[:, 1]]), 99) < 5.0
     assert np.median(angle_deg(d, stroke_dir)) < 10.0
     # Anchors are exactly the painted vertices (within the radius of some dab).
@@ -178,7 +178,7 @@ def test_erase_removes_anchors_under_the_brush_only():
     arrays = mesh_arrays(pos, cv, st, sz)
     state = new_state(arrays)
     state.guide[:] = (1.0, 0.0, 0.0)
-    brush = fields.CombBrush(state, fields.ray_caster(arrays), 0.1)
+    brush = authoring.CombBrush(state, authoring.ray_caster(arrays), 0.1)
     brush.dab((0.5, 0.5, 1.0), (0, 0, -1), erase_mode=True)
     brush.end_stroke()
     distance = np.linalg.norm(pos[:, :2] - 0.5, axis=1)
@@ -195,7 +195,7 @@ def test_brush_never_paints_the_far_side_of_a_thin_slab():
     polys_bottom = [[v + n for v in reversed(p)] for p in polys_top]  # facing -Z
     arrays = mesh_arrays(*pack(np.concatenate([top[0], bottom_pos]), polys_top + polys_bottom))
     state = new_state(arrays)
-    brush = fields.CombBrush(state, fields.ray_caster(arrays), 0.3)
+    brush = authoring.CombBrush(state, authoring.ray_caster(arrays), 0.3)
     brush.dab((0.3, 0.5, 1), (0, 0, -1))
     brush.dab((0.6, 0.5, 1), (0, 0, -1))
     painted = np.any(state.guide != 0, axis=1)
@@ -205,21 +205,21 @@ def test_brush_never_paints_the_far_side_of_a_thin_slab():
 # ---------------------------------------------------------------------------------------------
 # Sources and sinks
 
-@pytest.mark.parametrize("kind", [fields.SOURCE, fields.SINK])
+@pytest.mark.parametrize("kind", [authoring.SOURCE, authoring.SINK])
 def test_sources_point_away_and_sinks_point_toward(kind):
     pos, cv, st, sz = grid(40, 1.0 / 40, jitter=0.2)
     arrays = mesh_arrays(pos, cv, st, sz)
     state = new_state(arrays)
     centre = int(np.argmin(np.linalg.norm(pos[:, :2] - 0.5, axis=1)))
-    fields.set_singularity(state, centre, kind)
+    authoring.set_singularity(state, centre, kind)
     radial = pos - pos[centre]
     far = np.linalg.norm(radial, axis=1) > 3.0 / 40
     errors = angle_deg(state.direction[far], kind * radial[far])
     assert np.median(errors) < 3.0 and np.percentile(errors, 95) < 10.0
-    fields.set_singularity(state, centre, 0)  # removed: back to the axis
+    authoring.set_singularity(state, centre, 0)  # removed: back to the axis
     assert np.max(angle_deg(state.direction, np.array([0.0, 1.0, 0.0]))) < 1e-3
     with pytest.raises(ValueError, match="not in the mesh"):
-        fields.set_singularity(state, 10 ** 6, fields.SOURCE)
+        authoring.set_singularity(state, 10 ** 6, authoring.SOURCE)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -234,7 +234,7 @@ def test_curvature_preset_follows_a_cylinder_axis():
     polys = [[idx(i, j), idx(i, j + 1), idx(i + 1, j + 1), idx(i + 1, j)] for i in range(rows) for j in range(segments)]
     state = new_state(mesh_arrays(*pack(pos, polys)), axis=(1.0, 0.0, 0.0))
     before = np.median(np.abs(state.direction[:, 2]))
-    fields.preset_curvature(state)
+    authoring.preset_curvature(state)
     assert before < 0.5  # the axis preset was not already vertical
     assert np.min(np.abs(state.direction[:, 2])) > 0.99
 
@@ -246,13 +246,13 @@ def test_smooth_preset_reduces_roughness_and_axis_preset_clears_the_guide():
     rng = np.random.default_rng(2)
     angles = rng.uniform(-0.8, 0.8, arrays.num_vertices)
     state.guide[:] = np.column_stack([np.sin(angles), np.cos(angles), np.zeros_like(angles)])
-    fields.relax(state)
-    e = fields.edges(arrays)
+    authoring.relax(state)
+    e = authoring.edges(arrays)
     rough = np.mean(angle_deg(state.direction[e[:, 0]], state.direction[e[:, 1]]))
-    fields.preset_smooth(state, iterations=20)
+    authoring.preset_smooth(state, iterations=20)
     smooth = np.mean(angle_deg(state.direction[e[:, 0]], state.direction[e[:, 1]]))
     assert smooth < rough / 4
-    fields.preset_axis(state, (1.0, 0.0, 0.0))
+    authoring.preset_axis(state, (1.0, 0.0, 0.0))
     assert not state.guide.any()
     assert np.max(angle_deg(state.direction, np.array([1.0, 0.0, 0.0]))) < 1e-3
 
@@ -263,19 +263,19 @@ def test_strokes_become_anchors_along_their_tangent():
     state = new_state(arrays)
     t = np.linspace(0, 1, 40)
     stroke = np.column_stack([0.2 + 0.6 * t, 0.5 + 0.1 * np.sin(3 * t), np.full_like(t, 0.002)])
-    used = fields.anchors_from_strokes(state, fields.ray_caster(arrays), [stroke, np.zeros((1, 3))], 0.05)
+    used = authoring.anchors_from_strokes(state, authoring.ray_caster(arrays), [stroke, np.zeros((1, 3))], 0.05)
     assert used == 40
-    for point, tangent in zip(stroke[5:-5], fields.stroke_tangents(stroke)[5:-5]):
+    for point, tangent in zip(stroke[5:-5], authoring.stroke_tangents(stroke)[5:-5]):
         nearest = np.argmin(np.linalg.norm(pos - point, axis=1))
         assert angle_deg(state.direction[nearest], tangent) < 8.0
 
 
 def test_scale_from_weights_maps_the_range():
-    np.testing.assert_allclose(fields.scale_from_weights([0, 0.5, 1, 2], 0.5, 2.0), [0.5, 1.25, 2.0, 2.0])
+    np.testing.assert_allclose(authoring.scale_from_weights([0, 0.5, 1, 2], 0.5, 2.0), [0.5, 1.25, 2.0, 2.0])
     with pytest.raises(ValueError, match="positive"):
-        fields.scale_from_weights([0], 0.0, 1.0)
+        authoring.scale_from_weights([0], 0.0, 1.0)
     with pytest.raises(ValueError, match="vertex 1"):
-        fields.check_scale_multiplier([1.0, np.nan], "attribute")
+        authoring.check_scale_multiplier([1.0, np.nan], "attribute")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -327,12 +327,12 @@ def test_combing_over_anchors_blends_with_the_falloff():
     arrays = mesh_arrays(pos, cv, st, sz)
     state = new_state(arrays)
     state.guide[:] = (0.0, 1.0, 0.0)
-    brush = fields.CombBrush(state, fields.ray_caster(arrays), 0.2)
+    brush = authoring.CombBrush(state, authoring.ray_caster(arrays), 0.2)
     brush.dab((0.45, 0.5, 1.0), (0, 0, -1))
     brush.dab((0.5, 0.5, 1.0), (0, 0, -1))  # one dab moving +X, centred at (0.5, 0.5)
     distance = np.linalg.norm(pos[:, :2] - (0.5, 0.5), axis=1)
     turned = angle_deg(state.guide, np.array([0.0, 1.0, 0.0]))  # 90 = fully +X
-    expected = np.degrees(np.arctan2(fields.falloff(distance, 0.2), 1.0 - fields.falloff(distance, 0.2)))
+    expected = np.degrees(np.arctan2(authoring.falloff(distance, 0.2), 1.0 - authoring.falloff(distance, 0.2)))
     inside = distance < 0.2
     np.testing.assert_allclose(turned[inside], expected[inside], atol=0.5)
     assert np.all(turned[~inside] < 1e-3)

@@ -42,7 +42,10 @@ for env in "${envs[@]}"; do
   stage="$root/dist/stage-$env/texsynth"
   rm -rf "$root/dist/stage-$env" "$root/dist/$name"
   mkdir -p "$stage"
-  (cd "$root/addon" && cp ./*.py blender_manifest.toml "$stage/")
+  # The package tree: top-level modules and the sub-packages (no caches, no other builds' modules).
+  (cd "$root/addon" && find . -name '*.py' -not -path '*/__pycache__/*' | while read -r file; do
+     mkdir -p "$stage/$(dirname "$file")" && cp "$file" "$stage/$file"; done
+   cp blender_manifest.toml "$stage/")
   cp "$module" "$stage/"
   if [ "${blender_version%%.*}" -lt 4 ] || { [ "${blender_version%%.*}" -eq 4 ] && [ "${family#*.}" -lt 2 ]; }; then
     # Legacy add-on zip (Blender < 4.2 has no extension platform).

@@ -148,7 +148,7 @@ def main():
     args = parser.parse_args(harness.script_args())
     texsynth = harness.load_addon()
     texsynth.register()
-    from texsynth import synthesis
+    from texsynth.uv_methods import synthesis
 
     source = build_mesh(args.mesh, args.stanford_path)
     print("mesh: %s, %d faces, %d vertices, %d corners" % (args.mesh, len(source.data.polygons),
@@ -163,7 +163,7 @@ def main():
     props.scale, props.seed, props.material_mode = size / 4.0, 1, args.material  # the sample spans a quarter of the mesh
     settings = props.to_settings()
     synthesis.preprocess(synthesis.Sample(path=props.sample_path), settings, cache_dir)
-    texsynth.properties.cache_dir = lambda context: cache_dir  # the operator uses the warm bench cache
+    texsynth.ui.properties.cache_dir = lambda context: cache_dir  # the operator uses the warm bench cache
 
     # The operator's own breakdown (pipeline.Timings of its Job), captured as the job finishes.
     breakdowns, layer_counts = [], []

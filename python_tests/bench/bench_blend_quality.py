@@ -167,12 +167,13 @@ def projected_material(name, image, world_size, projection="FLAT", shift=(0.0, 0
 
 
 def texsynth_material(image, blend_mode, cache_dir, method):
-    from texsynth import shading, synthesis
+    from texsynth.shading import blend_groups
+    from texsynth.uv_methods import synthesis
     inputs = synthesis.blend_inputs(image, blend_mode, cache_dir, method)
 
     def color(nodes, links):
         group = nodes.new("ShaderNodeGroup")
-        group.node_tree = shading.ensure_blend_group(image, inputs)
+        group.node_tree = blend_groups.ensure_blend_group(image, inputs)
         return group.outputs["Color"]
     return emission_material("TexSynth emission", color)
 
@@ -188,7 +189,8 @@ def render(scene, path):
 
 
 def synthesize(obj, sample_path, mode, world_size, seed, cache_dir, axis):
-    from texsynth import pipeline, synthesis
+    from texsynth.core import pipeline
+    from texsynth.uv_methods import synthesis
     method = "TEXTON" if mode.startswith("texton") else "JUMPMAP"
     settings = pipeline.Settings(method=method, sample_world_size=world_size, seed=seed, axis=axis,
                                  blend=not mode.endswith("_noblend"))

@@ -23,8 +23,8 @@ sys.path.insert(0, os.path.join(ROOT, "addon"))
 import addon_package  # noqa: E402
 import texsynth_native as ts  # noqa: E402
 
-fields = addon_package.load("fields")
-pipeline = addon_package.load("pipeline")
+authoring = addon_package.load("fields.authoring")
+pipeline = addon_package.load("core.pipeline")
 native = addon_package.load("native")
 native._module, native._reason, native._tried = ts, None, True
 
@@ -71,16 +71,16 @@ def bench_stroke(faces, dabs):
     arrays = bumpy_torus(faces)
     print("stroke mesh: %d faces, %d vertices" % (arrays.num_faces, arrays.num_vertices))
     start = time.perf_counter()
-    caster = fields.ray_caster(arrays)
+    caster = authoring.ray_caster(arrays)
     build = time.perf_counter() - start
     n = arrays.num_vertices
-    state = fields.FieldState(arrays, np.zeros((n, 3), np.float32), np.zeros(n, np.int32), np.zeros((n, 3), np.float32))
+    state = authoring.FieldState(arrays, np.zeros((n, 3), np.float32), np.zeros(n, np.int32), np.zeros((n, 3), np.float32))
     start = time.perf_counter()
-    state.field_mesh = fields.field_mesh(arrays)
+    state.field_mesh = authoring.field_mesh(arrays)
     state.vertex_normals()
     field_mesh_time = time.perf_counter() - start
-    state.direction = fields.tangent_unit(np.tile([0.0, 0.0, 1.0], (n, 1)), state.normals)
-    brush = fields.CombBrush(state, caster, radius=0.05)
+    state.direction = authoring.tangent_unit(np.tile([0.0, 0.0, 1.0], (n, 1)), state.normals)
+    brush = authoring.CombBrush(state, caster, radius=0.05)
     # A stroke across the top of the torus, rays straight down.
     angles = np.linspace(0.0, 1.0, dabs)
     per_dab = []
@@ -93,9 +93,9 @@ def bench_stroke(faces, dabs):
     start = time.perf_counter()
     brush.end_stroke()
     relax = time.perf_counter() - start
-    one_shot = fields.FieldState(arrays, state.guide, state.singularity, state.direction)  # no FieldMesh
+    one_shot = authoring.FieldState(arrays, state.guide, state.singularity, state.direction)  # no FieldMesh
     start = time.perf_counter()
-    fields.relax(one_shot)
+    authoring.relax(one_shot)
     relax_one_shot = time.perf_counter() - start
     origin = np.array([1.0, 0.0, 2.0], np.float32)
     t0 = time.perf_counter()
@@ -122,15 +122,15 @@ def bench_resynthesis(faces, repeat):
     os.makedirs(cache, exist_ok=True)
     pre = ts.preprocess(os.path.join(ROOT, "blend_samples", "bricks.png"), cache_dir=cache)
     n = arrays.num_vertices
-    state = fields.FieldState(arrays, np.zeros((n, 3), np.float32), np.zeros(n, np.int32), np.zeros((n, 3), np.float32))
-    state.singularity[0] = fields.SOURCE
-    state.field_mesh = fields.field_mesh(arrays)
+    state = authoring.FieldState(arrays, np.zeros((n, 3), np.float32), np.zeros(n, np.int32), np.zeros((n, 3), np.float32))
+    state.singularity[0] = authoring.SOURCE
+    state.field_mesh = authoring.field_mesh(arrays)
     relax_times, synth_times, native_seconds = [], [], []
     edge = 2 * np.pi * 1.35 / (2 * int(round((faces / 2) ** 0.5)))
     scale = 3.0 / edge  # ~3 texels per edge
     for _ in range(repeat):
         t0 = time.perf_counter()
-        fields.relax(state)
+        authoring.relax(state)
         t1 = time.perf_counter()
         out = ts.synthesize_jumpmap(pre, arrays.positions, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes,
                                     scale=scale, orientation="field", direction=state.direction, blend=True)

@@ -28,7 +28,8 @@ def main():
     args = parser.parse_args(harness.script_args())
     texsynth = harness.load_addon()
     texsynth.register()
-    from texsynth import bridge, field_ops, fields
+    from texsynth.bridge import mesh_io
+    from texsynth.fields import authoring, tools
     harness.reset_scene()
     texsynth.register()
     obj = bench_addon.bumpy_torus(args.segments, args.rings)
@@ -36,26 +37,26 @@ def main():
     props = bpy.context.scene.texsynth
     props.sample_source, props.sample_path = "FILE", os.path.join(harness.SAMPLES_DIR, "bricks.png")
     props.scale, props.blend, props.material_mode, props.allow_oversized = 0.5, True, "NONE", True
-    props.orientation, props.direction_attribute = "FIELD", fields.DIRECTION_NAME
+    props.orientation, props.direction_attribute = "FIELD", authoring.DIRECTION_NAME
     print("mesh: %d faces, %d vertices" % (len(obj.data.polygons), len(obj.data.vertices)))
-    state = field_ops.field_state(bpy.context, obj)
-    field_ops.commit_edit(bpy.context, obj, state)
-    field_ops.live_update(bpy.context, obj)  # warm: preprocess (disk cache) into memory
+    state = tools.field_state(bpy.context, obj)
+    tools.commit_edit(bpy.context, obj, state)
+    tools.live_update(bpy.context, obj)  # warm: preprocess (disk cache) into memory
     phases = {name: [] for name in ("read", "relax", "write", "live_total", "live_native")}
     for k in range(args.repeat):
         t0 = time.perf_counter()
-        state = field_ops.field_state(bpy.context, obj)
+        state = tools.field_state(bpy.context, obj)
         t1 = time.perf_counter()
-        fields.set_singularity(state, 1000 * (k + 1), fields.SOURCE)  # includes the native relax
+        authoring.set_singularity(state, 1000 * (k + 1), authoring.SOURCE)  # includes the native relax
         t2 = time.perf_counter()
-        bridge.write_field_state(obj, state)
+        mesh_io.write_field_state(obj, state)
         t3 = time.perf_counter()
-        field_ops.live_update(bpy.context, obj)
+        tools.live_update(bpy.context, obj)
         phases["read"].append(t1 - t0)
         phases["relax"].append(t2 - t1)
         phases["write"].append(t3 - t2)
-        phases["live_total"].append(field_ops.last_timings["live_update"])
-        phases["live_native"].append(field_ops.last_timings["live_native"])
+        phases["live_total"].append(tools.last_timings["live_update"])
+        phases["live_native"].append(tools.last_timings["live_native"])
     for name, values in phases.items():
         print("  %-12s %8.1f ms median of %d" % (name, 1000 * statistics.median(values), len(values)))
 

@@ -67,7 +67,9 @@ def setup_render(scene, engine, texsynth):
 def main():
     args = parse_args()
     texsynth = harness.load_addon()
-    from texsynth import pipeline, shading, synthesis
+    from texsynth.core import pipeline
+    from texsynth.shading import blend_groups
+    from texsynth.uv_methods import synthesis
     scene = bpy.context.scene
     cache_dir = tempfile.mkdtemp(prefix="texsynth_render_cost_")
     scene.render.filepath = os.path.join(cache_dir, "frame.png")
@@ -90,7 +92,7 @@ def main():
                     color = plain_texture(material, image)
                 else:
                     group = material.node_tree.nodes.new("ShaderNodeGroup")
-                    group.node_tree = shading.ensure_blend_group(
+                    group.node_tree = blend_groups.ensure_blend_group(
                         image, synthesis.blend_inputs(image, variant, cache_dir, method))
                     color = group.outputs["Color"]
                 material.node_tree.links.new(color, base_color_input(material))

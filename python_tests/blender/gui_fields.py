@@ -22,7 +22,8 @@ import harness  # noqa: E402
 
 texsynth = harness.load_addon()
 texsynth.register()
-from texsynth import bridge, fields, overlay  # noqa: E402
+from texsynth.bridge import mesh_io  # noqa: E402
+from texsynth.fields import authoring, overlay  # noqa: E402
 
 failed = []
 
@@ -61,7 +62,7 @@ def setup():
 
 
 def world_direction(obj):
-    local = bridge.read_point_attribute(obj.data, fields.DIRECTION_NAME, "FLOAT_VECTOR")
+    local = mesh_io.read_point_attribute(obj.data, authoring.DIRECTION_NAME, "FLOAT_VECTOR")
     return local @ np.array(obj.matrix_world, np.float64)[:3, :3].T
 
 
@@ -96,7 +97,7 @@ def scenario():
     obj = setup()
     yield
     window, area, region, sidebar = view3d()
-    positions = bridge.read_mesh(obj).positions
+    positions = mesh_io.read_mesh(obj).positions
 
     # --- Comb modal started from the sidebar (like the panel button), stroke along +X at y = 0.
     with bpy.context.temp_override(window=window, area=area, region=sidebar):
@@ -122,7 +123,7 @@ def scenario():
           overlay._cache.get(obj.name))
     # Ctrl-drag erases the anchors under the brush.
     yield from drag(window, region, (-0.3, 0.0, 0.0), (0.3, 0.0, 0.0), ctrl=True)
-    guide = bridge.read_point_attribute(obj.data, fields.GUIDE_NAME, "FLOAT_VECTOR")
+    guide = mesh_io.read_point_attribute(obj.data, authoring.GUIDE_NAME, "FLOAT_VECTOR")
     erased = (np.abs(positions[:, 1]) < 0.1) & (np.abs(positions[:, 0]) < 0.2)
     kept = (np.abs(positions[:, 1]) < 0.1) & (np.abs(positions[:, 0]) > 0.6) & (np.abs(positions[:, 0]) < 0.7)
     check("ctrl_drag_erases", not guide[erased].any() and np.all(np.any(guide[kept] != 0, axis=1)))
@@ -146,7 +147,7 @@ def scenario():
     yield
     window.event_simulate(type="LEFTMOUSE", value="RELEASE", x=x, y=y)
     yield
-    singular = bridge.read_point_attribute(obj.data, fields.SINGULARITY_NAME, "INT")
+    singular = mesh_io.read_point_attribute(obj.data, authoring.SINGULARITY_NAME, "INT")
     nearest = int(np.argmin(np.linalg.norm(positions - target, axis=1)))
     check("source_picked_at_click", singular is not None and singular[nearest] == 1 and np.count_nonzero(singular) == 1,
           None if singular is None else np.flatnonzero(singular))
@@ -156,9 +157,9 @@ def scenario():
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.wm.tool_set_by_id(name="texsynth.comb_tool")
     yield
-    from texsynth import field_ops
+    from texsynth.fields import tools
     with bpy.context.temp_override(window=window, area=area, region=region):
-        check("comb_tool_active", field_ops.comb_tool_active(bpy.context))
+        check("comb_tool_active", tools.comb_tool_active(bpy.context))
 
 
 def driver():

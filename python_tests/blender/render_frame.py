@@ -28,7 +28,8 @@ FRAMES = {
 def render(name, out_path):
     frame = FRAMES[name]
     texsynth = harness.load_addon()
-    from texsynth import pipeline, synthesis
+    from texsynth.core import pipeline
+    from texsynth.uv_methods import synthesis
     for obj_name, sample, world_size, seed in frame["jobs"]:
         settings = pipeline.Settings(sample_world_size=world_size, seed=seed, blend=frame["blend"])
         report = synthesis.synthesize([bpy.data.objects[obj_name]],

@@ -15,7 +15,11 @@ import numpy as np  # noqa: E402
 import harness  # noqa: E402
 
 texsynth = harness.load_addon()
-from texsynth import bridge, native, pipeline, shading, synthesis  # noqa: E402
+from texsynth import native  # noqa: E402
+from texsynth.bridge import mesh_io  # noqa: E402
+from texsynth.core import pipeline  # noqa: E402
+from texsynth.shading import blend_groups  # noqa: E402
+from texsynth.uv_methods import synthesis  # noqa: E402
 
 _real = native.get()
 USE_FAKE = os.environ.get("TEXSYNTH_FAKE_NATIVE") == "1" or _real is None or not hasattr(_real, "synthesize_jumpmap")
@@ -71,7 +75,7 @@ def expected_result(obj, props):
     """What the native module returns for obj (same arrays and options), computed outside the add-on."""
     settings = props.to_settings()
     pre = native.get().preprocess(BRICKS, cache_dir=synthesis.default_cache_dir(), **settings.preprocess_params())
-    arrays = bridge.read_mesh(obj)
+    arrays = mesh_io.read_mesh(obj)
     return native.get().synthesize_jumpmap(
         pre, arrays.positions, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes,
         scale=pre.width / props.scale, jump_rate=props.jump_rate, seed=pipeline.object_seed(props.seed, obj.name),
@@ -140,12 +144,12 @@ def test_register_unregister_twice():
 def test_unregister_after_the_toolbar_lost_the_comb_tool():
     """read_factory_settings rebuilds the toolbar and then disables add-ons: the tool is already gone."""
     from bl_ui.space_toolsystem_common import ToolSelectPanelHelper
-    from texsynth import field_ops
+    from texsynth.fields import tools
     texsynth.register()
-    tool = field_ops.TexSynthCombTool
-    tools = ToolSelectPanelHelper._tool_class_from_space_type(tool.bl_space_type)._tools[tool.bl_context_mode]
-    assert tool._bl_tool in tools, "the comb tool is not in the toolbar"
-    tools.remove(tool._bl_tool)  # what the rebuilt toolbar looks like: the class still thinks it is there
+    tool = tools.TexSynthCombTool
+    toolbar = ToolSelectPanelHelper._tool_class_from_space_type(tool.bl_space_type)._tools[tool.bl_context_mode]
+    assert tool._bl_tool in toolbar, "the comb tool is not in the toolbar"
+    toolbar.remove(tool._bl_tool)  # what the rebuilt toolbar looks like: the class still thinks it is there
     texsynth.unregister()
     assert not hasattr(bpy.types.Scene, "texsynth")
     texsynth.register()
@@ -171,7 +175,7 @@ def test_read_mesh_is_world_space():
     obj = harness.add_primitive("monkey", "Moved", location=(1.0, -2.0, 0.5), rotation=(0.3, 0.2, 1.1))
     obj.scale = (2.0, 0.5, 1.5)
     bpy.context.view_layer.update()
-    arrays = bridge.read_mesh(obj)
+    arrays = mesh_io.read_mesh(obj)
     world = np.array([tuple(obj.matrix_world @ v.co) for v in obj.data.vertices], np.float32)
     assert arrays.positions.dtype == np.float32 and arrays.positions.flags.c_contiguous
     assert np.allclose(arrays.positions, world, atol=1e-5)
@@ -381,17 +385,17 @@ def test_failed_write_restores_mesh_byte_identical():
     obj = harness.add_primitive("uv_sphere", "Atomic", segments=16, ring_count=8)
     synthesize_one(obj, blend=True)
     before = harness.mesh_hash(obj.data)
-    original = bridge._remove_uv_layers
+    original = mesh_io._remove_uv_layers
 
     def failing(mesh, names):
         raise RuntimeError("injected failure after all layers were written")
-    bridge._remove_uv_layers = failing
+    mesh_io._remove_uv_layers = failing
     try:
         configure(seed=99, blend=False)  # changes every value and needs removing B0..B3: fails at the end
         harness.select_only([obj])
         message = expect_error(run_operator, "restored", "injected")
     finally:
-        bridge._remove_uv_layers = original
+        mesh_io._remove_uv_layers = original
     assert harness.mesh_hash(obj.data) == before, message
 
 
@@ -413,7 +417,7 @@ def test_direction_attribute_is_read_in_world_space():
     bpy.context.view_layer.update()
     attribute = obj.data.attributes.new("flow", "FLOAT_VECTOR", "POINT")
     attribute.data.foreach_set("vector", np.tile([1.0, 0.0, 0.0], len(obj.data.vertices)).astype(np.float32))
-    arrays = bridge.read_mesh(obj, "flow")
+    arrays = mesh_io.read_mesh(obj, "flow")
     assert np.allclose(arrays.direction, np.tile([0.0, 1.0, 0.0], (len(obj.data.vertices), 1)), atol=1e-6)
     props = synthesize_one(obj, orientation="FIELD", direction_attribute="flow")
     assert "TexSynth" in obj.data.uv_layers and props.orientation == "FIELD"
@@ -489,7 +493,7 @@ def test_material_group_created_idempotently():
     node_count = len(group.nodes)
     images = bpy.data.images
     assert images["TexSynth Gaussian: bricks.png"].packed_file and images["TexSynth LUT: bricks.png"].packed_file
-    shading.ensure_blend_group(images["bricks.png"], shading.BlendInputs(
+    blend_groups.ensure_blend_group(images["bricks.png"], blend_groups.BlendInputs(
         "HISTOGRAM", gaussian=images["TexSynth Gaussian: bricks.png"], inverse_lut=images["TexSynth LUT: bricks.png"]))
     assert len(group.nodes) == node_count and len(bpy.data.node_groups) == 1
 
@@ -506,8 +510,8 @@ def test_insert_into_existing_material_and_extra_maps():
     principled = next(n for n in mine.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
     assert principled.inputs["Base Color"].links[0].from_node.node_tree.name == "TexSynth Blend: bricks.png"
     moss = bpy.data.images.load(os.path.join(harness.SAMPLES_DIR, "moss.png"))
-    shading.insert_into_material(mine, moss, "Roughness", synthesis.blend_inputs(moss))
-    shading.insert_into_material(mine, moss, "Normal", synthesis.blend_inputs(moss, "VARIANCE"))
+    blend_groups.insert_into_material(mine, moss, "Roughness", synthesis.blend_inputs(moss))
+    blend_groups.insert_into_material(mine, moss, "Normal", synthesis.blend_inputs(moss, "VARIANCE"))
     assert principled.inputs["Roughness"].links[0].from_node.node_tree.name == "TexSynth Blend: moss.png"
     normal_map = principled.inputs["Normal"].links[0].from_node
     assert normal_map.type == "NORMAL_MAP"
@@ -526,7 +530,7 @@ def test_packed_and_generated_image_samples():
     props = synthesize_one(obj, sample_source="IMAGE", sample_image=packed)
     assert "TexSynth" in obj.data.uv_layers
     generated = bpy.data.images.new("Generated", 64, 48)
-    pixels = bridge.read_image_pixels(generated)
+    pixels = mesh_io.read_image_pixels(generated)
     assert pixels.shape == (48, 64, 4) and pixels.dtype == np.float32
     synthesize_one(obj, sample_source="IMAGE", sample_image=generated)
     assert props.sample_image == generated
@@ -537,7 +541,7 @@ def test_image_pixels_are_flipped_to_top_row_first():
     image = bpy.data.images.new("Rows", 2, 3)
     rows_bottom_up = np.repeat(np.arange(3, dtype=np.float32), 2 * 4) / 10.0
     image.pixels.foreach_set(rows_bottom_up)
-    pixels = bridge.read_image_pixels(image)
+    pixels = mesh_io.read_image_pixels(image)
     assert np.allclose(pixels[:, 0, 0], [0.2, 0.1, 0.0], atol=0.01)  # Blender's last row is the top
 
 
@@ -612,7 +616,7 @@ def draw_panel(panel_class):
 
 def test_panel_draws_every_setting_and_the_native_reason():
     configure()
-    log = draw_panel(texsynth.ui.TEXSYNTH_PT_main)
+    log = draw_panel(texsynth.ui.panels.TEXSYNTH_PT_main)
     props_shown = {args[1] for kind, args, _ in log if kind == "prop"}
     assert props_shown >= {"sample_source", "sample_path", "method", "scale", "seed", "jump_rate", "orientation",
                            "axis", "blend", "allow_oversized", "material_mode"}, props_shown
@@ -620,7 +624,7 @@ def test_panel_draws_every_setting_and_the_native_reason():
     assert operators_shown == {"texsynth.preprocess", "texsynth.check_cache", "texsynth.synthesize", "texsynth.clear"}
     assert any(kind == "label" and kw.get("text", "").startswith("Cache:") for kind, _, kw in log)
     configure(sample_source="IMAGE", orientation="FIELD", method="TEXTON")
-    log = draw_panel(texsynth.ui.TEXSYNTH_PT_main)
+    log = draw_panel(texsynth.ui.panels.TEXSYNTH_PT_main)
     assert any(kind == "template_ID" for kind, _, _ in log)
     assert "direction_attribute" in {args[1] for kind, args, _ in log if kind == "prop"}
     shown = {args[1] for kind, args, _ in log if kind == "prop"}
@@ -628,7 +632,7 @@ def test_panel_draws_every_setting_and_the_native_reason():
     saved = (native._module, native._reason, native._tried)
     try:
         native._module, native._reason, native._tried = None, "native module missing: no texsynth_native", True
-        labels = " ".join(kw.get("text", "") for kind, _, kw in draw_panel(texsynth.ui.TEXSYNTH_PT_main)
+        labels = " ".join(kw.get("text", "") for kind, _, kw in draw_panel(texsynth.ui.panels.TEXSYNTH_PT_main)
                           if kind == "label")
         assert "Native module unavailable" in labels and "no texsynth_native" in labels
     finally:

@@ -18,7 +18,8 @@ import numpy as np  # noqa: E402
 import harness  # noqa: E402
 
 texsynth = harness.load_addon()
-from texsynth import operators, synthesis  # noqa: E402
+from texsynth.ui import operators  # noqa: E402
+from texsynth.uv_methods import synthesis  # noqa: E402
 
 texsynth.register()
 BRICKS = os.path.join(harness.SAMPLES_DIR, "bricks.png")

@@ -15,7 +15,10 @@ import harness  # noqa: E402
 from uv_jacobians import triangle_jacobians  # noqa: E402
 
 texsynth = harness.load_addon()
-from texsynth import bridge, field_ops, fields, native, pipeline  # noqa: E402
+from texsynth import native  # noqa: E402
+from texsynth.bridge import mesh_io  # noqa: E402
+from texsynth.core import pipeline  # noqa: E402
+from texsynth.fields import authoring, tools  # noqa: E402
 
 assert native.get() is not None and hasattr(native.get(), "RayCaster"), native.reason()
 BRICKS = os.path.join(harness.SAMPLES_DIR, "bricks.png")
@@ -29,7 +32,7 @@ def fresh_scene():
             collection.remove(item)
     props = bpy.context.scene.texsynth
     for key, value in dict(sample_source="FILE", sample_path=BRICKS, scale=2.0, seed=3, orientation="AXIS",
-                           axis=(0.0, 0.0, 1.0), direction_attribute=fields.DIRECTION_NAME, blend=False,
+                           axis=(0.0, 0.0, 1.0), direction_attribute=authoring.DIRECTION_NAME, blend=False,
                            allow_oversized=False, material_mode="NONE", scale_source="NONE",
                            field_brush_radius=0.3, field_brush_strength=1.0, field_live_update=False).items():
         setattr(props, key, value)
@@ -53,13 +56,13 @@ def angle_deg(a, b):
 
 
 def world_direction(obj):
-    local = bridge.read_point_attribute(obj.data, fields.DIRECTION_NAME, "FLOAT_VECTOR")
+    local = mesh_io.read_point_attribute(obj.data, authoring.DIRECTION_NAME, "FLOAT_VECTOR")
     return local @ np.array(obj.matrix_world, np.float64)[:3, :3].T
 
 
 def face_frames(obj, uv_name="TexSynth"):
     """Per polygon (first triangle): world 3D direction of texture 'up' (+V) and |dUV| per unit."""
-    arrays = bridge.read_mesh(obj)
+    arrays = mesh_io.read_mesh(obj)
     uv = np.empty(len(obj.data.loops) * 2, np.float32)
     obj.data.uv_layers[uv_name].data.foreach_get("uv", uv)
     uv = uv.reshape(-1, 2).astype(np.float64)
@@ -74,35 +77,35 @@ def face_frames(obj, uv_name="TexSynth"):
 def test_comb_stroke_on_a_rotated_plane_writes_object_space_attributes():
     fresh_scene()
     obj = grid_object(rotation=(0.0, 0.0, math.radians(30)), location=(1.0, 2.0, 0.5))
-    state = field_ops.field_state(bpy.context, obj)
-    brush = fields.CombBrush(state, field_ops.caster_for(obj, state.arrays), 0.25)
+    state = tools.field_state(bpy.context, obj)
+    brush = authoring.CombBrush(state, tools.caster_for(obj, state.arrays), 0.25)
     start, end = np.array([0.2, 2.0, 0.5]), np.array([1.8, 2.0, 0.5])  # world +X stroke through the plane
     for s in np.linspace(0, 1, 25):
         brush.dab(start + s * (end - start) + (0, 0, 3), (0, 0, -1))
     assert brush.end_stroke()
-    field_ops.commit_edit(bpy.context, obj, state)
+    tools.commit_edit(bpy.context, obj, state)
     world = world_direction(obj)
     positions = state.arrays.positions
     core = (np.abs(positions[:, 1] - 2.0) < 0.1) & (positions[:, 0] > 0.4) & (positions[:, 0] < 1.6)
     assert core.sum() > 20
     assert np.max(angle_deg(world[core], np.array([1.0, 0.0, 0.0]))) < 3.0
     # Object-space storage: the local vector is the world one rotated back by -30 degrees.
-    local = bridge.read_point_attribute(obj.data, fields.DIRECTION_NAME, "FLOAT_VECTOR")[core]
+    local = mesh_io.read_point_attribute(obj.data, authoring.DIRECTION_NAME, "FLOAT_VECTOR")[core]
     expected_local = np.array([math.cos(math.radians(-30)), math.sin(math.radians(-30)), 0.0])
     assert np.max(angle_deg(local, expected_local)) < 3.0
-    guide = bridge.read_point_attribute(obj.data, fields.GUIDE_NAME, "FLOAT_VECTOR")
+    guide = mesh_io.read_point_attribute(obj.data, authoring.GUIDE_NAME, "FLOAT_VECTOR")
     assert np.any(guide != 0, axis=1).sum() > 20
 
 
 def test_source_and_sink_operators_store_singularities_and_orient_the_field():
     fresh_scene()
     obj = grid_object()
-    arrays = bridge.read_mesh(obj)
+    arrays = mesh_io.read_mesh(obj)
     centre = int(np.argmin(np.linalg.norm(arrays.positions[:, :2] - (0.5, 0.0), axis=1)))
     other = int(np.argmin(np.linalg.norm(arrays.positions[:, :2] - (-0.5, 0.0), axis=1)))
     assert bpy.ops.texsynth.singularity(mode="SOURCE", vertex=centre) == {"FINISHED"}
     assert bpy.ops.texsynth.singularity(mode="SINK", vertex=other) == {"FINISHED"}
-    singular = bridge.read_point_attribute(obj.data, fields.SINGULARITY_NAME, "INT")
+    singular = mesh_io.read_point_attribute(obj.data, authoring.SINGULARITY_NAME, "INT")
     assert singular[centre] == 1 and singular[other] == -1 and np.count_nonzero(singular) == 2
     d = world_direction(obj)
     p = arrays.positions
@@ -111,7 +114,7 @@ def test_source_and_sink_operators_store_singularities_and_orient_the_field():
     assert np.median(angle_deg(d[near_source], p[near_source] - p[centre])) < 10.0
     assert np.median(angle_deg(d[near_sink], p[other] - p[near_sink])) < 10.0
     assert bpy.ops.texsynth.singularity(mode="REMOVE", vertex=centre) == {"FINISHED"}
-    assert bridge.read_point_attribute(obj.data, fields.SINGULARITY_NAME, "INT")[centre] == 0
+    assert mesh_io.read_point_attribute(obj.data, authoring.SINGULARITY_NAME, "INT")[centre] == 0
     # A bad vertex index is an error that changes nothing.
     before = harness.mesh_hash(obj.data)
     try:
@@ -186,11 +189,11 @@ def test_field_from_annotation_strokes():
     points = np.column_stack([-0.6 + 1.2 * t, 0.3 * np.sin(2 * t), np.full_like(t, 0.001)])
     kind = draw_guide_stroke(points)
     print("guide stroke drawn as", kind)
-    assert len(field_ops.guide_strokes(bpy.context)) == 1
+    assert len(tools.guide_strokes(bpy.context)) == 1
     assert bpy.ops.texsynth.field_from_strokes() == {"FINISHED"}
     d = world_direction(obj)
-    positions = bridge.read_mesh(obj).positions
-    tangents = fields.stroke_tangents(points)
+    positions = mesh_io.read_mesh(obj).positions
+    tangents = authoring.stroke_tangents(points)
     errors = [angle_deg(d[np.argmin(np.linalg.norm(positions - point, axis=1))], tangent)
               for point, tangent in zip(points[3:-3], tangents[3:-3])]
     assert max(errors) < 8.0, errors
@@ -199,34 +202,34 @@ def test_field_from_annotation_strokes():
 def test_fields_survive_save_and_reload():
     fresh_scene()
     obj = grid_object()
-    state = field_ops.field_state(bpy.context, obj)
-    fields.set_singularity(state, 5, fields.SINK)
+    state = tools.field_state(bpy.context, obj)
+    authoring.set_singularity(state, 5, authoring.SINK)
     state.guide[100] = (0.0, 1.0, 0.0)
-    fields.relax(state)
-    field_ops.commit_edit(bpy.context, obj, state)
+    authoring.relax(state)
+    tools.commit_edit(bpy.context, obj, state)
     scale = np.linspace(0.5, 2.0, len(obj.data.vertices)).astype(np.float32)
-    bridge.write_point_attribute(obj.data, fields.SCALE_NAME, "FLOAT", scale)
-    saved = {name: bridge.read_point_attribute(obj.data, name, kind) for name, kind in (
-        (fields.DIRECTION_NAME, "FLOAT_VECTOR"), (fields.GUIDE_NAME, "FLOAT_VECTOR"),
-        (fields.SINGULARITY_NAME, "INT"), (fields.SCALE_NAME, "FLOAT"))}
+    mesh_io.write_point_attribute(obj.data, authoring.SCALE_NAME, "FLOAT", scale)
+    saved = {name: mesh_io.read_point_attribute(obj.data, name, kind) for name, kind in (
+        (authoring.DIRECTION_NAME, "FLOAT_VECTOR"), (authoring.GUIDE_NAME, "FLOAT_VECTOR"),
+        (authoring.SINGULARITY_NAME, "INT"), (authoring.SCALE_NAME, "FLOAT"))}
     path = os.path.join(tempfile.mkdtemp(), "fields.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.ops.wm.open_mainfile(filepath=path)
     mesh = bpy.data.objects["Plane"].data
-    for (name, kind), values in zip(((fields.DIRECTION_NAME, "FLOAT_VECTOR"), (fields.GUIDE_NAME, "FLOAT_VECTOR"),
-                                     (fields.SINGULARITY_NAME, "INT"), (fields.SCALE_NAME, "FLOAT")), saved.values()):
-        np.testing.assert_array_equal(bridge.read_point_attribute(mesh, name, kind), values)
-    assert saved[fields.SINGULARITY_NAME][5] == -1
+    for (name, kind), values in zip(((authoring.DIRECTION_NAME, "FLOAT_VECTOR"), (authoring.GUIDE_NAME, "FLOAT_VECTOR"),
+                                     (authoring.SINGULARITY_NAME, "INT"), (authoring.SCALE_NAME, "FLOAT")), saved.values()):
+        np.testing.assert_array_equal(mesh_io.read_point_attribute(mesh, name, kind), values)
+    assert saved[authoring.SINGULARITY_NAME][5] == -1
 
 
 def swirl_field(obj):
     """A world-space field rotating with the distance from the centre, written as the direction."""
-    arrays = bridge.read_mesh(obj)
+    arrays = mesh_io.read_mesh(obj)
     angle = 1.5 * np.linalg.norm(arrays.positions[:, :2], axis=1)
     world = np.column_stack([-np.sin(angle), np.cos(angle), np.zeros_like(angle)])
     inverse = np.linalg.inv(np.array(obj.matrix_world, np.float64)[:3, :3])
-    bridge.write_point_attribute(obj.data, fields.DIRECTION_NAME, "FLOAT_VECTOR", world @ inverse.T)
+    mesh_io.write_point_attribute(obj.data, authoring.DIRECTION_NAME, "FLOAT_VECTOR", world @ inverse.T)
     return world
 
 
@@ -248,7 +251,7 @@ def test_synthesize_follows_the_direction_attribute_angle_statistics():
 def test_synthesize_follows_the_scale_vertex_group_and_attribute():
     props = fresh_scene()
     obj = grid_object(cuts=50)
-    arrays = bridge.read_mesh(obj)
+    arrays = mesh_io.read_mesh(obj)
     weights = (arrays.positions[:, 0] + 1.0) / 2.0  # 0 .. 1 along x
     group = obj.vertex_groups.new(name="Density")
     for index, weight in enumerate(weights):
@@ -264,12 +267,12 @@ def test_synthesize_follows_the_scale_vertex_group_and_attribute():
     print("scale error: median %.3f p95 %.3f" % (np.median(np.abs(relative)), np.percentile(np.abs(relative), 95)))
     assert np.median(np.abs(relative)) < 0.03 and np.percentile(np.abs(relative), 95) < 0.1
     # Same through the attribute (and a bad attribute is refused, naming it).
-    bridge.write_point_attribute(obj.data, fields.SCALE_NAME, "FLOAT", multiplier)
+    mesh_io.write_point_attribute(obj.data, authoring.SCALE_NAME, "FLOAT", multiplier)
     props.scale_source = "ATTRIBUTE"
     assert bpy.ops.texsynth.synthesize() == {"FINISHED"}
     _, density2, _ = face_frames(obj)
     np.testing.assert_allclose(density2, density, rtol=0.02)
-    bridge.write_point_attribute(obj.data, fields.SCALE_NAME, "FLOAT", np.zeros_like(multiplier))
+    mesh_io.write_point_attribute(obj.data, authoring.SCALE_NAME, "FLOAT", np.zeros_like(multiplier))
     try:
         bpy.ops.texsynth.synthesize()
         raise AssertionError("expected an error")
@@ -282,11 +285,11 @@ def test_cli_direction_and_scale_flags():
     obj = grid_object(cuts=40)
     world = swirl_field(obj)
     multiplier = np.full(len(obj.data.vertices), 2.0, np.float32)
-    bridge.write_point_attribute(obj.data, fields.SCALE_NAME, "FLOAT", multiplier)
+    mesh_io.write_point_attribute(obj.data, authoring.SCALE_NAME, "FLOAT", multiplier)
     sys.path.insert(0, harness.ADDON_DIR)
     import texsynth_cli
     texsynth_cli.main(["--sample", BRICKS, "--object", "Plane", "--scale", "2", "--no-blend", "--material", "none",
-                       "--direction-attribute", fields.DIRECTION_NAME, "--scale-attribute", fields.SCALE_NAME])
+                       "--direction-attribute", authoring.DIRECTION_NAME, "--scale-attribute", authoring.SCALE_NAME])
     up, density, arrays = face_frames(obj)
     face_field = np.array([world[arrays.corner_verts[s:s + k]].mean(0) for s, k in zip(arrays.poly_starts,
                                                                                       arrays.poly_sizes)])
@@ -310,12 +313,12 @@ def test_live_update_resynthesizes_after_an_edit():
     second = np.empty_like(first)
     obj.data.uv_layers["TexSynth"].data.foreach_get("uv", second)
     assert not np.array_equal(first, second)
-    assert field_ops.last_timings["live_native"] > 0
+    assert tools.last_timings["live_native"] > 0
     # A failing live update (no sample) keeps the field edit and only warns.
     props.sample_path = "/no/such/sample.png"
-    field_ops._live_samples.clear()
+    tools._live_samples.clear()
     assert bpy.ops.texsynth.singularity(mode="SINK", vertex=1) == {"FINISHED"}
-    assert bridge.read_point_attribute(obj.data, fields.SINGULARITY_NAME, "INT")[1] == -1
+    assert mesh_io.read_point_attribute(obj.data, authoring.SINGULARITY_NAME, "INT")[1] == -1
     third = np.empty_like(first)
     obj.data.uv_layers["TexSynth"].data.foreach_get("uv", third)
     np.testing.assert_array_equal(third, second)
@@ -323,7 +326,8 @@ def test_live_update_resynthesizes_after_an_edit():
 
 def test_panel_and_overlay_geometry():
     fresh_scene()
-    from texsynth import overlay, ui
+    from texsynth.fields import overlay
+    from texsynth.ui import panels
     log = []
 
     class Layout:
@@ -332,7 +336,7 @@ def test_panel_and_overlay_geometry():
                 log.append((name, args, kwargs))
                 return Layout()
             return record
-    ui.TEXSYNTH_PT_field.draw(type("P", (), {"layout": Layout()})(), bpy.context)
+    panels.TEXSYNTH_PT_field.draw(type("P", (), {"layout": Layout()})(), bpy.context)
     operators = {args[0] for kind, args, _ in log if kind == "operator"}
     assert operators == {"texsynth.comb", "texsynth.singularity", "texsynth.field_preset",
                          "texsynth.field_from_strokes"}, operators
@@ -350,21 +354,21 @@ def test_panel_and_overlay_geometry():
     np.testing.assert_allclose(offsets @ np.array([0.0, 0.6, 0.8]), 0.0, atol=1e-5)
     assert len(circle) == 64
     obj = grid_object(size=2.0, cuts=10)  # 10 x 10 quads of side 0.2
-    assert abs(overlay.mean_edge_length(bridge.read_mesh(obj)) - 0.2) < 1e-6
+    assert abs(overlay.mean_edge_length(mesh_io.read_mesh(obj)) - 0.2) < 1e-6
 
 
 def test_register_adds_and_removes_the_comb_workspace_tool():
     from bl_ui.space_toolsystem_common import ToolSelectPanelHelper
-    tools = ToolSelectPanelHelper._tool_class_from_space_type("VIEW_3D")._tools
-    assert field_ops.COMB_TOOL_ID in repr(tools["OBJECT"])
+    registered = ToolSelectPanelHelper._tool_class_from_space_type("VIEW_3D")._tools
+    assert tools.COMB_TOOL_ID in repr(registered["OBJECT"])
     texsynth.unregister()
     try:
-        assert field_ops.COMB_TOOL_ID not in repr(tools["OBJECT"])
+        assert tools.COMB_TOOL_ID not in repr(registered["OBJECT"])
         assert not hasattr(bpy.types, "TEXSYNTH_OT_comb")
     finally:
         texsynth.register()
-    assert field_ops.COMB_TOOL_ID in repr(tools["OBJECT"])
-    assert not field_ops.comb_tool_active(bpy.context)
+    assert tools.COMB_TOOL_ID in repr(registered["OBJECT"])
+    assert not tools.comb_tool_active(bpy.context)
 
 
 if __name__ == "__main__":

@@ -21,7 +21,9 @@ import numpy as np  # noqa: E402
 import harness  # noqa: E402
 
 texsynth = harness.load_addon()
-from texsynth import bridge, native, synthesis  # noqa: E402
+from texsynth import native  # noqa: E402
+from texsynth.bridge import mesh_io  # noqa: E402
+from texsynth.uv_methods import synthesis  # noqa: E402
 
 texsynth.register()
 CACHE_DIR = tempfile.mkdtemp(prefix="texsynth_hostile_blender_cache_")
@@ -173,22 +175,22 @@ def run_case(corpus, case):
 
 def run_failure_injection(point):
     """Fails at `point` on a fresh mesh, then again when replacing an earlier result: unchanged both times."""
-    os.environ[bridge.FAIL_AT_ENV] = point
+    os.environ[mesh_io.FAIL_AT_ENV] = point
     try:
         first, _ = synthesize_checked(with_undo=False)
         if first is None or "injected" not in first:
             raise Outcome("invalid", "injected failure did not surface: %s" % first)
-        del os.environ[bridge.FAIL_AT_ENV]
+        del os.environ[mesh_io.FAIL_AT_ENV]
         ok, _ = synthesize_checked(with_undo=False)
         if ok is not None:
             raise Outcome("invalid", "clean run failed: %s" % ok)
         bpy.context.scene.texsynth.seed = 12345
-        os.environ[bridge.FAIL_AT_ENV] = point
+        os.environ[mesh_io.FAIL_AT_ENV] = point
         second, _ = synthesize_checked(with_undo=False)
         if second is None:
             raise Outcome("invalid", "injected failure on rerun did not surface")
     finally:
-        os.environ.pop(bridge.FAIL_AT_ENV, None)
+        os.environ.pop(mesh_io.FAIL_AT_ENV, None)
     return "error", second
 
 

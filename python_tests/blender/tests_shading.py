@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Blend group behaviour measured in renders (addon/shading.py), inside Blender:
+"""Blend group behaviour measured in renders (addon/blend_groups.py), inside Blender:
 
   blender -b --factory-startup --python-exit-code 1 --python python_tests/blender/tests_shading.py [-- test_name ...]
 
@@ -19,7 +19,9 @@ import harness  # noqa: E402
 
 texsynth = harness.load_addon()
 texsynth.register()
-from texsynth import pipeline, shading, synthesis  # noqa: E402
+from texsynth.core import pipeline  # noqa: E402
+from texsynth.shading import blend_groups  # noqa: E402
+from texsynth.uv_methods import synthesis  # noqa: E402
 
 PIXELS = 128
 CACHE = tempfile.mkdtemp(prefix="texsynth_shading_tests_")
@@ -79,7 +81,7 @@ def render_luminance(obj, scene, image, mode, blend=True, method="JUMPMAP"):
     settings = pipeline.Settings(method=method, sample_world_size=1.2, seed=3, blend=blend, axis=(0.0, 1.0, 0.0))
     report = synthesis.synthesize([obj], synthesis.Sample(path=MOSS), settings, cache_dir=CACHE, material_mode="NONE")
     assert not report.failures, report.summary()
-    group = shading.ensure_blend_group(image, synthesis.blend_inputs(image, mode, CACHE, method))
+    group = blend_groups.ensure_blend_group(image, synthesis.blend_inputs(image, mode, CACHE, method))
     obj.data.materials.clear()
     obj.data.materials.append(emission_with_group(group))
     bpy.ops.render.render(write_still=True)

@@ -2,7 +2,7 @@
 """Scene settings (persist in the .blend) and add-on preferences."""
 import bpy
 
-from . import pipeline
+from ..core import pipeline
 
 ADDON_ID = __package__
 
@@ -114,7 +114,8 @@ class TexSynthPreferences(bpy.types.AddonPreferences):
                                         description="Where preprocessed samples are cached (empty: default)")
 
     def draw(self, context):
-        from . import native, synthesis
+        from .. import native
+        from ..uv_methods import synthesis
         self.layout.prop(self, "cache_dir")
         self.layout.label(text="Default: " + synthesis.default_cache_dir())
         if native.reason():

@@ -1,17 +1,22 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Field authoring operators: Comb (modal), Source/Sink, Presets, Field from Strokes.
 
-Each edit: bridge.read_field_state -> fields.* (native ray casts and relaxation) ->
-bridge.write_field_state -> overlay refresh -> optional live re-synthesis.
+Each edit: mesh_io.read_field_state -> fields.* (native ray casts and relaxation) ->
+mesh_io.write_field_state -> overlay refresh -> optional live re-synthesis.
 """
 import time
 
 import bpy
 import numpy as np
 
-from . import bridge, compat, fields, operators, overlay, pipeline, properties, synthesis
+from .. import compat
+from ..bridge import mesh_io
+from ..core import pipeline
+from . import authoring, overlay
+from ..ui import operators, properties
+from ..uv_methods import synthesis
 
-# Per object name: (fields.mesh_key, RayCaster, FieldMesh), rebuilt when the mesh changes.
+# Per object name: (authoring.mesh_key, RayCaster, FieldMesh), rebuilt when the mesh changes.
 _native_meshes = {}
 # Preprocessed samples kept in memory for live updates: key -> Preprocessed.
 _live_samples = {}
@@ -20,13 +25,13 @@ last_timings = {}
 
 
 def _native_mesh(obj, arrays, which):
-    key = fields.mesh_key(arrays)
+    key = authoring.mesh_key(arrays)
     cached = _native_meshes.get(obj.name)
     if cached is None or cached[0] != key:
         cached = [key, None, None]
         _native_meshes[obj.name] = cached
     if cached[which] is None:
-        cached[which] = fields.ray_caster(arrays) if which == 1 else fields.field_mesh(arrays)
+        cached[which] = authoring.ray_caster(arrays) if which == 1 else authoring.field_mesh(arrays)
     return cached[which]
 
 
@@ -48,7 +53,7 @@ def _active_mesh(context):
 
 
 def field_state(context, obj):
-    state = bridge.read_field_state(obj, tuple(context.scene.texsynth.axis))
+    state = mesh_io.read_field_state(obj, tuple(context.scene.texsynth.axis))
     state.field_mesh = field_mesh_for(obj, state.arrays)
     return state
 
@@ -56,7 +61,7 @@ def field_state(context, obj):
 def commit_edit(context, obj, state):
     """Writes the edited field, refreshes the overlay and re-synthesizes when Live Update is on.
     Returns a warning when the live update failed (the field edit itself is kept), else None."""
-    bridge.write_field_state(obj, state)
+    mesh_io.write_field_state(obj, state)
     overlay.invalidate(obj.name)
     warning = None
     if context.scene.texsynth.field_live_update:
@@ -81,7 +86,7 @@ def live_update(context, obj):
     props = context.scene.texsynth
     settings = props.to_settings()
     if settings.orientation == "AXIS":
-        settings.orientation, settings.direction_attribute = "FIELD", fields.DIRECTION_NAME
+        settings.orientation, settings.direction_attribute = "FIELD", authoring.DIRECTION_NAME
     settings.validate()
     sample = operators.sample_from_settings(props)
     cache_dir = properties.cache_dir(context)
@@ -136,7 +141,7 @@ class TEXSYNTH_OT_comb(bpy.types.Operator):
             self.obj = _active_mesh(context)
             self.state = field_state(context, self.obj)
             props = context.scene.texsynth
-            self.brush = fields.CombBrush(self.state, caster_for(self.obj, self.state.arrays),
+            self.brush = authoring.CombBrush(self.state, caster_for(self.obj, self.state.arrays),
                                           props.field_brush_radius, props.field_brush_strength)
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
@@ -147,7 +152,7 @@ class TEXSYNTH_OT_comb(bpy.types.Operator):
         if self.from_tool:
             self.dragging = True
             self._dab(context, event)
-        bridge.write_field_state(self.obj, self.state)  # the overlay needs the direction attribute
+        mesh_io.write_field_state(self.obj, self.state)  # the overlay needs the direction attribute
         overlay.active_editors.add(self.obj.name)
         overlay.invalidate(self.obj.name)
         context.window_manager.modal_handler_add(self)
@@ -262,8 +267,8 @@ class TEXSYNTH_OT_singularity(bpy.types.Operator):
         self._end(context)
         try:
             obj = _active_mesh(context)
-            arrays = bridge.read_mesh(obj)
-            vertex = fields.nearest_vertex(caster_for(obj, arrays), arrays.positions, origin, direction)
+            arrays = mesh_io.read_mesh(obj)
+            vertex = authoring.nearest_vertex(caster_for(obj, arrays), arrays.positions, origin, direction)
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
@@ -274,14 +279,14 @@ class TEXSYNTH_OT_singularity(bpy.types.Operator):
         return self.execute(context)
 
     def execute(self, context):
-        kind = {"SOURCE": fields.SOURCE, "SINK": fields.SINK, "REMOVE": 0}[self.mode]
+        kind = {"SOURCE": authoring.SOURCE, "SINK": authoring.SINK, "REMOVE": 0}[self.mode]
         if self.vertex < 0:
             self.report({"ERROR"}, "TexSynth: no vertex given (click on the surface, or set vertex=)")
             return {"CANCELLED"}
         try:
             obj = _active_mesh(context)
             state = field_state(context, obj)
-            fields.set_singularity(state, self.vertex, kind)
+            authoring.set_singularity(state, self.vertex, kind)
             _report_warning(self, commit_edit(context, obj, state))
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
@@ -313,11 +318,11 @@ class TEXSYNTH_OT_field_preset(bpy.types.Operator):
             obj = _active_mesh(context)
             state = field_state(context, obj)
             if self.preset == "AXIS":
-                fields.preset_axis(state, tuple(context.scene.texsynth.axis))
+                authoring.preset_axis(state, tuple(context.scene.texsynth.axis))
             elif self.preset == "CURVATURE":
-                fields.preset_curvature(state)
+                authoring.preset_curvature(state)
             else:
-                fields.preset_smooth(state, self.iterations)
+                authoring.preset_smooth(state, self.iterations)
             _report_warning(self, commit_edit(context, obj, state))
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
@@ -358,7 +363,7 @@ class TEXSYNTH_OT_field_from_strokes(bpy.types.Operator):
             if not strokes:
                 raise pipeline.SettingsError("no annotation or Grease Pencil strokes found: draw some on the surface")
             state = field_state(context, obj)
-            used = fields.anchors_from_strokes(state, caster_for(obj, state.arrays), strokes,
+            used = authoring.anchors_from_strokes(state, caster_for(obj, state.arrays), strokes,
                                                props.field_brush_radius, props.field_brush_strength)
             if not used:
                 raise pipeline.SettingsError("no stroke point lies within the brush radius of %r" % obj.name)

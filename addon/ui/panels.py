@@ -2,7 +2,8 @@
 """3D Viewport sidebar tab "TexSynth"."""
 import bpy
 
-from . import native, operators
+from .. import native
+from . import operators
 
 
 class TEXSYNTH_PT_main(bpy.types.Panel):
@@ -81,7 +82,7 @@ class TEXSYNTH_PT_field(bpy.types.Panel):
     bl_category = "TexSynth"
 
     def draw(self, context):
-        from . import field_ops
+        from ..fields import tools
         layout = self.layout
         props = context.scene.texsynth
         column = layout.column()
@@ -106,9 +107,9 @@ class TEXSYNTH_PT_field(bpy.types.Panel):
         row.prop(props, "field_arrow_density")
         column.prop(props, "field_arrow_length")
         column.prop(props, "field_live_update")
-        if "live_native" in field_ops.last_timings:
+        if "live_native" in tools.last_timings:
             column.label(text="Last live update: %.0f ms (native %.0f ms)" % (
-                1000 * field_ops.last_timings["live_update"], 1000 * field_ops.last_timings["live_native"]))
+                1000 * tools.last_timings["live_update"], 1000 * tools.last_timings["live_native"]))
 
 
 def _wrap(text, width):

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """bpy-free core of field authoring: comb brush, sources/sinks, presets, strokes, scale.
 
-Model (all stored as POINT attributes on the mesh by bridge.py, vectors in object space there and
+Model (all stored as POINT attributes on the mesh by mesh_io.py, vectors in object space there and
 in world space here):
   TexSynth_Guide        FLOAT_VECTOR  the artist's anchors (comb, strokes, presets); zero = unset
   TexSynth_Singularity  INT           +1 source, -1 sink, 0 none
@@ -18,7 +18,7 @@ import zlib
 
 import numpy as np
 
-from . import native
+from .. import native
 
 DIRECTION_NAME = "TexSynth_Direction"
 GUIDE_NAME = "TexSynth_Guide"

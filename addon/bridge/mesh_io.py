@@ -15,7 +15,7 @@ import os
 import bpy
 import numpy as np
 
-from . import pipeline
+from ..core import pipeline
 
 # Test hook: TEXSYNTH_TEST_FAIL_AT=<point> makes the write fail at that point (uv_layer, sets,
 # weights, extras, material) so the tests can prove a failure mid-write leaves the mesh byte-identical.
@@ -271,7 +271,7 @@ def read_image_pixels(image):
 
 
 # ---------------------------------------------------------------------------------------------
-# Field attributes (fields.py): vectors are object space on the mesh, world space in FieldState.
+# Field attributes (authoring.py): vectors are object space on the mesh, world space in FieldState.
 
 _POINT_KEYS = {"FLOAT_VECTOR": ("vector", 3, np.float32), "FLOAT": ("value", 1, np.float32),
                "INT": ("value", 1, np.int32)}
@@ -314,35 +314,35 @@ def _linear(obj):
 
 
 def read_field_state(obj, axis=(0.0, 0.0, 1.0)):
-    """fields.FieldState of obj (world space). A mesh without field attributes gets an empty guide,
+    """authoring.FieldState of obj (world space). A mesh without field attributes gets an empty guide,
     no singularities and a direction relaxed from them (the axis)."""
-    from . import fields
+    from ..fields import authoring
     mesh = obj.data
     arrays = read_mesh(obj)
     n = arrays.num_vertices
     linear = _linear(obj)
-    guide = read_point_attribute(mesh, fields.GUIDE_NAME, "FLOAT_VECTOR")
+    guide = read_point_attribute(mesh, authoring.GUIDE_NAME, "FLOAT_VECTOR")
     guide = np.zeros((n, 3), np.float32) if guide is None else (guide @ linear.T).astype(np.float32)
-    singularity = read_point_attribute(mesh, fields.SINGULARITY_NAME, "INT")
+    singularity = read_point_attribute(mesh, authoring.SINGULARITY_NAME, "INT")
     singularity = np.zeros(n, np.int32) if singularity is None else np.clip(singularity, -1, 1).astype(np.int32)
-    direction = read_point_attribute(mesh, fields.DIRECTION_NAME, "FLOAT_VECTOR")
-    state = fields.FieldState(arrays, guide, singularity,
+    direction = read_point_attribute(mesh, authoring.DIRECTION_NAME, "FLOAT_VECTOR")
+    state = authoring.FieldState(arrays, guide, singularity,
                               None if direction is None else (direction @ linear.T).astype(np.float32), tuple(axis))
     if state.direction is None:
-        fields.relax(state)
+        authoring.relax(state)
     return state
 
 
 def write_field_state(obj, state):
     """Stores guide, singularities and direction on obj's mesh (object space)."""
-    from . import fields
+    from ..fields import authoring
     mesh = obj.data
     if state.arrays.num_vertices != len(mesh.vertices):
         raise pipeline.SettingsError("mesh %r changed while its field was edited" % mesh.name)
     inverse = np.linalg.inv(_linear(obj)) if abs(np.linalg.det(_linear(obj))) > 1e-30 else np.eye(3)
-    write_point_attribute(mesh, fields.GUIDE_NAME, "FLOAT_VECTOR", state.guide @ inverse.T)
-    write_point_attribute(mesh, fields.SINGULARITY_NAME, "INT", state.singularity)
-    write_point_attribute(mesh, fields.DIRECTION_NAME, "FLOAT_VECTOR", state.direction @ inverse.T)
+    write_point_attribute(mesh, authoring.GUIDE_NAME, "FLOAT_VECTOR", state.guide @ inverse.T)
+    write_point_attribute(mesh, authoring.SINGULARITY_NAME, "INT", state.singularity)
+    write_point_attribute(mesh, authoring.DIRECTION_NAME, "FLOAT_VECTOR", state.direction @ inverse.T)
     mesh.update()
 
 
@@ -364,17 +364,17 @@ def read_vertex_group(obj, name):
 
 def read_scale_multiplier(obj, settings):
     """Per-vertex density multiplier from settings.scale_source, or None."""
-    from . import fields
+    from ..fields import authoring
     source = getattr(settings, "scale_source", "NONE")
     if source == "ATTRIBUTE":
         values = read_point_attribute(obj.data, settings.scale_attribute, "FLOAT")
         if values is None:
             raise pipeline.SettingsError("mesh %r has no scale attribute %r" % (obj.data.name, settings.scale_attribute))
         try:
-            return fields.check_scale_multiplier(values, "attribute %r" % settings.scale_attribute)
+            return authoring.check_scale_multiplier(values, "attribute %r" % settings.scale_attribute)
         except ValueError as error:
             raise pipeline.SettingsError(str(error))
     if source == "VERTEX_GROUP":
         weights = read_vertex_group(obj, settings.scale_group)
-        return fields.scale_from_weights(weights, settings.scale_min, settings.scale_max)
+        return authoring.scale_from_weights(weights, settings.scale_min, settings.scale_max)
     return None

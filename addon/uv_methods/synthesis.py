@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """One Synthesize / Preprocess / Clear run over Blender objects, shared by the operators and the CLI.
 
-Data flows one way: bridge.read_mesh (every object) -> native preprocess (cached) -> native
-synthesis (every object; may run in a worker thread, cancellable) -> bridge.write_result (atomic)
+Data flows one way: mesh_io.read_mesh (every object) -> native preprocess (cached) -> native
+synthesis (every object; may run in a worker thread, cancellable) -> mesh_io.write_result (atomic)
 -> material. Per-object failures are reported and do not stop the other objects; nothing is written
 until every native call has finished, so cancelling leaves every mesh untouched.
 """
@@ -10,7 +10,10 @@ import os
 
 import bpy
 
-from . import bridge, native, pipeline, shading
+from .. import native
+from ..bridge import mesh_io
+from ..core import pipeline
+from ..shading import blend_groups
 
 
 class Sample:
@@ -26,7 +29,7 @@ class Sample:
     def native_input(self):
         """What texsynth_native.preprocess accepts: a path, or the image's pixels as numpy."""
         if self.image is not None:
-            return bridge.read_image_pixels(self.image)
+            return mesh_io.read_image_pixels(self.image)
         if not self.path:
             raise pipeline.SettingsError("no sample image: choose an image file or an image in the .blend")
         path = bpy.path.abspath(self.path)
@@ -137,12 +140,12 @@ class Job:
         for obj in meshes:
             try:
                 with self.timings.phase("read"):
-                    arrays = bridge.read_mesh(obj, self.settings.direction_attribute
+                    arrays = mesh_io.read_mesh(obj, self.settings.direction_attribute
                                               if self.settings.orientation != "AXIS" else "")
-                    arrays.scale_multiplier = bridge.read_scale_multiplier(obj, self.settings)
+                    arrays.scale_multiplier = mesh_io.read_scale_multiplier(obj, self.settings)
                 if arrays.num_faces == 0:
                     raise pipeline.SettingsError("mesh %r has no faces" % obj.data.name)
-                bridge.check_capacity(obj.data)
+                mesh_io.check_capacity(obj.data)
                 self.items.append([obj, arrays, None])
             except (ValueError, RuntimeError) as error:
                 self.report.failures.append((obj.name, str(error)))
@@ -211,21 +214,21 @@ class Job:
         if self.material_mode != "NONE" and any(item[2] is not None for item in self.items):
             image = self.sample.shader_image()
             self.shading.with_colour_space(image.colorspace_settings.name == "sRGB")
-            inputs = shading.blend_inputs(self.shading, image, self.settings.method)
+            inputs = blend_groups.blend_inputs(self.shading, image, self.settings.method)
         for obj, arrays, result in self.items:
             if result is None:
                 continue
             try:
                 name = obj.name  # ReferenceError if the object was deleted meanwhile
                 with self.timings.phase("write"):
-                    snapshot = bridge.write_result(obj.data, result)
+                    snapshot = mesh_io.write_result(obj.data, result)
                 with self.timings.phase("material"):
                     try:
-                        bridge.fail_point("material")
-                        shading.apply_material(obj, image, self.material_mode, inputs)
+                        mesh_io.fail_point("material")
+                        blend_groups.apply_material(obj, image, self.material_mode, inputs)
                     except Exception as error:
-                        bridge.restore(obj.data, snapshot)
-                        raise bridge.MeshWriteError("material setup failed (mesh restored): %s" % error) from error
+                        mesh_io.restore(obj.data, snapshot)
+                        raise mesh_io.MeshWriteError("material setup failed (mesh restored): %s" % error) from error
                 self.report.add_object(name, arrays, result.get("stats"))
             except (ValueError, RuntimeError, ReferenceError) as error:
                 self.report.failures.append((getattr(obj, "name", "?"), str(error)))
@@ -235,12 +238,12 @@ class Job:
 
 
 def blend_inputs(image, mode="HISTOGRAM", cache_dir=None, method="JUMPMAP"):
-    """shading.BlendInputs for any image of the .blend (e.g. a roughness or normal map driven through
+    """blend_groups.BlendInputs for any image of the .blend (e.g. a roughness or normal map driven through
     the same mapping): Gaussianizes it for HISTOGRAM (cached), falling back to VARIANCE as Synthesize does."""
     settings = pipeline.Settings(blend_mode=mode, method=method).validate()
     srgb = image.colorspace_settings.name == "sRGB"
     blend = pipeline.blend_shading(Sample(image=image).native_input(), settings, cache_dir or default_cache_dir(), srgb)
-    return shading.blend_inputs(blend, image, method)
+    return blend_groups.blend_inputs(blend, image, method)
 
 
 def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None, scene=None,
@@ -257,7 +260,7 @@ def clear(objects):
     meshes, _ = mesh_objects(objects)
     changed = removed = 0
     for obj in meshes:
-        count = bridge.clear(obj.data)
+        count = mesh_io.clear(obj.data)
         changed += bool(count)
         removed += count
     return changed, removed

@@ -65,21 +65,23 @@ def invalidate(name=None):
 
 def _batch_for(obj, props):
     from gpu_extras.batch import batch_for_shader
-    from . import bridge, compat, field_ops, fields
+    from .. import compat
+    from ..bridge import mesh_io
+    from . import authoring, tools
     key = (props.field_arrow_density, props.field_arrow_length, len(obj.data.vertices),
            tuple(map(tuple, obj.matrix_world)))
     cached = _cache.get(obj.name)
     if cached is not None and cached[0] == key:
         return cached[1]
-    direction = bridge.read_point_attribute(obj.data, fields.DIRECTION_NAME, "FLOAT_VECTOR")
+    direction = mesh_io.read_point_attribute(obj.data, authoring.DIRECTION_NAME, "FLOAT_VECTOR")
     if direction is None:
         _cache[obj.name] = (key, None)
         return None
-    arrays = bridge.read_mesh(obj)
+    arrays = mesh_io.read_mesh(obj)
     linear = np.array(obj.matrix_world, dtype=np.float64)[:3, :3]
     world_direction = direction @ linear.T
     length = mean_edge_length(arrays) * props.field_arrow_length
-    normals = field_ops.field_mesh_for(obj, arrays).normals  # cached per mesh, shared with the tools
+    normals = tools.field_mesh_for(obj, arrays).normals  # cached per mesh, shared with the tools
     lines = arrow_lines(arrays.positions, normals, world_direction, props.field_arrow_density, length)
     batch = batch_for_shader(compat.uniform_color_shader(), "LINES", {"pos": lines}) if len(lines) else None
     _cache[obj.name] = (key, batch)
@@ -89,15 +91,15 @@ def _batch_for(obj, props):
 def _draw():
     import bpy
     import gpu
-    from . import compat
+    from .. import compat
     context = bpy.context
     scene = getattr(context, "scene", None)
     obj = getattr(context, "active_object", None)
     if scene is None or obj is None or obj.type != "MESH" or not hasattr(scene, "texsynth"):
         return
     props = scene.texsynth
-    from . import field_ops
-    if not (props.show_field or obj.name in active_editors or field_ops.comb_tool_active(context)):
+    from . import tools
+    if not (props.show_field or obj.name in active_editors or tools.comb_tool_active(context)):
         return
     if brush_cursor is not None and obj.name in active_editors:
         _draw_brush_cursor(*brush_cursor)
@@ -120,7 +122,7 @@ def _draw():
 def _draw_brush_cursor(centre, normal, radius):
     import gpu
     from gpu_extras.batch import batch_for_shader
-    from . import compat
+    from .. import compat
     shader = compat.uniform_color_shader()
     lift = np.asarray(normal) * (0.01 * radius)  # just above the surface
     batch = batch_for_shader(shader, "LINES", {"pos": circle_lines(np.asarray(centre) + lift, normal, radius)})

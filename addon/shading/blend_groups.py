@@ -25,7 +25,8 @@ import math
 
 import bpy
 
-from . import compat, pipeline
+from .. import compat
+from ..core import pipeline
 
 GROUP_PREFIX = "TexSynth Blend: "
 MATERIAL_PREFIX = "TexSynth: "

@@ -4,7 +4,10 @@ import threading
 
 import bpy
 
-from . import compat, pipeline, properties, synthesis
+from .. import compat
+from ..core import pipeline
+from . import properties
+from ..uv_methods import synthesis
 
 # Last known cache status per sample description, shown by the panel.
 cache_status_by_sample = {}

@@ -2,7 +2,7 @@
 """bpy-free core of the add-on: settings validation, world scale -> texels, caching policy,
 timings and reports, and the calls into texsynth_native on numpy arrays.
 
-The bpy layer (operators, CLI) converts Blender data to the plain types here and back (bridge.py).
+The bpy layer (operators, CLI) converts Blender data to the plain types here and back (mesh_io.py).
 """
 import dataclasses
 import math
@@ -12,13 +12,13 @@ import zlib
 
 import numpy as np
 
-from . import native
+from .. import native
 
 METHODS = ("JUMPMAP", "TEXTON")
 IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON")
 ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
 SCALE_SOURCES = ("NONE", "ATTRIBUTE", "VERTEX_GROUP")
-BLEND_MODES = ("AUTO", "HISTOGRAM", "VARIANCE", "LINEAR")  # see shading.py
+BLEND_MODES = ("AUTO", "HISTOGRAM", "VARIANCE", "LINEAR")  # see blend_groups.py
 # AUTO: what measured best per method (README, Blending): the jump map blends up to three unrelated
 # patches everywhere, and keeps its contrast only with HISTOGRAM; texton patches blend in narrow
 # zones with neighbours the search matched, where LINEAR keeps detail (1.028 of tiling) and is cheaper.
@@ -31,7 +31,7 @@ AUTO_HISTOGRAM_MIN_FIDELITY = 0.97
 # stochastic ones (matched only along the edge, nearly independent inside: moss 0.09, bark 0.10).
 AUTO_TEXTON_LINEAR_PERIODICITY = 0.5
 # Texton method: each face shows its own patch beyond this distance from its edges (barycentric-like
-# units, 1/3 at a triangle's centre) and fades to the vertex mappings toward them (shading.py).
+# units, 1/3 at a triangle's centre) and fades to the vertex mappings toward them (blend_groups.py).
 TEXTON_PATCH_ZONE = 0.15
 MAX_UV_LAYERS = 8  # Blender's hard limit per mesh
 
@@ -448,7 +448,7 @@ class HistogramFiles:
 
 @dataclasses.dataclass
 class BlendShading:
-    """What the shader's blend needs from the sample (see shading.BlendInputs)."""
+    """What the shader's blend needs from the sample (see blend_groups.BlendInputs)."""
     mode: str = "LINEAR"
     mean: tuple = (0.5, 0.5, 0.5)
     files: HistogramFiles = None
@@ -480,8 +480,9 @@ def blend_shading(native_input, settings, cache_dir, srgb=None):
     looked_up = None
     if result.mode == "HISTOGRAM":
         transform = native.require().histogram_transform(load_sample(native_input), cache_dir=cache_dir)
-        fidelity = (interpolation_fidelity(sample_pixels(native_input), transform["gaussian"], transform["inverse_lut"])
-                    if transform["ok"] and settings.blend_mode == "AUTO" else 1.0)
+        fidelity = 1.0
+        if transform["ok"] and settings.blend_mode == "AUTO" and transform.get("gaussian") is not None:
+            fidelity = interpolation_fidelity(sample_pixels(native_input), transform["gaussian"], transform["inverse_lut"])
         if transform["ok"] and fidelity >= AUTO_HISTOGRAM_MIN_FIDELITY:
             result.files = HistogramFiles(transform["gaussian_path"], transform["lut_path"])
             looked_up = transform.get("gaussian")
@@ -557,7 +558,7 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale, pixels=None, vi
     if not settings.blend:
         # Without blending the native single set is the base mapping with weight 1: write the base only.
         result.update(num_blend_sets=0, blend_uv=None, blend_set_pairs=None, blend_weights=None)
-    return result  # validated by bridge.write_result before anything is written
+    return result  # validated by mesh_io.write_result before anything is written
 
 
 def _require_direction(mesh_arrays, settings):
