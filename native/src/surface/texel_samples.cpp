@@ -190,7 +190,7 @@ int32_t compute_islands(const TexelSampleInput& in, const std::vector<Raster>& r
   };
   for_each_edge([&](int32_t lo, const HalfEdge&) { ++start[lo + 1]; });
   for (int32_t v = 0; v < in.num_vertices; ++v) start[v + 1] += start[v];
-  std::vector<HalfEdge> edges(size_t(start[in.num_vertices]));
+  std::vector<HalfEdge> edges(static_cast<size_t>(start[in.num_vertices]));
   {
     std::vector<int32_t> next(start.begin(), start.end() - 1);
     for_each_edge([&](int32_t lo, const HalfEdge& h) { edges[next[lo]++] = h; });
