@@ -7,6 +7,7 @@
       [--direction-attribute NAME]
       [--scale-attribute NAME | --scale-group NAME [--scale-range LO HI]] [--save OUT.blend]
       [--render OUT.png] [--resolution W H] [--stats OUT.json]
+      [--bake IMAGE.png [--bake-uv NAME|auto] [--bake-size N] [--bake-margin PX] [--bake-material]]
 
 Exit 0 on success; bad arguments or inputs print one line "texsynth_cli: error: ..." and exit 2
 (arguments) or 1 (inputs, synthesis failures).
@@ -75,6 +76,15 @@ def parse_args(argv):
     parser.add_argument("--render", metavar="OUT.png", help="render the scene with Eevee")
     parser.add_argument("--resolution", type=int, nargs=2, metavar=("W", "H"))
     parser.add_argument("--stats", metavar="OUT.json")
+    parser.add_argument("--bake", metavar="IMAGE.png",
+                        help="after synthesis, bake the object's result into this image file (.png, .exr, ...)")
+    parser.add_argument("--bake-uv", metavar="NAME", default=None,
+                        help="UV map to bake through (not TexSynth); auto (default): the first other UV map, "
+                             "or a new one made with Smart UV Project")
+    parser.add_argument("--bake-size", type=int, default=None, metavar="N", help="baked image size (default 1024)")
+    parser.add_argument("--bake-margin", type=int, default=None, metavar="PX", help="bake margin (default 16 px)")
+    parser.add_argument("--bake-material", action="store_true",
+                        help="also create and assign 'TexSynth Baked: <object>' using only the baked image")
     args = parser.parse_args(argv)
     if not math.isfinite(args.scale) or args.scale <= 0:
         raise UsageError("--scale must be a positive number of world units, got %s" % args.scale)
@@ -82,13 +92,75 @@ def parse_args(argv):
         raise UsageError("--scale-range must be two positive numbers, got %s" % list(args.scale_range))
     if args.resolution and not all(4 <= v <= 16384 for v in args.resolution):
         raise UsageError("--resolution must be two integers in [4, 16384], got %s" % args.resolution)
-    for option in ("save", "render", "stats"):
+    check_bake_args(args)
+    for option in ("save", "render", "stats", "bake"):
         path = getattr(args, option)
         if path is not None:
             folder = os.path.dirname(os.path.abspath(path))
             if not os.path.isdir(folder):
                 raise UsageError("--%s folder does not exist: %s" % (option, folder))
     return args
+
+
+def check_bake_args(args):
+    """--bake-* options: only with --bake, one object, a supported image type, sizes in range, and never
+    through TexSynth's own UV map (bake/options.py: the same rules as the operator)."""
+    options = _bake_options()
+    extra = [name for name in ("bake_uv", "bake_size", "bake_margin") if getattr(args, name) is not None]
+    if args.bake_material:
+        extra.append("bake_material")
+    if args.bake is None:
+        if extra:
+            raise UsageError("--%s needs --bake IMAGE" % extra[0].replace("_", "-"))
+        return
+    if args.object is not None and len(args.object) > 1:
+        raise UsageError("--bake bakes one object, got %d --object" % len(args.object))
+    extension = os.path.splitext(args.bake)[1].lower()
+    if extension not in options.FORMATS:
+        raise UsageError("--bake needs an image file name ending in %s, got %s"
+                         % (", ".join(sorted(options.FORMATS)), args.bake))
+    args.bake_uv = options.AUTO_UV if args.bake_uv is None else args.bake_uv
+    args.bake_size = options.DEFAULT_SIZE if args.bake_size is None else args.bake_size
+    args.bake_margin = options.DEFAULT_MARGIN if args.bake_margin is None else args.bake_margin
+    try:
+        bake_request(args, options).validate()
+    except options.BakeError as error:
+        raise UsageError(str(error))
+
+
+def _bake_options():
+    """bake/options.py (bpy-free) loaded on its own, before the add-on."""
+    name = "texsynth_cli_bake_options"
+    if name not in sys.modules:
+        path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "bake", "options.py")
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+    return sys.modules[name]
+
+
+def bake_request(args, options):
+    return options.BakeRequest(target=os.path.abspath(args.bake), uv_map=args.bake_uv, size=args.bake_size,
+                               margin=args.bake_margin, create_uv=args.bake_uv == options.AUTO_UV,
+                               material="ASSIGN" if args.bake_material else "NONE")
+
+
+def run_bake(args, objects, stats):
+    from texsynth.bake import baking, options
+    if len(objects) != 1:
+        raise CliError("--bake bakes one object; %d were imported or given" % len(objects))
+    started = time.perf_counter()
+    try:
+        result = baking.bake(objects[0], bake_request(args, options), bpy.context)
+    except (ValueError, RuntimeError) as error:
+        raise CliError("bake: %s" % error)
+    stats["seconds"]["bake"] = time.perf_counter() - started
+    stats["bake"] = {"image": result.image.name, "path": result.path, "uv_map": result.uv_map,
+                     "size": list(result.image.size), "created_uv": result.created_uv,
+                     "material": result.material.name if result.material is not None else "",
+                     "notes": list(result.notes)}
+    print("%s: %s" % (PROG, result.summary(objects[0].name)))
 
 
 def load_addon():
@@ -202,6 +274,8 @@ def main(argv):
     if report.failures:
         raise CliError(report.summary())
     stats = report.as_json()
+    if args.bake:
+        run_bake(args, objects, stats)
     if args.save:
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.save), copy=True)
     if args.render:

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Operators: Preprocess, Synthesize (all selected mesh objects), Clear."""
+"""Operators: Preprocess, Synthesize (all selected mesh objects), Clear, Bake (active object)."""
 import threading
 
 import bpy
@@ -209,4 +209,31 @@ class TEXSYNTH_OT_clear(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (TEXSYNTH_OT_preprocess, TEXSYNTH_OT_check_cache, TEXSYNTH_OT_synthesize, TEXSYNTH_OT_clear)
+class TEXSYNTH_OT_bake(bpy.types.Operator):
+    """Bake the active object's TexSynth result into one image through a UV map (Cycles), for export and painting"""
+    bl_idname = "texsynth.bake"
+    bl_label = "Bake"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        return context.mode == "OBJECT" and obj is not None and obj.type == "MESH"
+
+    def execute(self, context):
+        from ..bake import baking
+        obj = context.active_object
+        try:
+            request = context.scene.texsynth.to_bake_request()
+            with _Progress(context) as progress:
+                result = baking.bake(obj, request, context, progress)
+        except (ValueError, RuntimeError) as error:
+            self.report({"ERROR"}, "TexSynth bake: %s" % error)
+            return {"CANCELLED"}
+        self.last_result = result
+        self.report({"WARNING"} if result.notes else {"INFO"}, result.summary(obj.name))
+        return {"FINISHED"}
+
+
+classes = (TEXSYNTH_OT_preprocess, TEXSYNTH_OT_check_cache, TEXSYNTH_OT_synthesize, TEXSYNTH_OT_clear,
+           TEXSYNTH_OT_bake)

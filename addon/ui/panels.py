@@ -3,6 +3,7 @@
 import bpy
 
 from .. import native
+from ..core import pipeline
 from . import operators
 
 
@@ -71,6 +72,24 @@ class TEXSYNTH_PT_main(bpy.types.Panel):
         column.scale_y = 1.4
         column.operator("texsynth.synthesize", icon="TEXTURE")
         layout.operator("texsynth.clear", icon="X")
+
+        box = layout.box()
+        box.label(text="Bake", icon="RENDER_STILL")
+        box.prop(props, "bake_target")
+        obj = context.active_object
+        if obj is not None and obj.type == "MESH":
+            box.prop_search(props, "bake_uv_map", obj.data, "uv_layers")
+            if props.bake_uv_map == pipeline.BASE_UV_NAME:
+                box.label(text="TexSynth's own UV map overlaps: choose another", icon="ERROR")
+        else:
+            box.prop(props, "bake_uv_map")
+        box.prop(props, "bake_create_uv")
+        row = box.row(align=True)
+        row.prop(props, "bake_size")
+        row.prop(props, "bake_margin")
+        box.prop(props, "bake_save_mode")
+        box.prop(props, "bake_material")
+        box.operator("texsynth.bake", icon="RENDER_STILL")
 
 
 class TEXSYNTH_PT_field(bpy.types.Panel):

@@ -2,6 +2,7 @@
 """Scene settings (persist in the .blend) and add-on preferences."""
 import bpy
 
+from ..bake import options as bake_options
 from ..core import pipeline
 
 ADDON_ID = __package__
@@ -93,6 +94,41 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                ("INSERT", "Insert in Material", "Feed the object's existing materials' Base Color"),
                ("NONE", "Layers Only", "Only write UV layers and weights")),
         default="NEW")
+
+    # Bake (see bake/options.py)
+    bake_target: bpy.props.StringProperty(
+        name="Image", default="",
+        description="Image name (packed, or saved next to the .blend) or a file path (.png, .exr, ...) to save to; "
+                    "empty: 'TexSynth Baked: <object>'")
+    bake_uv_map: bpy.props.StringProperty(
+        name="UV Map", default="",
+        description="UV map to bake through (not TexSynth's own, whose islands overlap); "
+                    "empty: the first other UV map")
+    bake_create_uv: bpy.props.BoolProperty(
+        name="Create UV Map if Missing", default=True,
+        description="When the object has no UV map besides TexSynth's, make one with Smart UV Project")
+    bake_size: bpy.props.IntProperty(name="Size", default=bake_options.DEFAULT_SIZE, min=bake_options.MIN_SIZE,
+                                     max=bake_options.MAX_SIZE, subtype="PIXEL",
+                                     description="Width and height of the baked image in pixels")
+    bake_margin: bpy.props.IntProperty(name="Margin", default=bake_options.DEFAULT_MARGIN, min=0,
+                                       max=bake_options.MAX_MARGIN, subtype="PIXEL",
+                                       description="Pixels filled around UV islands (avoids seams in mipmaps)")
+    bake_save_mode: bpy.props.EnumProperty(
+        name="Store", items=(("PACK", "Pack in .blend", "Pack the baked image into the .blend"),
+                             ("NEXT_TO_BLEND", "Save Next to .blend", "Save <image name>.png next to the .blend")),
+        default="PACK")
+    bake_material: bpy.props.EnumProperty(
+        name="Baked Material",
+        items=(("NONE", "None", "Only bake the image"),
+               ("CREATE", "Create", "Also make 'TexSynth Baked: <object>' (image -> Base Color on the bake UV map)"),
+               ("ASSIGN", "Create and Assign", "Make that material and assign it to the object")),
+        default="CREATE")
+
+    def to_bake_request(self):
+        return bake_options.BakeRequest(target=self.bake_target.strip(), uv_map=self.bake_uv_map,
+                                        size=int(self.bake_size), margin=int(self.bake_margin),
+                                        save_mode=self.bake_save_mode, create_uv=bool(self.bake_create_uv),
+                                        material=self.bake_material)
 
     def to_settings(self):
         return pipeline.Settings(method=self.method, sample_world_size=float(self.scale), seed=int(self.seed),

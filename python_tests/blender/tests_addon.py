@@ -604,6 +604,8 @@ class RecordingLayout:
             return lambda *a, **k: self
         if name in ("prop", "label", "operator", "template_ID", "separator"):
             return lambda *a, **k: self._record(name, *a, **k)
+        if name == "prop_search":  # (data, property, search_data, search_property): shows the property
+            return lambda *a, **k: self._record("prop", *a, **k)
         raise AttributeError(name)
 
 
@@ -621,7 +623,10 @@ def test_panel_draws_every_setting_and_the_native_reason():
     assert props_shown >= {"sample_source", "sample_path", "method", "scale", "seed", "jump_rate", "orientation",
                            "axis", "blend", "allow_oversized", "material_mode"}, props_shown
     operators_shown = {args[0] for kind, args, _ in log if kind == "operator"}
-    assert operators_shown == {"texsynth.preprocess", "texsynth.check_cache", "texsynth.synthesize", "texsynth.clear"}
+    assert operators_shown == {"texsynth.preprocess", "texsynth.check_cache", "texsynth.synthesize", "texsynth.clear",
+                               "texsynth.bake"}
+    assert props_shown >= {"bake_target", "bake_uv_map", "bake_size", "bake_margin", "bake_save_mode",
+                           "bake_material", "bake_create_uv"}, props_shown
     assert any(kind == "label" and kw.get("text", "").startswith("Cache:") for kind, _, kw in log)
     configure(sample_source="IMAGE", orientation="FIELD", method="TEXTON")
     log = draw_panel(texsynth.ui.panels.TEXSYNTH_PT_main)
