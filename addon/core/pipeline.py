@@ -472,8 +472,15 @@ def blend_shading(native_input, settings, cache_dir, srgb=None):
     if not settings.blend:
         return BlendShading()
     result = BlendShading(mode=settings.resolved_blend_mode())
+    decoded = []  # the sample's pixels, decoded once for whichever measurements need them
+
+    def pixels():
+        if not decoded:
+            decoded.append(sample_pixels(native_input))
+        return decoded[0]
+
     if settings.blend_mode == "AUTO" and settings.method == "TEXTON":
-        repeat = periodicity(sample_pixels(native_input))
+        repeat = periodicity(pixels())
         result.mode = "LINEAR" if repeat >= AUTO_TEXTON_LINEAR_PERIODICITY else "VARIANCE"
         result.reason = "Auto: %s sample, periodicity %.2f" % (
             "periodic" if result.mode == "LINEAR" else "stochastic", repeat)
@@ -482,7 +489,7 @@ def blend_shading(native_input, settings, cache_dir, srgb=None):
         transform = native.require().histogram_transform(load_sample(native_input), cache_dir=cache_dir)
         fidelity = 1.0
         if transform["ok"] and settings.blend_mode == "AUTO" and transform.get("gaussian") is not None:
-            fidelity = interpolation_fidelity(sample_pixels(native_input), transform["gaussian"], transform["inverse_lut"])
+            fidelity = interpolation_fidelity(pixels(), transform["gaussian"], transform["inverse_lut"])
         if transform["ok"] and fidelity >= AUTO_HISTOGRAM_MIN_FIDELITY:
             result.files = HistogramFiles(transform["gaussian_path"], transform["lut_path"])
             looked_up = transform.get("gaussian")
@@ -494,7 +501,7 @@ def blend_shading(native_input, settings, cache_dir, srgb=None):
             result.note = "histogram-preserving blending unavailable (%s): variance-preserving used" % (
                 transform["fallback_reason"])
     if result.mode == "VARIANCE":
-        looked_up = sample_pixels(native_input)
+        looked_up = pixels()
         result.means = {space: shader_mean(looked_up, space) for space in (False, True)}
         result.with_colour_space(bool(srgb))
     if looked_up is not None and np.ndim(looked_up) == 3:

@@ -158,14 +158,13 @@ class _Builder:
 @dataclasses.dataclass
 class _Terms:
     """The blend group's mappings as sockets: `terms` [(uv, weight)] are what gets looked up and summed.
-    For the variance: the 4 sets' uvs and weights (w012 a vector socket, w3 a float), scaled by
-    `rest` in texton zones, whose base mapping (weight `base`) pairs with every set; weight_sum is
-    None where the weights sum to 1."""
+    For the variance: the 4 sets' uvs and weights (w012 a vector socket, w3 a float); in texton
+    zones the base mapping's fade-in weight `base` and the sets' scale `rest` = 1 - base; weight_sum
+    is None where the weights sum to 1."""
     terms: list
     set_uvs: list
     w012: object
     w3: object
-    base_uv: object = None
     base: object = None
     rest: object = None
     weight_sum: object = None
@@ -221,7 +220,7 @@ def _blend_terms(b, patch_zone, sharpen=False):
     r0, r1, r2 = b.separate(b.vector("SCALE", w012, x=-450, y=900, scale=rest), -300, 900)
     scaled = [r0, r1, r2, b.math("MULTIPLY", w3, rest, -450, 840)]
     return _Terms(list(zip(set_uvs, scaled)) + [(base_uv, base_weight)], set_uvs, w012, w3,
-                  base_uv=base_uv, base=base_weight, rest=rest)
+                  base=base_weight, rest=rest)
 
 
 def _falloffs(b, scaled, pairs, y):
