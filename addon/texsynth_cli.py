@@ -2,12 +2,17 @@
 """Headless TexSynth for pipelines:
 
   blender -b [scene.blend] --python-exit-code 1 --python addon/texsynth_cli.py -- \\
-      --sample IMAGE (--object NAME | --mesh FILE.obj|.ply|.stl) [--method jumpmap|texton] [--scale S]
+      --sample IMAGE (--object NAME | --mesh FILE.obj|.ply|.stl) [--method jumpmap|texton|round] [--scale S]
       [--seed N] [--no-blend] [--blend-mode auto|histogram|variance|linear] [--blend-threshold PHI]
       [--direction-attribute NAME]
       [--scale-attribute NAME | --scale-group NAME [--scale-range LO HI]] [--save OUT.blend]
       [--render OUT.png] [--resolution W H] [--stats OUT.json]
       [--bake IMAGE.png [--bake-uv NAME|auto] [--bake-size N] [--bake-margin PX] [--bake-material]]
+      [--target image|vertices] [--levels N] [--coarse-rings K] [--fine-rings K] [--candidates N]
+      [--synthesis-resolution auto|full]
+
+--method round synthesizes a colour per texel of the --bake image through --bake-uv (default: the first
+UV map, or a new Smart UV Project map), or per vertex with --target vertices (attribute TexSynth_Colour).
 
 Exit 0 on success; bad arguments or inputs print one line "texsynth_cli: error: ..." and exit 2
 (arguments) or 1 (inputs, synthesis failures).
@@ -47,7 +52,15 @@ def parse_args(argv):
     target.add_argument("--object", action="append", metavar="NAME",
                         help="mesh object in the opened scene (repeatable)")
     target.add_argument("--mesh", metavar="FILE", help=".obj, .ply or .stl file to import")
-    parser.add_argument("--method", default="jumpmap", choices=["jumpmap", "texton"])
+    parser.add_argument("--method", default="jumpmap", choices=["jumpmap", "texton", "round"])
+    parser.add_argument("--target", choices=("image", "vertices"), default=None,
+                        help="round: colours per texel of the --bake image (default) or per vertex")
+    parser.add_argument("--levels", type=int, default=3, help="round: resolution levels on the surface (1-6)")
+    parser.add_argument("--coarse-rings", type=int, default=4, help="round: neighbourhood rings, coarsest level")
+    parser.add_argument("--fine-rings", type=int, default=2, help="round: neighbourhood rings, finer levels")
+    parser.add_argument("--candidates", type=int, default=2, help="round: random candidates per point (0-16)")
+    parser.add_argument("--synthesis-resolution", choices=("auto", "full"), default="auto",
+                        help="round: auto reduces a sample finer than the target to its texel density first")
     parser.add_argument("--scale", type=float, default=1.0,
                         help="world size of the sample's width, in world units (default 1)")
     parser.add_argument("--seed", type=int, default=0)
@@ -92,6 +105,13 @@ def parse_args(argv):
         raise UsageError("--scale-range must be two positive numbers, got %s" % list(args.scale_range))
     if args.resolution and not all(4 <= v <= 16384 for v in args.resolution):
         raise UsageError("--resolution must be two integers in [4, 16384], got %s" % args.resolution)
+    if args.target is not None and args.method != "round":
+        raise UsageError("--target is for --method round")
+    args.target = args.target or "image"
+    if args.method == "round" and args.bake_material:
+        raise UsageError("--bake-material is for baking jump-map or texton results; --method round uses --material")
+    if args.method == "round" and args.target == "vertices" and args.bake is not None:
+        raise UsageError("--target vertices writes a colour attribute: drop --bake")
     check_bake_args(args)
     for option in ("save", "render", "stats", "bake"):
         path = getattr(args, option)
@@ -264,17 +284,27 @@ def main(argv):
                                  "VERTEX_GROUP" if args.scale_group else "NONE",
                                  scale_attribute=args.scale_attribute or "TexSynth_Scale",
                                  scale_group=args.scale_group, scale_min=args.scale_range[0],
-                                 scale_max=args.scale_range[1])
+                                 scale_max=args.scale_range[1], surface_target=args.target.upper(),
+                                 round_levels=args.levels, round_coarse_rings=args.coarse_rings,
+                                 round_fine_rings=args.fine_rings, round_candidates=args.candidates,
+                                 round_resolution=args.synthesis_resolution.upper())
+    sample = synthesis.Sample(path=os.path.abspath(args.sample))
+    surface = settings.method in pipeline.SURFACE_METHODS
     try:
         settings.validate()
-        report = synthesis.synthesize(objects, synthesis.Sample(path=os.path.abspath(args.sample)), settings,
-                                      args.cache_dir or None, args.material.upper())
+        if surface:
+            from texsynth.bake import options
+            from texsynth.surface_colour import synthesis as surface_synthesis
+            request = bake_request(args, options) if args.bake else options.BakeRequest(create_uv=True)
+            report = surface_synthesis.synthesize(objects, sample, settings, request, args.material.upper())
+        else:
+            report = synthesis.synthesize(objects, sample, settings, args.cache_dir or None, args.material.upper())
     except (ValueError, RuntimeError) as error:
         raise CliError(str(error))
     if report.failures:
         raise CliError(report.summary())
     stats = report.as_json()
-    if args.bake:
+    if args.bake and not surface:
         run_bake(args, objects, stats)
     if args.save:
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.save), copy=True)

@@ -21,7 +21,7 @@ import numpy as np
 from .. import native
 from ..bridge import mesh_io
 from ..core import pipeline
-from ..shading import blend_groups
+from ..shading import blend_groups, surface_material
 from . import options
 from .options import BakeError, BakeRequest  # noqa: F401  (re-exported for the operator and the CLI)
 
@@ -317,7 +317,7 @@ class _MaterialState:
 # The bake
 
 
-def _new_image(name, size, float_buffer):
+def new_image(name, size, float_buffer):
     image = bpy.data.images.new(name, size, size, alpha=True, float_buffer=float_buffer)
     image.generated_color = (0.0, 0.0, 0.0, 0.0)
     if float_buffer:
@@ -325,7 +325,7 @@ def _new_image(name, size, float_buffer):
     return image
 
 
-def _store(image, target):
+def store_image(image, target):
     """Saves the image to target.path, or packs it into the .blend."""
     if target.path:
         image.filepath_raw = target.path
@@ -341,7 +341,7 @@ def _store(image, target):
         image.pack()
 
 
-def _take_name(image, name):
+def take_name(image, name):
     """Gives image the name `name`, replacing (remapping users of) an existing image of that name."""
     old = bpy.data.images.get(name)
     if old is not None and old != image:
@@ -352,30 +352,9 @@ def _take_name(image, name):
 
 def baked_material(obj, image, uv_map, assign):
     """Material "TexSynth Baked: <object>": UV Map -> Image Texture -> Principled Base Color."""
-    name = options.MATERIAL_PREFIX + obj.name
-    material = bpy.data.materials.get(name) or bpy.data.materials.new(name)
-    material.use_nodes = True
-    nodes, links = material.node_tree.nodes, material.node_tree.links
-    nodes.clear()
-    output = nodes.new("ShaderNodeOutputMaterial")
-    output.location = (300, 0)
-    principled = nodes.new("ShaderNodeBsdfPrincipled")
-    principled.location = (0, 0)
-    texture = nodes.new("ShaderNodeTexImage")
-    texture.location = (-350, 0)
-    texture.image = image
-    texture.interpolation = "Linear"
-    uv = nodes.new("ShaderNodeUVMap")
-    uv.location = (-550, 0)
-    uv.uv_map = uv_map
-    links.new(uv.outputs["UV"], texture.inputs["Vector"])
-    links.new(texture.outputs["Color"], principled.inputs["Base Color"])
-    links.new(principled.outputs["BSDF"], output.inputs["Surface"])
+    material = surface_material.new_material(options.MATERIAL_PREFIX + obj.name, image=image, uv_map=uv_map)
     if assign:
-        for slot in obj.material_slots:
-            slot.material = material
-        if not obj.material_slots:
-            obj.data.materials.append(material)
+        surface_material.assign(obj, material)
     return material
 
 
@@ -401,7 +380,7 @@ def bake(obj, request, context=None, progress=None):
             uv_map = created_uv = smart_project(obj, request, context)
             notes.append("created UV map %r with Smart UV Project (the object had none besides TexSynth's)"
                          % created_uv)
-        image = _new_image(TEMP_PREFIX + target.image_name, request.size, target.float_buffer)
+        image = new_image(TEMP_PREFIX + target.image_name, request.size, target.float_buffer)
         materials = [_MaterialState(material, node, image) for material, node in groups]
         state.use_cycles(request.samples)
         progress(0.1, "TexSynth: baking %s (%d px, Cycles)" % (obj.name, request.size))
@@ -415,8 +394,8 @@ def bake(obj, request, context=None, progress=None):
         materials = []
         progress(0.9, "TexSynth: storing %s" % target.image_name)
         mesh_io.fail_point("bake")  # tests: a failure after Cycles baked must still undo everything
-        _store(image, target)
-        _take_name(image, target.image_name)
+        store_image(image, target)
+        take_name(image, target.image_name)
         material = None
         if request.material != "NONE":
             material = baked_material(obj, image, uv_map, request.material == "ASSIGN")

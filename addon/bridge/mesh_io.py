@@ -378,3 +378,66 @@ def read_scale_multiplier(obj, settings):
         weights = read_vertex_group(obj, settings.scale_group)
         return authoring.scale_from_weights(weights, settings.scale_min, settings.scale_max)
     return None
+
+
+# ---------------------------------------------------------------------------------------------
+# Surface-colour methods (surface_colour/): loop triangles with a UV map's corners, colour attributes
+
+
+def read_loop_triangles(obj, uv_map=""):
+    """(triangles (T, 3) int32 vertex indices, corner_uvs (T, 3, 2) float32 or None) of obj's base mesh:
+    Blender's own triangulation (n-gons included), UVs of `uv_map` per triangle corner when named."""
+    mesh = obj.data
+    mesh.calc_loop_triangles()
+    count = len(mesh.loop_triangles)
+    triangles = read_indices(mesh.loop_triangles, "vertices", count * 3).reshape(count, 3)
+    if not uv_map:
+        return np.ascontiguousarray(triangles), None
+    layer = mesh.uv_layers.get(uv_map)
+    if layer is None:
+        raise pipeline.SettingsError("mesh %r has no UV map %r" % (mesh.name, uv_map))
+    loops = read_indices(mesh.loop_triangles, "loops", count * 3)
+    corner_uv = _uv_data(layer, len(mesh.loops)).reshape(-1, 2)
+    uvs = corner_uv[loops].reshape(count, 3, 2)
+    if not pipeline.all_finite(uvs):
+        raise pipeline.SettingsError("UV map %r of mesh %r contains NaN or infinite coordinates" % (uv_map, mesh.name))
+    return np.ascontiguousarray(triangles), np.ascontiguousarray(uvs, dtype=np.float32)
+
+
+def write_colour_attribute(mesh, name, rgba):
+    """Writes a FLOAT_COLOR point attribute (created or replaced) and makes it the active colour
+    attribute; returns an undo function that puts the mesh back as it was."""
+    rgba = np.ascontiguousarray(rgba, dtype=np.float32).ravel()
+    if rgba.size != len(mesh.vertices) * 4 or not pipeline.all_finite(rgba):
+        raise pipeline.SettingsError("colour attribute %r needs %d finite values, got %d"
+                                     % (name, len(mesh.vertices) * 4, rgba.size))
+    old = mesh.attributes.get(name)
+    saved = _attribute_snapshot(old) if old is not None else None
+    active = getattr(mesh.attributes, "active_color", None)
+    active_name = active.name if active is not None else None
+
+    def undo():
+        attribute = mesh.attributes.get(name)
+        if attribute is not None:
+            mesh.attributes.remove(attribute)
+        if saved is not None:
+            data_type, domain, key, values = saved
+            mesh.attributes.new(name, data_type, domain).data.foreach_set(key, values)
+        if active_name is not None and mesh.attributes.get(active_name) is not None:
+            mesh.attributes.active_color = mesh.attributes[active_name]
+        mesh.update()
+
+    try:
+        if old is not None and (old.domain != "POINT" or old.data_type != "FLOAT_COLOR"):
+            mesh.attributes.remove(old)
+            old = None
+        attribute = old or mesh.attributes.new(name, "FLOAT_COLOR", "POINT")
+        attribute.data.foreach_set("color", rgba)
+        fail_point("colour_attribute")
+        if hasattr(mesh.attributes, "active_color"):
+            mesh.attributes.active_color = mesh.attributes[name]
+        mesh.update()
+    except Exception as error:
+        undo()
+        raise MeshWriteError("writing colour attribute %r failed (mesh restored): %s" % (name, error)) from error
+    return undo

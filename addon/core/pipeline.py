@@ -14,8 +14,14 @@ import numpy as np
 
 from .. import native
 
-METHODS = ("JUMPMAP", "TEXTON")
-IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON")
+METHODS = ("JUMPMAP", "TEXTON", "ROUND")
+IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON", "ROUND")
+UV_METHODS = ("JUMPMAP", "TEXTON")   # write coordinates into the sample + blend data (uv_methods/)
+SURFACE_METHODS = ("ROUND",)         # write a colour per surface sample (surface_colour/)
+SURFACE_TARGETS = ("IMAGE", "VERTICES")
+# Round neighbourhoods: the native limits (round_synth.hpp) and the defaults the README measures.
+ROUND_LEVEL_RANGE, ROUND_RING_RANGE, ROUND_CANDIDATE_RANGE = (1, 6), (1, 6), (0, 16)
+ROUND_RESOLUTIONS = ("AUTO", "FULL")
 ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
 SCALE_SOURCES = ("NONE", "ATTRIBUTE", "VERTEX_GROUP")
 BLEND_MODES = ("AUTO", "HISTOGRAM", "VARIANCE", "LINEAR")  # see blend_groups.py
@@ -85,6 +91,15 @@ class Settings:
     # (λ = render width in pixels / camera field of view, so Φ ≈ colour error × edge length in pixels)
     # exceeds it. Needs a scene camera.
     blend_threshold: float = 0.0
+    # Surface-colour methods: IMAGE = texels of an image through a UV map (bake options give image,
+    # UV map, size, margin), VERTICES = a FLOAT_COLOR vertex attribute of a dense mesh.
+    surface_target: str = "IMAGE"
+    round_levels: int = 3           # pyramid levels on the surface (paper §6)
+    round_coarse_rings: int = 4     # neighbourhood radius in rings at the coarsest level
+    round_fine_rings: int = 2       # ... and at the finer levels
+    round_candidates: int = 2       # random candidates per point at the coarsest level
+    # AUTO: a sample finer than the target is reduced to the target's density first (surface_colour/core.py)
+    round_resolution: str = "AUTO"
 
     def validate(self):
         """Raises SettingsError naming the first bad setting; returns self."""
@@ -121,6 +136,20 @@ class Settings:
                 raise SettingsError("scale range must be two positive numbers, got (%r, %r)" % (self.scale_min, self.scale_max))
         if not isinstance(self.neighbourhood, int) or self.neighbourhood < 3 or self.neighbourhood % 2 == 0:
             raise SettingsError("neighbourhood must be an odd integer >= 3, got %r" % (self.neighbourhood,))
+        if self.method in SURFACE_METHODS:
+            if self.surface_target not in SURFACE_TARGETS:
+                raise SettingsError("unknown target %r (choose one of %s)"
+                                    % (self.surface_target, ", ".join(SURFACE_TARGETS)))
+            if self.round_resolution not in ROUND_RESOLUTIONS:
+                raise SettingsError("unknown synthesis resolution %r (choose one of %s)"
+                                    % (self.round_resolution, ", ".join(ROUND_RESOLUTIONS)))
+            for name, (low, high) in (("round_levels", ROUND_LEVEL_RANGE), ("round_coarse_rings", ROUND_RING_RANGE),
+                                      ("round_fine_rings", ROUND_RING_RANGE),
+                                      ("round_candidates", ROUND_CANDIDATE_RANGE)):
+                value = getattr(self, name)
+                if not isinstance(value, int) or isinstance(value, bool) or not low <= value <= high:
+                    raise SettingsError("%s must be an integer in [%d, %d], got %r"
+                                        % (name.replace("_", " "), low, high, value))
         return self
 
     def resolved_blend_mode(self):
@@ -216,6 +245,8 @@ class Report:
     blend_mode: str = ""   # the shader's blend mode actually used
     blend_reason: str = ""  # why Auto chose it
     notes: list = dataclasses.field(default_factory=list)       # warnings that did not stop the run
+    outputs: list = dataclasses.field(default_factory=list)     # what was made (images, attributes)
+    uses_cache: bool = True  # surface-colour methods use the sample directly (no preprocessing cache)
 
     def add_object(self, name, mesh_arrays, stats):
         self.objects.append(name)
@@ -228,12 +259,13 @@ class Report:
         if not self.objects and self.failures:
             return "TexSynth: nothing written; " + "; ".join("%s: %s" % f for f in self.failures)
         total = self.seconds.get("total", 0.0)
-        text = "TexSynth: %d object(s), %d faces in %.2f s (cache %s)" % (
-            len(self.objects), self.faces, total, "hit" if self.cache_hit else "miss")
+        text = "TexSynth: %d object(s), %d faces in %.2f s" % (len(self.objects), self.faces, total)
+        if self.uses_cache:
+            text += " (cache %s)" % ("hit" if self.cache_hit else "miss")
         if self.blend_reason:
             text += "; %s blending (%s)" % (self.blend_mode.lower(), self.blend_reason)
-        if self.notes:
-            text += "; " + "; ".join(self.notes)
+        if self.outputs or self.notes:
+            text += "; " + "; ".join(self.outputs + self.notes)
         if self.failures:
             text += "; %d failed: %s" % (len(self.failures), "; ".join("%s: %s" % f for f in self.failures))
         return text
@@ -246,6 +278,7 @@ class Report:
             "cache_hit": bool(self.cache_hit), "cache_status": self.cache_status,
             "seconds": dict(self.seconds), "native": self.native_stats,
             "blend_mode": self.blend_mode, "blend_reason": self.blend_reason, "notes": list(self.notes),
+            "outputs": list(self.outputs),
         }
 
 

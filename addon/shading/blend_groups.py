@@ -342,7 +342,7 @@ def _group_node(material, image, target, inputs):
     return group_node
 
 
-def _principled(material):
+def principled_bsdf(material):
     nodes = material.node_tree.nodes
     found = next((n for n in nodes if n.type == "BSDF_PRINCIPLED"), None)
     if found is None:
@@ -365,7 +365,7 @@ def insert_into_material(material, image, target="Base Color", inputs=None):
         inputs = dataclasses.replace(inputs, mode="VARIANCE", gaussian=None, inverse_lut=None,
                                      mean=inputs.mean if inputs.mode == "VARIANCE" else (0.5, 0.5, 1.0))
     material.use_nodes = True
-    principled = _principled(material)
+    principled = principled_bsdf(material)
     group_node = _group_node(material, image, target, inputs)
     group_node.location = (principled.location[0] - 400, principled.location[1] - 200 * TARGETS.index(target))
     links = material.node_tree.links

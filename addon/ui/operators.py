@@ -50,6 +50,10 @@ class TEXSYNTH_OT_preprocess(bpy.types.Operator):
 
     def execute(self, context):
         props = context.scene.texsynth
+        if props.method in pipeline.SURFACE_METHODS:
+            self.report({"INFO"}, "TexSynth: %s works on the sample directly; nothing to preprocess"
+                        % props.bl_rna.properties["method"].enum_items[props.method].name)
+            return {"FINISHED"}
         try:
             sample = sample_from_settings(props)
             settings = props.to_settings().validate()
@@ -99,7 +103,12 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
     def _job(self, context):
         props = context.scene.texsynth
         objects = sorted(context.selected_objects, key=lambda obj: obj.name)
-        return synthesis.Job(objects, sample_from_settings(props), props.to_settings(), properties.cache_dir(context),
+        settings = props.to_settings()
+        if settings.method in pipeline.SURFACE_METHODS:
+            from ..surface_colour import synthesis as surface_synthesis
+            return surface_synthesis.Job(objects, sample_from_settings(props), settings, props.to_bake_request(),
+                                         props.material_mode, context)
+        return synthesis.Job(objects, sample_from_settings(props), settings, properties.cache_dir(context),
                              props.material_mode, context.scene)
 
     def _finish(self, job):
@@ -113,11 +122,15 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
 
     def execute(self, context):
         """Blocking run (scripts, tests, redo panel)."""
+        job = None
         try:
-            job = self._job(context).prepare()
+            job = self._job(context)
+            job.prepare()
             with _Progress(context) as progress:
                 job.compute(progress).apply(progress)
         except (ValueError, RuntimeError) as error:
+            if job is not None:
+                job.discard()
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
         return self._finish(job)
@@ -126,9 +139,13 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
         """From the UI: native work in a worker thread (GIL released), Esc cancels it."""
         if context.window is None:
             return self.execute(context)
+        job = None
         try:
-            self._job_state = ModalSynthesis(self._job(context).prepare())
+            job = self._job(context)
+            self._job_state = ModalSynthesis(job.prepare())
         except (ValueError, RuntimeError) as error:
+            if job is not None:
+                job.discard()
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
         self._job_state.start()
@@ -145,7 +162,7 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
         if event.type != "TIMER" and event.type != "ESC":
             return {"RUNNING_MODAL"}  # block other input: the meshes must not change mid-run
         if state.running():
-            context.window_manager.progress_update(int(1000 * state.fraction))
+            context.window_manager.progress_update(int(1000 * state.live_fraction()))
             return {"RUNNING_MODAL"}
         context.window_manager.event_timer_remove(self._timer)
         context.window_manager.progress_end()
@@ -154,6 +171,7 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
             state.finish()  # re-raises the worker's error, or Cancelled
             state.job.apply()
         except (ValueError, RuntimeError) as error:
+            state.job.discard()
             self.report({"WARNING"} if isinstance(error, synthesis.Cancelled) else {"ERROR"}, str(error))
             return {"CANCELLED"}
         return self._finish(state.job)
@@ -171,6 +189,11 @@ class ModalSynthesis:
 
     def _progress(self, fraction, text):
         self.fraction = fraction  # read by the main thread; no bpy access from the worker
+
+    def live_fraction(self):
+        """The job's own finer progress (native progress of a long call) when it has one."""
+        live = getattr(self.job, "live_fraction", None)
+        return max(self.fraction, live()) if live is not None else self.fraction
 
     def _run(self):
         try:

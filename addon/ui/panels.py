@@ -7,7 +7,15 @@ from ..core import pipeline
 from . import operators
 
 
+class _SubPanel:
+    bl_parent_id = "TEXSYNTH_PT_main"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "TexSynth"
+
+
 class TEXSYNTH_PT_main(bpy.types.Panel):
+    """Synthesize / Clear on top; the settings in the sub-panels below, in the order an artist sets them."""
     bl_label = "TexSynth"
     bl_idname = "TEXSYNTH_PT_main"
     bl_space_type = "VIEW_3D"
@@ -16,13 +24,25 @@ class TEXSYNTH_PT_main(bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        props = context.scene.texsynth
         if native.reason():
             box = layout.box()
             box.label(text="Native module unavailable:", icon="ERROR")
             for line in _wrap(native.reason(), 40):
                 box.label(text=line)
+        column = layout.column()
+        column.enabled = not native.reason()
+        column.scale_y = 1.4
+        column.operator("texsynth.synthesize", icon="TEXTURE")
+        layout.operator("texsynth.clear", icon="X")
 
+
+class TEXSYNTH_PT_sample(_SubPanel, bpy.types.Panel):
+    bl_label = "Sample"
+    bl_idname = "TEXSYNTH_PT_sample"
+
+    def draw(self, context):
+        layout = self.layout
+        props = context.scene.texsynth
         layout.prop(props, "sample_source", expand=True)
         if props.sample_source == "FILE":
             layout.prop(props, "sample_path", text="")
@@ -30,66 +50,107 @@ class TEXSYNTH_PT_main(bpy.types.Panel):
         else:
             layout.template_ID(props, "sample_image", open="image.open")
             key = props.sample_image.name if props.sample_image else "<none>"
+        if props.method in pipeline.SURFACE_METHODS:
+            layout.label(text="Used directly: no preprocessing", icon="INFO")
+            return
         row = layout.row(align=True)
         row.operator("texsynth.preprocess")
         row.operator("texsynth.check_cache", text="", icon="FILE_REFRESH")
         layout.label(text="Cache: %s" % operators.cache_status_by_sample.get(key, "unknown"))
 
-        layout.prop(props, "method")
-        layout.prop(props, "scale")
+
+class TEXSYNTH_PT_method(_SubPanel, bpy.types.Panel):
+    bl_label = "Method"
+    bl_idname = "TEXSYNTH_PT_method"
+
+    def draw(self, context):
+        layout = self.layout
+        props = context.scene.texsynth
+        layout.prop(props, "method", text="")
         layout.prop(props, "seed")
         if props.method == "JUMPMAP":
             layout.prop(props, "jump_rate")
-        layout.prop(props, "orientation")
-        if props.orientation == "AXIS":
-            layout.prop(props, "axis")
-        else:
-            layout.prop(props, "direction_attribute")
-        layout.prop(props, "scale_source")
-        if props.scale_source == "ATTRIBUTE":
-            layout.prop(props, "scale_attribute")
-        elif props.scale_source == "VERTEX_GROUP":
-            obj = context.active_object
-            if obj is not None and obj.type == "MESH":
-                layout.prop_search(props, "scale_group", obj, "vertex_groups")
-            else:
-                layout.prop(props, "scale_group")
-            row = layout.row(align=True)
-            row.prop(props, "scale_min")
-            row.prop(props, "scale_max")
+        if props.method in pipeline.SURFACE_METHODS:
+            column = layout.column(align=True)
+            column.prop(props, "round_levels")
+            column.prop(props, "round_coarse_rings")
+            column.prop(props, "round_fine_rings")
+            column.prop(props, "round_candidates")
+            layout.label(text="Synthesis Resolution:")
+            layout.prop(props, "round_resolution", text="")
+            return
         layout.prop(props, "blend")
         if props.blend:
-            layout.prop(props, "blend_mode")
+            layout.prop(props, "blend_mode", text="")
         if props.method == "TEXTON" and props.blend:
             layout.prop(props, "blend_threshold")
             if props.blend_threshold > 0.0 and context.scene.camera is None:
-                layout.label(text="Blend threshold needs a scene camera", icon="ERROR")
+                layout.label(text="Needs a scene camera", icon="ERROR")
         layout.prop(props, "allow_oversized")
-        layout.prop(props, "material_mode")
 
-        column = layout.column()
-        column.enabled = not native.reason()
-        column.scale_y = 1.4
-        column.operator("texsynth.synthesize", icon="TEXTURE")
-        layout.operator("texsynth.clear", icon="X")
 
+class TEXSYNTH_PT_orientation(_SubPanel, bpy.types.Panel):
+    bl_label = "Orientation & Scale"
+    bl_idname = "TEXSYNTH_PT_orientation"
+
+    def draw(self, context):
+        layout = self.layout
+        props = context.scene.texsynth
+        layout.prop(props, "scale")
+        layout.prop(props, "orientation", text="")
+        if props.orientation == "AXIS":
+            layout.row().prop(props, "axis", text="")
+        else:
+            layout.prop(props, "direction_attribute", text="")
+        layout.label(text="Scale Map:")
+        layout.prop(props, "scale_source", text="")
+        if props.scale_source == "ATTRIBUTE":
+            layout.prop(props, "scale_attribute", text="")
+        elif props.scale_source == "VERTEX_GROUP":
+            obj = context.active_object
+            if obj is not None and obj.type == "MESH":
+                layout.prop_search(props, "scale_group", obj, "vertex_groups", text="")
+            else:
+                layout.prop(props, "scale_group", text="")
+            row = layout.row(align=True)
+            row.prop(props, "scale_min")
+            row.prop(props, "scale_max")
+
+
+class TEXSYNTH_PT_output(_SubPanel, bpy.types.Panel):
+    bl_label = "Output / Bake"
+    bl_idname = "TEXSYNTH_PT_output"
+
+    def draw(self, context):
+        layout = self.layout
+        props = context.scene.texsynth
+        layout.label(text="Material:")
+        layout.prop(props, "material_mode", text="")
+        surface = props.method in pipeline.SURFACE_METHODS
+        if surface:
+            layout.label(text="Target:")
+            layout.prop(props, "surface_target", expand=True)
+            if props.surface_target == "VERTICES":
+                layout.label(text="Attribute: TexSynth_Colour")
+                return
         box = layout.box()
-        box.label(text="Bake", icon="RENDER_STILL")
-        box.prop(props, "bake_target")
+        box.label(text="Image" if surface else "Bake", icon="IMAGE_DATA" if surface else "RENDER_STILL")
+        box.prop(props, "bake_target", text="", icon="IMAGE_DATA")
         obj = context.active_object
         if obj is not None and obj.type == "MESH":
-            box.prop_search(props, "bake_uv_map", obj.data, "uv_layers")
+            box.prop_search(props, "bake_uv_map", obj.data, "uv_layers", text="", icon="GROUP_UVS")
             if props.bake_uv_map == pipeline.BASE_UV_NAME:
-                box.label(text="TexSynth's own UV map overlaps: choose another", icon="ERROR")
+                box.label(text="TexSynth's own map overlaps", icon="ERROR")
         else:
-            box.prop(props, "bake_uv_map")
+            box.prop(props, "bake_uv_map", text="", icon="GROUP_UVS")
         box.prop(props, "bake_create_uv")
         row = box.row(align=True)
         row.prop(props, "bake_size")
         row.prop(props, "bake_margin")
-        box.prop(props, "bake_save_mode")
-        box.prop(props, "bake_material")
-        box.operator("texsynth.bake", icon="RENDER_STILL")
+        box.prop(props, "bake_save_mode", text="")
+        if not surface:
+            box.prop(props, "bake_material", text="")
+            box.operator("texsynth.bake", icon="RENDER_STILL")
 
 
 class TEXSYNTH_PT_field(bpy.types.Panel):
@@ -142,4 +203,6 @@ def _wrap(text, width):
     return lines + ([line] if line else [])
 
 
-classes = (TEXSYNTH_PT_main, TEXSYNTH_PT_field)
+# Registration order is the sidebar order.
+classes = (TEXSYNTH_PT_main, TEXSYNTH_PT_sample, TEXSYNTH_PT_method, TEXSYNTH_PT_orientation, TEXSYNTH_PT_field,
+           TEXSYNTH_PT_output)

@@ -21,8 +21,35 @@ class TexSynthSettings(bpy.types.PropertyGroup):
         name="Method",
         items=(("JUMPMAP", "Jump Map", "Jump-map vertex walk (Zelinka & Garland)"),
                ("TEXTON", "Texton Strings", "Texton-string patch matching per face (Magda & Kriegman); "
-                                            "better on structured samples")),
+                                            "better on structured samples"),
+               ("ROUND", "Round Neighbourhoods", "Pixel-level synthesis on the surface (Chen & Dong): a colour "
+                                                 "per texel of an image through a UV map, or per vertex; no "
+                                                 "seams across UV islands")),
         default="JUMPMAP")
+    surface_target: bpy.props.EnumProperty(
+        name="Target",
+        items=(("IMAGE", "Image", "Texels of an image through a UV map (see Output): export and painting ready"),
+               ("VERTICES", "Colour Attribute", "One colour per vertex of a dense mesh (attribute TexSynth_Colour)")),
+        default="IMAGE")
+    round_levels: bpy.props.IntProperty(
+        name="Levels", default=3, min=pipeline.ROUND_LEVEL_RANGE[0], max=pipeline.ROUND_LEVEL_RANGE[1],
+        description="Resolution levels on the surface: more levels keep larger structures together")
+    round_coarse_rings: bpy.props.IntProperty(
+        name="Coarse Rings", default=4, min=pipeline.ROUND_RING_RANGE[0], max=pipeline.ROUND_RING_RANGE[1],
+        description="Neighbourhood radius (in rings of samples) at the coarsest level, which lays out the structure")
+    round_fine_rings: bpy.props.IntProperty(
+        name="Fine Rings", default=2, min=pipeline.ROUND_RING_RANGE[0], max=pipeline.ROUND_RING_RANGE[1],
+        description="Neighbourhood radius at the finer levels, which refine the detail")
+    round_resolution: bpy.props.EnumProperty(
+        name="Resolution",
+        items=(("AUTO", "Match Target", "Synthesize from the sample reduced to the target's texel density when the "
+                                        "target is coarser (what a mipmap would show; keeps thin features whole)"),
+               ("FULL", "Full Sample", "Always synthesize from the full-resolution sample")),
+        default="AUTO")
+    round_candidates: bpy.props.IntProperty(
+        name="Random Candidates", default=2, min=pipeline.ROUND_CANDIDATE_RANGE[0],
+        max=pipeline.ROUND_CANDIDATE_RANGE[1],
+        description="Random sample positions tried per point at the coarsest level: more gives more variety")
     scale: bpy.props.FloatProperty(name="Scale", subtype="DISTANCE", default=1.0, min=1e-4, soft_max=100.0,
                                    description="World size of the sample's width: one sample spans this many "
                                                "world units on every selected object")
@@ -140,7 +167,11 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                  blend_threshold=float(self.blend_threshold),
                                  scale_source=self.scale_source, scale_attribute=self.scale_attribute,
                                  scale_group=self.scale_group, scale_min=float(self.scale_min),
-                                 scale_max=float(self.scale_max))
+                                 scale_max=float(self.scale_max), surface_target=self.surface_target,
+                                 round_levels=int(self.round_levels), round_coarse_rings=int(self.round_coarse_rings),
+                                 round_fine_rings=int(self.round_fine_rings),
+                                 round_candidates=int(self.round_candidates),
+                                 round_resolution=self.round_resolution)
 
 
 class TexSynthPreferences(bpy.types.AddonPreferences):

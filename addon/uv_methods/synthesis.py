@@ -151,6 +151,9 @@ class Job:
                 self.report.failures.append((obj.name, str(error)))
         return self
 
+    def discard(self):
+        """Nothing to undo: prepare() only reads (the surface-colour Job may add UV maps)."""
+
     def cancel(self):
         """Asks compute() to stop (from any thread); it then raises Cancelled."""
         self.cancelled = True

@@ -43,7 +43,8 @@ def configure(**overrides):
     props = bpy.context.scene.texsynth
     values = dict(sample_source="FILE", sample_path=BRICKS, method="JUMPMAP", scale=4.0, seed=7, jump_rate=20.0,
                   orientation="AXIS", axis=(0.0, 0.0, 1.0), direction_attribute="", blend=True,
-                  allow_oversized=False, material_mode="NEW", blend_threshold=0.0)
+                  allow_oversized=False, material_mode="NEW", blend_threshold=0.0, surface_target="IMAGE",
+                  scale_source="NONE")
     values.update(overrides)
     for key, value in values.items():
         setattr(props, key, value)
@@ -616,9 +617,50 @@ def draw_panel(panel_class):
     return log
 
 
+PANELS = ("TEXSYNTH_PT_main", "TEXSYNTH_PT_sample", "TEXSYNTH_PT_method", "TEXSYNTH_PT_orientation",
+          "TEXSYNTH_PT_output")
+
+
+def draw_panels():
+    """What the sidebar shows: the main panel and its sub-panels (registered under it, in this order)."""
+    log = []
+    for name in PANELS:
+        log += draw_panel(getattr(texsynth.ui.panels, name))
+    return log
+
+
+def test_sidebar_is_split_into_sub_panels_in_order():
+    registered = [cls.__name__ for cls in texsynth.ui.panels.classes]
+    assert registered[:len(PANELS) - 1] == list(PANELS[:-1]) and registered[-1] == PANELS[-1], registered
+    for name in PANELS[1:]:
+        assert getattr(bpy.types, name).bl_parent_id == "TEXSYNTH_PT_main"
+
+
+def test_panel_labels_fit_the_default_sidebar_width():
+    # Blender's default sidebar is ~20 characters per half row at UI scale 1. Enum and text fields draw
+    # their label beside the field (half the row); numbers draw it inside the field (the whole row).
+    props = bpy.context.scene.texsynth
+    for method in ("JUMPMAP", "TEXTON", "ROUND"):
+        for target in ("IMAGE", "VERTICES"):
+            configure(method=method, surface_target=target, scale_source="VERTEX_GROUP", orientation="FIELD")
+            for kind, args, kw in draw_panels():
+                if kind == "label":
+                    assert len(kw.get("text", "")) <= 34, kw
+                if kind != "prop" or args[0] is not props:
+                    continue
+                rna = props.bl_rna.properties[args[1]]
+                label = kw.get("text", rna.name)
+                if kw.get("expand"):
+                    label = max((item.name for item in rna.enum_items), key=len)
+                limit = {"ENUM": 14, "STRING": 14, "POINTER": 14}.get(rna.type, 26)
+                if rna.type == "BOOLEAN":
+                    limit = 30  # beside its check box: the whole row
+                assert len(label) <= limit, (args[1], label)
+
+
 def test_panel_draws_every_setting_and_the_native_reason():
     configure()
-    log = draw_panel(texsynth.ui.panels.TEXSYNTH_PT_main)
+    log = draw_panels()
     props_shown = {args[1] for kind, args, _ in log if kind == "prop"}
     assert props_shown >= {"sample_source", "sample_path", "method", "scale", "seed", "jump_rate", "orientation",
                            "axis", "blend", "allow_oversized", "material_mode"}, props_shown
@@ -629,11 +671,22 @@ def test_panel_draws_every_setting_and_the_native_reason():
                            "bake_material", "bake_create_uv"}, props_shown
     assert any(kind == "label" and kw.get("text", "").startswith("Cache:") for kind, _, kw in log)
     configure(sample_source="IMAGE", orientation="FIELD", method="TEXTON")
-    log = draw_panel(texsynth.ui.panels.TEXSYNTH_PT_main)
+    log = draw_panels()
     assert any(kind == "template_ID" for kind, _, _ in log)
     assert "direction_attribute" in {args[1] for kind, args, _ in log if kind == "prop"}
     shown = {args[1] for kind, args, _ in log if kind == "prop"}
     assert "blend_threshold" in shown and "jump_rate" not in shown, shown
+    configure(method="ROUND")
+    log = draw_panels()
+    shown = {args[1] for kind, args, _ in log if kind == "prop"}
+    assert shown >= {"surface_target", "round_levels", "round_coarse_rings", "round_fine_rings", "round_candidates",
+                     "round_resolution", "bake_target", "bake_uv_map", "bake_size", "bake_margin"}, shown
+    assert not shown & {"blend", "blend_mode", "jump_rate", "bake_material"}, shown
+    operators_shown = {args[0] for kind, args, _ in log if kind == "operator"}
+    assert "texsynth.bake" not in operators_shown and "texsynth.preprocess" not in operators_shown
+    configure(method="ROUND", surface_target="VERTICES")
+    shown = {args[1] for kind, args, _ in draw_panels() if kind == "prop"}
+    assert "bake_size" not in shown and "surface_target" in shown
     saved = (native._module, native._reason, native._tried)
     try:
         native._module, native._reason, native._tried = None, "native module missing: no texsynth_native", True

@@ -1,0 +1,228 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""bpy-free part of the surface-colour methods: the sample in the synthesizer's row order and colour
+space, the direction field, the direction-invariant context kept for re-synthesis, and the native call.
+
+Round neighbourhoods (Chen & Dong 2008) synthesize values as the sample stores them; the bpy layer
+decides the output's colour space (an sRGB byte image keeps them, a float image or a colour attribute
+gets linear values).
+"""
+import dataclasses
+import hashlib
+import threading
+
+import numpy as np
+
+from .. import native
+from ..core import pipeline
+
+COLOUR_ATTRIBUTE_NAME = "TexSynth_Colour"  # VERTICES target: FLOAT_COLOR point attribute
+IMAGE_PREFIX = "TexSynth Round: "          # default image name for the IMAGE target
+
+
+def linear_to_srgb(values):
+    values = np.clip(np.asarray(values, dtype=np.float64), 0.0, None)
+    return np.where(values <= 0.0031308, values * 12.92, 1.055 * np.power(values, 1.0 / 2.4) - 0.055)
+
+
+def output_values(colour, sample_srgb, output_linear):
+    """Synthesized RGB(A) values converted from the sample's encoding to the output's; alpha untouched."""
+    colour = np.asarray(colour, dtype=np.float32)
+    if bool(sample_srgb) == (not output_linear):
+        return colour
+    convert = pipeline.srgb_to_linear if sample_srgb else linear_to_srgb
+    out = colour.copy()
+    channels = min(3, colour.shape[-1])
+    out[..., :channels] = convert(colour[..., :channels]).astype(np.float32)
+    return out
+
+
+def synthesis_sample(pixels_top_first):
+    """H x W x C (row 0 = top) -> float32 H x W x 3|4 with row 0 = bottom (Blender's pixel order, which
+    round_synthesize expects: rows grow along the texture's up). Grey samples become RGB."""
+    pixels = np.asarray(pixels_top_first, dtype=np.float32)
+    if pixels.ndim != 3 or pixels.shape[0] < 2 or pixels.shape[1] < 2:
+        raise pipeline.SettingsError("sample must be an image of at least 2 x 2 pixels, got shape %s" % (pixels.shape,))
+    channels = pixels.shape[2]
+    if channels == 1:
+        pixels = np.repeat(pixels, 3, axis=2)
+    elif channels == 2:  # grey + alpha
+        pixels = np.concatenate([np.repeat(pixels[:, :, :1], 3, axis=2), pixels[:, :, 1:]], axis=2)
+    if not pipeline.all_finite(pixels):
+        raise pipeline.SettingsError("sample contains NaN or infinite pixel values")
+    return np.ascontiguousarray(pixels[::-1])
+
+
+def target_density(positions, triangles, corner_uvs, target):
+    """Surface samples per world unit along a line: image target, sqrt(texels covered / surface area)
+    from the UV and 3D areas; vertex target, 1 / mean edge length. 0 when unknown (degenerate)."""
+    corners = np.asarray(positions, dtype=np.float64)[np.asarray(triangles)]
+    if corners.size == 0:
+        return 0.0
+    if target.kind == "IMAGE":
+        area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum()
+        uv = np.asarray(corner_uvs, dtype=np.float64) * np.array([target.width, target.height], np.float64)
+        e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+        texels = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
+        return float(np.sqrt(texels / area)) if area > 0.0 and texels > 0.0 else 0.0
+    edges = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=2)
+    mean = float(edges.mean())
+    return 1.0 / mean if mean > 0.0 else 0.0
+
+
+def _box_weights(size_in, size_out):
+    """(size_out, size_in) area-averaging weights: output pixel j covers input [j f, (j + 1) f)."""
+    f = size_in / float(size_out)
+    edges = np.arange(size_out + 1) * f
+    starts, ends = edges[:-1, None], edges[1:, None]
+    pixels = np.arange(size_in)[None, :]
+    overlap = np.clip(np.minimum(ends, pixels + 1) - np.maximum(starts, pixels), 0.0, None)
+    return (overlap / f).astype(np.float32)
+
+
+def smallest_sample_side(settings):
+    """The native minimum: every level's K-ring neighbourhood fits in the sample (2K + 1 pixels of that
+    level, 2^l finest pixels each), plus a pixel of slack for the crop to a multiple of 2^(levels - 1)."""
+    levels = settings.round_levels
+    return max((2 ** level) * (2 * (settings.round_coarse_rings if level == levels - 1 else settings.round_fine_rings)
+                               + 1) for level in range(levels)) + 2 ** (levels - 1)
+
+
+def working_sample(sample, texels_per_unit, density, resolution="AUTO", minimum=32):
+    """(sample, texels_per_unit) to synthesize from. AUTO: when the target has fewer samples per unit
+    than the sample has pixels (a minified texture), the sample is area-averaged down to the target's
+    density, so each surface sample sees what a mipmap would show instead of single pixels picked
+    from a sample it cannot resolve (broken mortar lines, aliasing). FULL: the sample as it is."""
+    height, width = sample.shape[:2]
+    ratio = texels_per_unit / density if density > 0.0 else 1.0
+    if resolution != "AUTO" or ratio <= 1.05:
+        return sample, texels_per_unit
+    new_width = max(minimum, int(round(width / ratio)))
+    new_height = max(minimum, int(round(height * new_width / float(width))))
+    if new_width >= width:
+        return sample, texels_per_unit
+    wy, wx = _box_weights(height, new_height), _box_weights(width, new_width)
+    reduced = np.einsum("yh,hwc,xw->yxc", wy, sample, wx, optimize=True)
+    return np.ascontiguousarray(reduced, dtype=np.float32), texels_per_unit * new_width / float(width)
+
+
+def directions(mesh_arrays, settings):
+    """Per-vertex unit 'up' of the texture (V, 3), from the same orientation settings as the UV methods."""
+    module = native.require()
+    mesh = (mesh_arrays.positions, mesh_arrays.corner_verts, mesh_arrays.poly_starts, mesh_arrays.poly_sizes)
+    if settings.orientation == "AXIS":
+        return module.compute_field(*mesh, orientation="axis", axis=tuple(float(c) for c in settings.axis))
+    if mesh_arrays.direction is None:
+        raise pipeline.SettingsError("mesh has no vector attribute %r for the orientation" % settings.direction_attribute)
+    if settings.orientation == "FIELD":
+        return module.compute_field(*mesh, orientation="field", direction=mesh_arrays.direction)
+    anchors = np.flatnonzero(np.linalg.norm(mesh_arrays.direction, axis=1) > 1e-12).astype(np.int32)
+    if anchors.size == 0:
+        raise pipeline.SettingsError("attribute %r has no non-zero vectors: no anchors" % settings.direction_attribute)
+    return module.compute_field(*mesh, orientation="anchors", anchor_vertices=anchors,
+                                anchor_directions=np.ascontiguousarray(mesh_arrays.direction[anchors]))
+
+
+@dataclasses.dataclass
+class SurfaceTarget:
+    """Where the colours go: IMAGE (width x height texels through corner_uvs, margin texels of bake
+    margin) or VERTICES."""
+    kind: str = "IMAGE"
+    width: int = 0
+    height: int = 0
+    margin: int = 0
+
+
+class ContextCache:
+    """The last few direction-invariant contexts (points, rings, order): a new field, seed or sample on
+    the same mesh, UV map, target and scale re-synthesizes without rebuilding them (the paper's point:
+    neighbourhoods do not depend on the field). Bounded, since a 1024² context holds ~0.3 GB."""
+
+    def __init__(self, capacity=1):
+        self.capacity = capacity
+        self.entries = []  # [(key, context)], most recent last
+        self.lock = threading.Lock()
+
+    @staticmethod
+    def key(mesh_arrays, triangles, corner_uvs, target, texels_per_unit, settings):
+        digest = hashlib.blake2b(digest_size=20)
+        for array in (mesh_arrays.positions, triangles, corner_uvs, mesh_arrays.scale_multiplier):
+            if array is None:
+                digest.update(b"-")
+            else:
+                array = np.ascontiguousarray(array)
+                digest.update(str(array.shape).encode())
+                digest.update(array.data)
+        digest.update(repr((target.kind, target.width, target.height, target.margin, float(texels_per_unit),
+                            settings.round_levels, settings.round_coarse_rings,
+                            settings.round_fine_rings)).encode())
+        return digest.hexdigest()
+
+    def get(self, key):
+        with self.lock:
+            for index, (k, context) in enumerate(self.entries):
+                if k == key:
+                    self.entries.append(self.entries.pop(index))
+                    return context
+        return None
+
+    def put(self, key, context):
+        with self.lock:
+            self.entries = [(k, c) for k, c in self.entries if k != key][-(self.capacity - 1):] \
+                if self.capacity > 1 else []
+            self.entries.append((key, context))
+
+    def clear(self):
+        with self.lock:
+            self.entries = []
+
+
+contexts = ContextCache()
+
+
+def synthesize_round(sample, mesh_arrays, triangles, corner_uvs, settings, seed, texels_per_unit, target,
+                     cancel=None, cache=contexts, stage=None):
+    """Round-neighbourhood synthesis on one mesh. sample: synthesis_sample() output. Returns the native
+    dict plus 'context_reused' and 'stats' (seconds of each part). ValueError (SettingsError or the
+    native module's) on bad input, e.g. overlapping UV islands or a target above the memory limit."""
+    module = native.require()
+    if mesh_arrays.num_faces == 0 or triangles.shape[0] == 0:
+        raise pipeline.SettingsError("mesh has no faces")
+    up = directions(mesh_arrays, settings)
+    density = target_density(mesh_arrays.positions, triangles, corner_uvs, target)
+    full_width = sample.shape[1]
+    sample, texels_per_unit = working_sample(sample, texels_per_unit, density, settings.round_resolution,
+                                             smallest_sample_side(settings))
+    key = cache.key(mesh_arrays, triangles, corner_uvs, target, texels_per_unit, settings)
+    context = cache.get(key)
+    reused = context is not None
+    extra = {} if cancel is None else {"cancel": cancel}
+    stage = stage or (lambda name: None)
+    if context is None:
+        stage("context")
+        context = module.RoundSynthesisContext(
+            mesh_arrays.positions, triangles, corner_uvs if target.kind == "IMAGE" else None,
+            target="image" if target.kind == "IMAGE" else "vertices", width=int(target.width),
+            height=int(target.height), margin=int(target.margin), texels_per_unit=float(texels_per_unit),
+            scale_multiplier=mesh_arrays.scale_multiplier, levels=settings.round_levels,
+            coarse_rings=settings.round_coarse_rings, fine_rings=settings.round_fine_rings, **extra)
+        cache.put(key, context)
+    stage("synthesis")
+    result = dict(module.round_synthesize(context, sample, up, seed=int(seed),
+                                          random_candidates=settings.round_candidates,
+                                          tileable=bool(settings.tileable), **extra))
+    native_stats = dict(result.get("stats") or {})
+    context_stats = dict(context.stats)
+    result["context_reused"] = reused
+    result["stats"] = {
+        "seconds_context": 0.0 if reused else float(context_stats.get("seconds_total", 0.0)),
+        "seconds_synthesis": float(native_stats.get("seconds_total", 0.0)),
+        "context_reused": reused,
+        "surface_samples": int(context.num_points),
+        "working_sample": [int(sample.shape[1]), int(sample.shape[0])],
+        "target_density": density,
+        # sample pixels per surface sample spacing before any reduction (> 1: the target is coarser)
+        "sample_pixels_per_spacing": float(full_width / float(sample.shape[1]) * texels_per_unit / density)
+        if density > 0.0 else 0.0,
+        "levels": [dict(level) for level in native_stats.get("levels", [])],
+    }
+    return result

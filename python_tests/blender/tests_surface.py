@@ -1,0 +1,239 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Surface-colour methods inside Blender (addon/surface_colour/, round neighbourhoods):
+
+  blender -b --factory-startup --python-exit-code 1 --python python_tests/blender/tests_surface.py [-- test_name ...]
+
+Expected values come from the sample's own pixels, the meshes' own UV coordinates and Blender's data,
+never from the add-on's code. Targets stay small (64-128 px): the machine is shared.
+"""
+import os
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+import harness  # noqa: E402
+
+texsynth = harness.load_addon()
+texsynth.register()
+from texsynth.bake import options  # noqa: E402
+from texsynth.bridge import mesh_io  # noqa: E402
+from texsynth.core import pipeline  # noqa: E402
+from texsynth.surface_colour import core, synthesis as surface  # noqa: E402
+from texsynth.uv_methods import synthesis  # noqa: E402
+
+BRICKS = os.path.join(harness.SAMPLES_DIR, "bricks.png")  # 192 x 192, 8-bit sRGB
+SAMPLE = synthesis.Sample(path=BRICKS)
+
+
+def sample_bytes():
+    """The sample's pixels as 8-bit values (N, 3), read by Blender itself."""
+    image = bpy.data.images.load(BRICKS, check_existing=False)
+    values = np.empty(len(image.pixels), np.float32)
+    image.pixels.foreach_get(values)
+    pixels = np.round(values.reshape(-1, image.channels)[:, :3] * 255).astype(np.int32)
+    bpy.data.images.remove(image)
+    return pixels
+
+
+def pixels_of(image):
+    values = np.empty(len(image.pixels), np.float32)
+    image.pixels.foreach_get(values)
+    return values.reshape(image.size[1], image.size[0], image.channels)
+
+
+def plane(cells=4, size=2.0):
+    """A grid in the xy plane with Blender's default UV map (one island covering [0, 1]²)."""
+    harness.reset_scene()
+    obj = harness.add_primitive("grid", "Plane", x_subdivisions=cells, y_subdivisions=cells, size=size)
+    harness.select_only([obj])
+    return obj
+
+
+def settings(**changes):
+    values = dict(method="ROUND", sample_world_size=3.0, seed=5, axis=(0.0, 1.0, 0.0))
+    values.update(changes)
+    return pipeline.Settings(**values)
+
+
+def run(objects, request=None, material_mode="NEW", **changes):
+    return surface.synthesize(objects, SAMPLE, settings(**changes),
+                              request or options.BakeRequest(size=128, margin=4, create_uv=True), material_mode)
+
+
+def state(obj):
+    """Everything a failed or cancelled run must leave as it was."""
+    return dict(images=sorted(i.name for i in bpy.data.images), materials=sorted(m.name for m in bpy.data.materials),
+                mesh=harness.mesh_hash(obj.data), slots=[s.material.name if s.material else None
+                                                         for s in obj.material_slots])
+
+
+def test_image_texels_are_sample_pixels_and_the_material_shows_them():
+    # 2 x 2 units, UV [0, 1]² at 128 px: 64 texels per unit, the sample's own density at scale 3 (192 / 3).
+    obj = plane()
+    report = run([obj])
+    assert report.objects == ["Plane"] and not report.failures, report.summary()
+    image = bpy.data.images["TexSynth Round: Plane"]
+    assert tuple(image.size) == (128, 128) and image.packed_file is not None
+    pixels = pixels_of(image)
+    assert np.all(pixels[..., 3] == 1.0), "every texel of the one island is covered"
+    texels = np.round(pixels[..., :3].reshape(-1, 3) * 255).astype(np.int32)
+    palette = {tuple(p) for p in sample_bytes()}
+    copied = np.mean([tuple(t) in palette for t in texels])
+    assert copied == 1.0, "texels not taken from the sample: %.3f" % copied
+    material = obj.material_slots[0].material
+    nodes = {node.type: node for node in material.node_tree.nodes}
+    assert nodes["TEX_IMAGE"].image == image and nodes["UVMAP"].uv_map == "UVMap"
+    link = next(l for l in material.node_tree.links if l.to_node.type == "BSDF_PRINCIPLED")
+    assert link.from_node.type == "TEX_IMAGE" and link.to_socket.name == "Base Color"
+    assert report.seconds["synthesis"] > 0.0 and report.native_stats["Plane"]["surface_samples"] == 128 * 128
+
+
+def test_vertex_target_writes_a_linear_colour_attribute_of_sample_colours():
+    obj = plane(cells=48)  # 49² vertices, 24.5 per unit: the sample is reduced to that density
+    report = run([obj], surface_target="VERTICES", sample_world_size=192 / 24.5)
+    assert report.objects == ["Plane"], report.summary()
+    attribute = obj.data.attributes[core.COLOUR_ATTRIBUTE_NAME]
+    assert (attribute.domain, attribute.data_type) == ("POINT", "FLOAT_COLOR")
+    assert obj.data.attributes.active_color.name == core.COLOUR_ATTRIBUTE_NAME
+    values = np.empty(len(attribute.data) * 4, np.float32)
+    attribute.data.foreach_get("color", values)
+    rgb = values.reshape(-1, 4)[:, :3]
+    # Linear: back to sRGB by the standard formula gives the sample's colour range, not its square.
+    srgb = np.where(rgb <= 0.0031308, rgb * 12.92, 1.055 * np.power(np.maximum(rgb, 0), 1 / 2.4) - 0.055)
+    sample = sample_bytes() / 255.0
+    assert abs(srgb.mean() - sample.mean()) < 0.05, (srgb.mean(), sample.mean())
+    assert np.all(values.reshape(-1, 4)[:, 3] == 1.0)
+    attribute_node = next(n for n in obj.material_slots[0].material.node_tree.nodes if n.type == "ATTRIBUTE")
+    assert attribute_node.attribute_name == core.COLOUR_ATTRIBUTE_NAME
+
+
+def test_no_uv_map_gets_smart_uv_project_or_a_clear_refusal():
+    harness.reset_scene()
+    obj = harness.add_primitive("cube", "Cube")
+    obj.data.uv_layers.remove(obj.data.uv_layers[0])
+    harness.select_only([obj])
+    before = state(obj)
+    report = run([obj], options.BakeRequest(size=64, margin=2, create_uv=False))
+    assert not report.objects and "Smart UV Project" in report.summary(), report.summary()
+    assert state(obj) == before
+    report = run([obj], options.BakeRequest(size=64, margin=2, create_uv=True))
+    assert report.objects == ["Cube"] and "created UV map 'UVMap' with Smart UV Project" in report.summary()
+    assert [layer.name for layer in obj.data.uv_layers] == ["UVMap"]
+    # Six islands: covered texels plus their margin, and empty texels between them.
+    alpha = pixels_of(bpy.data.images["TexSynth Round: Cube"])[..., 3]
+    assert 0.3 < alpha.mean() < 1.0, alpha.mean()
+
+
+def test_overlapping_uv_islands_are_refused_and_change_nothing():
+    obj = plane(cells=2)
+    uv = obj.data.uv_layers[0]
+    values = np.empty(len(uv.data) * 2, np.float32)
+    uv.data.foreach_get("uv", values)
+    uv.data.foreach_set("uv", 1.0 - np.abs(2.0 * values - 1.0))  # folded: every quad covers all of [0, 1]²
+    before = state(obj)
+    report = run([obj])
+    assert not report.objects and "overlap" in report.summary(), report.summary()
+    assert state(obj) == before
+
+
+def test_huge_target_is_refused_with_the_estimated_memory():
+    obj = plane(cells=2)
+    before = state(obj)
+    report = run([obj], options.BakeRequest(size=8192, margin=2))
+    assert not report.objects and "MB" in report.summary(), report.summary()
+    assert state(obj) == before
+
+
+def test_failure_while_writing_leaves_the_existing_image_and_mesh_unchanged():
+    obj = plane()
+    old = bpy.data.images.new("TexSynth Round: Plane", 8, 8)
+    old.generated_color = (0.1, 0.2, 0.3, 1.0)
+    before = state(obj)
+    os.environ[mesh_io.FAIL_AT_ENV] = "surface_image"
+    try:
+        report = run([obj])
+    finally:
+        del os.environ[mesh_io.FAIL_AT_ENV]
+    assert not report.objects and "injected failure" in report.summary(), report.summary()
+    assert state(obj) == before and tuple(old.size) == (8, 8)
+    report = run([obj])  # then it replaces the old image, and keeps its users pointing at the new one
+    assert report.objects == ["Plane"] and tuple(bpy.data.images["TexSynth Round: Plane"].size) == (128, 128)
+
+
+def test_cancel_leaves_nothing_behind_even_a_new_uv_map():
+    harness.reset_scene()
+    obj = harness.add_primitive("cube", "Cube")
+    obj.data.uv_layers.remove(obj.data.uv_layers[0])
+    harness.select_only([obj])
+    before = state(obj)
+    job = surface.Job([obj], SAMPLE, settings(), options.BakeRequest(size=64, margin=2, create_uv=True)).prepare()
+    assert len(obj.data.uv_layers) == 1  # made by prepare()
+    job.cancel()
+    try:
+        job.compute()
+        raise AssertionError("compute() did not raise after cancel()")
+    except synthesis.Cancelled:
+        pass
+    job.discard()
+    assert state(obj) == before
+
+
+def test_resynthesis_with_a_new_field_reuses_the_neighbourhoods():
+    obj = plane()
+    core.contexts.clear()
+    first = run([obj])
+    assert "neighbourhoods reused" not in first.summary()
+    image = bpy.data.images["TexSynth Round: Plane"]
+    before = pixels_of(image).copy()
+    second = run([obj], axis=(1.0, 0.0, 0.0))
+    assert "neighbourhoods reused" in second.summary(), second.summary()
+    stats = second.native_stats["Plane"]
+    assert stats["context_reused"] and stats["seconds_context"] == 0.0
+    assert not np.array_equal(pixels_of(bpy.data.images["TexSynth Round: Plane"]), before)
+
+
+def test_same_seed_same_image():
+    obj = plane()
+    core.contexts.clear()
+    run([obj])
+    first = pixels_of(bpy.data.images["TexSynth Round: Plane"]).copy()
+    core.contexts.clear()
+    run([obj])
+    assert np.array_equal(pixels_of(bpy.data.images["TexSynth Round: Plane"]), first)
+
+
+def test_operator_runs_round_from_the_scene_settings_and_saves_next_to_the_blend():
+    obj = plane()
+    folder = tempfile.mkdtemp(prefix="texsynth_surface_")
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(folder, "scene.blend"))
+    props = bpy.context.scene.texsynth
+    props.sample_path, props.method, props.scale, props.axis = BRICKS, "ROUND", 3.0, (0.0, 1.0, 0.0)
+    props.bake_size, props.bake_margin, props.bake_save_mode = 64, 2, "NEXT_TO_BLEND"
+    assert bpy.ops.texsynth.synthesize() == {"FINISHED"}
+    path = os.path.join(folder, "TexSynth Round_ Plane.png")
+    assert os.path.isfile(path), os.listdir(folder)
+    assert bpy.path.abspath(bpy.data.images["TexSynth Round: Plane"].filepath) == path
+    assert bpy.ops.texsynth.preprocess() == {"FINISHED"}  # nothing to preprocess, says so
+
+
+def test_settings_persist_in_the_blend_file():
+    plane()
+    props = bpy.context.scene.texsynth
+    props.method, props.surface_target, props.round_levels, props.round_coarse_rings = "ROUND", "VERTICES", 4, 3
+    props.round_fine_rings, props.round_candidates, props.round_resolution = 1, 5, "FULL"
+    path = os.path.join(tempfile.mkdtemp(), "round.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    settings = bpy.context.scene.texsynth.to_settings()
+    assert (settings.method, settings.surface_target, settings.round_levels, settings.round_coarse_rings,
+            settings.round_fine_rings, settings.round_candidates, settings.round_resolution) == \
+        ("ROUND", "VERTICES", 4, 3, 1, 5, "FULL")
+
+
+if __name__ == "__main__":
+    harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")],
+                         only=harness.script_args())

@@ -1,0 +1,110 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""bpy-free part of the surface-colour methods (addon/surface_colour/core.py), under plain pytest:
+colour encodings, the sample's row order, the target's density and the working sample it implies,
+the settings' ranges, and the context cache."""
+import numpy as np
+import pytest
+
+import addon_package
+
+pipeline = addon_package.load("core.pipeline")
+core = addon_package.load("surface_colour.core")
+
+
+def test_output_values_convert_between_encodings_and_keep_alpha():
+    colour = np.array([[0.5, 0.0, 1.0, 0.25]], np.float32)
+    linear = core.output_values(colour, sample_srgb=True, output_linear=True)
+    # sRGB 0.5 is linear ((0.5 + 0.055) / 1.055) ** 2.4 = 0.21404 (IEC 61966-2-1).
+    assert linear[0, :3] == pytest.approx([0.21404, 0.0, 1.0], abs=1e-4) and linear[0, 3] == 0.25
+    assert core.output_values(linear, sample_srgb=False, output_linear=False)[0, :3] == pytest.approx(
+        [0.5, 0.0, 1.0], abs=1e-4)
+    assert core.output_values(colour, True, False) is colour  # same encoding: untouched
+
+
+def test_synthesis_sample_is_bottom_row_first_and_always_colour():
+    grey = np.arange(12, dtype=np.float32).reshape(4, 3, 1)
+    out = core.synthesis_sample(grey)
+    assert out.shape == (4, 3, 3) and np.array_equal(out[0, :, 0], grey[3, :, 0])  # top row last
+    grey_alpha = np.concatenate([grey, np.ones_like(grey)], axis=2)
+    assert core.synthesis_sample(grey_alpha).shape == (4, 3, 4)
+    with pytest.raises(pipeline.SettingsError, match="NaN"):
+        core.synthesis_sample(np.full((4, 4, 3), np.nan, np.float32))
+    with pytest.raises(pipeline.SettingsError, match="at least 2 x 2"):
+        core.synthesis_sample(np.zeros((1, 5, 3), np.float32))
+
+
+def square(side=2.0):
+    """Two triangles covering a side x side square, UV [0, 1]²."""
+    positions = np.array([[0, 0, 0], [side, 0, 0], [side, side, 0], [0, side, 0]], np.float32)
+    triangles = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
+    uvs = positions[triangles][:, :, :2] / side
+    return positions, triangles, uvs
+
+
+def test_target_density_from_uv_and_surface_areas():
+    positions, triangles, uvs = square(2.0)
+    image = core.SurfaceTarget("IMAGE", 128, 128)
+    assert core.target_density(positions, triangles, uvs, image) == pytest.approx(64.0)  # 128 texels over 2 units
+    assert core.target_density(positions, triangles, uvs * 0.5, image) == pytest.approx(32.0)
+    # Vertex target: edges 2, 2 and 2√2 per triangle.
+    assert core.target_density(positions, triangles, None, core.SurfaceTarget("VERTICES")) == pytest.approx(
+        1.0 / ((4 + 2 * np.sqrt(2)) / 3))
+    degenerate = np.zeros((4, 3), np.float32)
+    assert core.target_density(degenerate, triangles, uvs, image) == 0.0
+
+
+def test_working_sample_averages_down_to_the_target_density_only_when_coarser():
+    blocks = np.kron(np.arange(16, dtype=np.float32).reshape(4, 4, 1), np.ones((16, 16, 3), np.float32))  # 64²
+    reduced, scale = core.working_sample(blocks, 64.0, 16.0, "AUTO", minimum=4)
+    assert reduced.shape == (16, 16, 3) and scale == pytest.approx(16.0)
+    assert np.allclose(reduced[::4, ::4, 0], np.arange(16).reshape(4, 4))  # each 16² block -> its 4² block
+    assert reduced.mean() == pytest.approx(blocks.mean())
+    same, scale = core.working_sample(blocks, 64.0, 64.0, "AUTO")
+    assert same is blocks and scale == 64.0  # target as fine as the sample: untouched
+    same, _ = core.working_sample(blocks, 64.0, 16.0, "FULL")
+    assert same is blocks
+    floor, scale = core.working_sample(blocks, 64.0, 1.0, "AUTO", minimum=40)
+    assert floor.shape[:2] == (40, 40) and scale == pytest.approx(40.0)
+
+
+def test_round_settings_are_range_checked():
+    assert pipeline.Settings(method="ROUND").validate() is not None
+    for field, value in (("round_levels", 0), ("round_levels", 7), ("round_coarse_rings", 0),
+                         ("round_fine_rings", 9), ("round_candidates", -1), ("round_levels", 2.0),
+                         ("surface_target", "TEXELS"), ("round_resolution", "HALF")):
+        with pytest.raises(pipeline.SettingsError):
+            pipeline.Settings(method="ROUND", **{field: value}).validate()
+    assert pipeline.Settings(method="JUMPMAP", round_levels=0).validate() is not None  # not used there
+
+
+def test_smallest_sample_side_is_what_the_synthesizer_accepts():
+    native = pytest.importorskip("texsynth_native")
+    positions, triangles, uvs = square(1.0)
+    context = native.RoundSynthesisContext(positions, triangles, uvs, width=32, height=32, texels_per_unit=32)
+    settings = pipeline.Settings(method="ROUND")
+    side = core.smallest_sample_side(settings)
+    up = np.tile(np.array([0, 1, 0], np.float32), (4, 1))
+    sample = np.random.default_rng(0).random((side, side, 3)).astype(np.float32)
+    native.round_synthesize(context, sample, up, seed=1)
+    with pytest.raises(ValueError, match="smaller than"):
+        native.round_synthesize(context, sample[:side // 2, :side // 2].copy(), up, seed=1)
+
+
+def test_context_cache_keys_on_geometry_target_and_parameters():
+    positions, triangles, uvs = square()
+    arrays = pipeline.MeshArrays(positions, np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0, np.int32))
+    settings = pipeline.Settings(method="ROUND")
+    target = core.SurfaceTarget("IMAGE", 64, 64, 2)
+    key = core.ContextCache.key(arrays, triangles, uvs, target, 10.0, settings)
+    assert key == core.ContextCache.key(arrays, triangles, uvs.copy(), target, 10.0, settings)
+    moved = pipeline.MeshArrays(positions + 1, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes)
+    others = [core.ContextCache.key(moved, triangles, uvs, target, 10.0, settings),
+              core.ContextCache.key(arrays, triangles, uvs * 0.5, target, 10.0, settings),
+              core.ContextCache.key(arrays, triangles, uvs, core.SurfaceTarget("IMAGE", 128, 128, 2), 10.0, settings),
+              core.ContextCache.key(arrays, triangles, uvs, target, 11.0, settings),
+              core.ContextCache.key(arrays, triangles, uvs, target, 10.0, pipeline.Settings(round_levels=2))]
+    assert len(set(others + [key])) == 6
+    cache = core.ContextCache(capacity=2)
+    for name in ("a", "b", "c"):
+        cache.put(name, name.upper())
+    assert (cache.get("a"), cache.get("b"), cache.get("c")) == (None, "B", "C")
