@@ -56,7 +56,8 @@ class Job:
         self.items = []
         self.token = None
         self.cancelled = False
-        self.stage = ("synthesis", 0, 1)
+        self.stage = ("context", 0, 1)
+        self._stale_progress = None  # the token's value left by the previous native call
 
     # -- main thread --------------------------------------------------------------------------
 
@@ -138,10 +139,16 @@ class Job:
         name, index, count = self.stage
         base, span = STAGES.get(name, (0.0, 1.0))
         progress = float(self.token.progress) if self.token is not None else 0.0
+        if progress == self._stale_progress:
+            progress = 0.0  # the next call has not reported yet
+        else:
+            self._stale_progress = None
         return (index + base + span * min(max(progress, 0.0), 1.0)) / max(count, 1)
 
     def _set_stage(self, index):
         def stage(name):
+            if self.token is not None:
+                self._stale_progress = float(self.token.progress)
             self.stage = (name, index, len(self.items))
         return stage
 

@@ -1,6 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Operators: Preprocess, Synthesize (all selected mesh objects), Clear, Bake (active object)."""
+import atexit
 import threading
+import weakref
 
 import bpy
 
@@ -180,6 +182,7 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
 class ModalSynthesis:
     """Runs Job.compute in a worker thread; the modal operator polls it (and the tests drive it)."""
     POLL_SECONDS = 0.05
+    running_states = weakref.WeakSet()  # cancelled and joined when Python shuts down (Blender quits)
 
     def __init__(self, job):
         self.job = job
@@ -202,6 +205,7 @@ class ModalSynthesis:
             self.error = error
 
     def start(self):
+        ModalSynthesis.running_states.add(self)
         self.thread.start()
         return self
 
@@ -256,6 +260,16 @@ class TEXSYNTH_OT_bake(bpy.types.Operator):
         self.last_result = result
         self.report({"WARNING"} if result.notes else {"INFO"}, result.summary(obj.name))
         return {"FINISHED"}
+
+
+@atexit.register
+def _stop_running_jobs():
+    """Blender quitting mid-run: stop the native work before the interpreter and the native module's
+    threads are torn down under it."""
+    for state in list(ModalSynthesis.running_states):
+        if state.running():
+            state.job.cancel()
+            state.thread.join(10.0)
 
 
 classes = (TEXSYNTH_OT_preprocess, TEXSYNTH_OT_check_cache, TEXSYNTH_OT_synthesize, TEXSYNTH_OT_clear,

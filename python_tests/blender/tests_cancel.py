@@ -143,6 +143,63 @@ def test_modal_run_to_completion_writes_and_one_undo_restores():
     assert harness.mesh_hash(bpy.data.objects["Big"].data) == before
 
 
+def round_job(side, size):
+    """Round neighbourhoods on a side x side grid (0.01 units per quad) with a planar UV map, into a
+    size² image; the sample at its own density is reduced to the target's."""
+    from texsynth.bake import options
+    from texsynth.surface_colour import core, synthesis as surface
+    obj = big_grid(side)
+    mesh = obj.data
+    corner_verts = np.empty(len(mesh.loops), np.int32)
+    mesh.loops.foreach_get("vertex_index", corner_verts)
+    positions = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", positions)
+    uv = positions.reshape(-1, 3)[corner_verts, :2] / (0.01 * side)
+    mesh.uv_layers["UVMap"].data.foreach_set("uv", np.ascontiguousarray(uv).ravel())
+    props = settings()
+    props.method, props.scale = "ROUND", 0.01 * side * 192 / size
+    core.contexts.clear()
+    request = options.BakeRequest(size=size, margin=2, create_uv=False)
+    return obj, surface.Job([obj], synthesis.Sample(path=BRICKS), props.to_settings(), request, "NEW")
+
+
+def test_round_modal_progress_advances_and_escape_cancels_leaving_nothing():
+    obj, job = round_job(200, 512)
+    before = (harness.mesh_hash(obj.data), sorted(i.name for i in bpy.data.images), len(bpy.data.materials))
+    state = operators.ModalSynthesis(job.prepare()).start()
+    seen = []
+    deadline = time.perf_counter() + 60
+    while state.running() and time.perf_counter() < deadline and len(set(seen)) < 4:
+        seen.append(round(state.live_fraction(), 3))
+        time.sleep(0.02)
+    assert state.running(), "the round synthesis finished before it could be cancelled: use a larger target"
+    assert len(set(seen)) >= 4 and seen == sorted(seen) and 0.0 <= seen[0] and seen[-1] < 1.0, seen
+    job.cancel()
+    try:
+        state.finish(timeout=30)
+        raise AssertionError("a cancelled round job must raise")
+    except synthesis.Cancelled:
+        pass
+    job.discard()
+    assert job.items[0].result is None
+    assert (harness.mesh_hash(obj.data), sorted(i.name for i in bpy.data.images), len(bpy.data.materials)) == before
+
+
+def test_round_modal_run_to_completion_and_one_undo_removes_the_image():
+    obj, job = round_job(40, 64)
+    bpy.ops.ed.undo_push(message="before TexSynth")
+    images = sorted(i.name for i in bpy.data.images)
+    result, reports = drive_modal(job.prepare(), ["TIMER"])
+    assert result == {"FINISHED"}, reports
+    assert "TexSynth Round: Big" in bpy.data.images
+    bpy.ops.ed.undo_push(message="TexSynth")
+    bpy.ops.ed.undo()
+    assert sorted(i.name for i in bpy.data.images) == images
+    assert not bpy.data.objects["Big"].material_slots
+
+
 harness.Checks().run([test_cancelled_job_stops_fast_and_writes_nothing, test_cancelled_texton_job_stops_fast_and_writes_nothing,
                       test_modal_escape_cancels_and_changes_nothing,
-                      test_modal_run_to_completion_writes_and_one_undo_restores], harness.script_args())
+                      test_modal_run_to_completion_writes_and_one_undo_restores,
+                      test_round_modal_progress_advances_and_escape_cancels_leaving_nothing,
+                      test_round_modal_run_to_completion_and_one_undo_removes_the_image], harness.script_args())

@@ -139,6 +139,30 @@ def test_overlapping_uv_islands_are_refused_and_change_nothing():
     assert state(obj) == before
 
 
+def test_nan_coordinates_are_refused_and_change_nothing():
+    obj = plane(cells=2)
+    obj.data.vertices[4].co = (float("nan"), 0.0, 0.0)
+    before = state(obj)
+    report = run([obj])
+    assert not report.objects and "nan" in report.summary().lower(), report.summary()
+    assert state(obj) == before
+
+
+def test_zero_area_faces_still_give_a_complete_image():
+    # One quad collapsed to a point in 3D keeps its UV area: its texels have no surface to stand on.
+    obj = plane(cells=4)
+    mesh = obj.data
+    corner_verts = [mesh.loops[i].vertex_index for i in range(mesh.polygons[5].loop_start,
+                                                                 mesh.polygons[5].loop_start + 4)]
+    for index in corner_verts:
+        mesh.vertices[index].co = mesh.vertices[corner_verts[0]].co.copy()
+    report = run([obj])
+    assert report.objects == ["Plane"], report.summary()
+    pixels = pixels_of(bpy.data.images["TexSynth Round: Plane"])
+    # Documented: those texels are filled like the bake margin, from the covered texels around them.
+    assert np.all(np.isfinite(pixels)) and np.all(pixels[..., 3] == 1.0), pixels[..., 3].mean()
+
+
 def test_huge_target_is_refused_with_the_estimated_memory():
     obj = plane(cells=2)
     before = state(obj)
