@@ -51,7 +51,7 @@ class TEXSYNTH_PT_sample(_SubPanel, bpy.types.Panel):
             layout.template_ID(props, "sample_image", open="image.open")
             key = props.sample_image.name if props.sample_image else "<none>"
         if props.method in pipeline.SURFACE_METHODS:
-            layout.label(text="Used directly: no preprocessing", icon="INFO")
+            layout.label(text="No preprocessing needed", icon="INFO")
             return
         row = layout.row(align=True)
         row.operator("texsynth.preprocess")
@@ -81,6 +81,7 @@ class TEXSYNTH_PT_method(_SubPanel, bpy.types.Panel):
             return
         layout.prop(props, "blend")
         if props.blend:
+            layout.label(text="Blend Mode:")
             layout.prop(props, "blend_mode", text="")
         if props.method == "TEXTON" and props.blend:
             layout.prop(props, "blend_threshold")
@@ -97,6 +98,7 @@ class TEXSYNTH_PT_orientation(_SubPanel, bpy.types.Panel):
         layout = self.layout
         props = context.scene.texsynth
         layout.prop(props, "scale")
+        layout.label(text="Orientation:")
         layout.prop(props, "orientation", text="")
         if props.orientation == "AXIS":
             layout.row().prop(props, "axis", text="")
@@ -135,20 +137,23 @@ class TEXSYNTH_PT_output(_SubPanel, bpy.types.Panel):
                 return
         box = layout.box()
         box.label(text="Image" if surface else "Bake", icon="IMAGE_DATA" if surface else "RENDER_STILL")
-        box.prop(props, "bake_target", text="", icon="IMAGE_DATA")
+        box.label(text="Name (empty: per object):")
+        box.prop(props, "bake_target", text="")
+        box.label(text="UV Map:")
         obj = context.active_object
         if obj is not None and obj.type == "MESH":
-            box.prop_search(props, "bake_uv_map", obj.data, "uv_layers", text="", icon="GROUP_UVS")
+            box.prop_search(props, "bake_uv_map", obj.data, "uv_layers", text="")
             if props.bake_uv_map == pipeline.BASE_UV_NAME:
-                box.label(text="TexSynth's own map overlaps", icon="ERROR")
+                box.label(text="TexSynth's map overlaps", icon="ERROR")
         else:
-            box.prop(props, "bake_uv_map", text="", icon="GROUP_UVS")
+            box.prop(props, "bake_uv_map", text="")
         box.prop(props, "bake_create_uv")
-        row = box.row(align=True)
-        row.prop(props, "bake_size")
-        row.prop(props, "bake_margin")
+        sizes = box.column(align=True)
+        sizes.prop(props, "bake_size")
+        sizes.prop(props, "bake_margin")
         box.prop(props, "bake_save_mode", text="")
         if not surface:
+            box.label(text="Baked Material:")
             box.prop(props, "bake_material", text="")
             box.operator("texsynth.bake", icon="RENDER_STILL")
 
@@ -170,9 +175,9 @@ class TEXSYNTH_PT_field(bpy.types.Panel):
         row = column.row(align=True)
         row.operator("texsynth.comb", icon="BRUSH_DATA")
         row.prop(props, "field_erase", toggle=True, icon="X", text="")
-        row = column.row(align=True)
-        row.prop(props, "field_brush_radius")
-        row.prop(props, "field_brush_strength")
+        brush = column.column(align=True)
+        brush.prop(props, "field_brush_radius")
+        brush.prop(props, "field_brush_strength")
         row = column.row(align=True)
         row.operator("texsynth.singularity", text="Source").mode = "SOURCE"
         row.operator("texsynth.singularity", text="Sink").mode = "SINK"
@@ -182,10 +187,10 @@ class TEXSYNTH_PT_field(bpy.types.Panel):
         row.operator("texsynth.field_preset", text="Axis").preset = "AXIS"
         row.operator("texsynth.field_preset", text="Curvature").preset = "CURVATURE"
         row.operator("texsynth.field_preset", text="Smooth").preset = "SMOOTH"
-        row = column.row(align=True)
-        row.prop(props, "show_field", toggle=True, icon="ORIENTATION_GIMBAL")
-        row.prop(props, "field_arrow_density")
-        column.prop(props, "field_arrow_length")
+        column.prop(props, "show_field", toggle=True, icon="ORIENTATION_GIMBAL")
+        arrows = column.column(align=True)
+        arrows.prop(props, "field_arrow_density")
+        arrows.prop(props, "field_arrow_length")
         column.prop(props, "field_live_update")
         if "live_native" in tools.last_timings:
             column.label(text="Last live update: %.0f ms (native %.0f ms)" % (

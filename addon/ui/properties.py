@@ -29,7 +29,7 @@ class TexSynthSettings(bpy.types.PropertyGroup):
     surface_target: bpy.props.EnumProperty(
         name="Target",
         items=(("IMAGE", "Image", "Texels of an image through a UV map (see Output): export and painting ready"),
-               ("VERTICES", "Colour Attribute", "One colour per vertex of a dense mesh (attribute TexSynth_Colour)")),
+               ("VERTICES", "Vertices", "A colour attribute: one colour per vertex of a dense mesh (attribute TexSynth_Colour)")),
         default="IMAGE")
     round_levels: bpy.props.IntProperty(
         name="Levels", default=3, min=pipeline.ROUND_LEVEL_RANGE[0], max=pipeline.ROUND_LEVEL_RANGE[1],

@@ -591,18 +591,25 @@ def test_settings_persist_in_the_blend_file():
 
 
 class RecordingLayout:
-    """Stands in for a UILayout (none exists in background mode): records what draw() shows."""
+    """Stands in for a UILayout (none exists in background mode): records what draw() shows, and for
+    items inside a row() which row (items of one row share its width)."""
+    rows = 0
 
-    def __init__(self, log):
-        self.log = log
+    def __init__(self, log, row=None):
+        self.log, self.row_id = log, row
 
     def _record(self, kind, *args, **kwargs):
-        self.log.append((kind, args, kwargs))
+        self.log.append((kind, args, dict(kwargs, _row=self.row_id)))
         return self
 
     def __getattr__(self, name):
-        if name in ("row", "column", "box"):
-            return lambda *a, **k: self
+        if name == "row":
+            def row(*a, **k):
+                RecordingLayout.rows += 1
+                return RecordingLayout(self.log, RecordingLayout.rows)
+            return row
+        if name in ("column", "box", "split"):
+            return lambda *a, **k: RecordingLayout(self.log, None)
         if name in ("prop", "label", "operator", "template_ID", "separator"):
             return lambda *a, **k: self._record(name, *a, **k)
         if name == "prop_search":  # (data, property, search_data, search_property): shows the property
@@ -637,25 +644,33 @@ def test_sidebar_is_split_into_sub_panels_in_order():
 
 
 def test_panel_labels_fit_the_default_sidebar_width():
-    # Blender's default sidebar is ~20 characters per half row at UI scale 1. Enum and text fields draw
-    # their label beside the field (half the row); numbers draw it inside the field (the whole row).
+    # Measured on a screenshot of the default sidebar (scripts/sidebar_picture.py, 229 px at UI scale 1):
+    # a full-width field shows about 26 characters; a label drawn beside a text or enum field gets a
+    # quarter of the row ("UV M..."), so those are drawn under a label line; items of one row share it.
     props = bpy.context.scene.texsynth
     for method in ("JUMPMAP", "TEXTON", "ROUND"):
         for target in ("IMAGE", "VERTICES"):
             configure(method=method, surface_target=target, scale_source="VERTEX_GROUP", orientation="FIELD")
-            for kind, args, kw in draw_panels():
+            log = draw_panels() + draw_panel(texsynth.ui.panels.TEXSYNTH_PT_field)
+            per_row = {}
+            for kind, args, kw in log:
+                if kw["_row"] is not None and kind in ("prop", "operator"):
+                    per_row[kw["_row"]] = per_row.get(kw["_row"], 0) + 1
+            for kind, args, kw in log:
+                share = per_row.get(kw["_row"], 1)
                 if kind == "label":
-                    assert len(kw.get("text", "")) <= 34, kw
-                if kind != "prop" or args[0] is not props:
+                    assert len(kw.get("text", "")) <= 26, kw
+                if kind == "operator":
+                    assert len(kw.get("text", "")) <= 28 // share, kw  # centred, no value beside it
+                if kind != "prop" or args[0] != props:
                     continue
                 rna = props.bl_rna.properties[args[1]]
                 label = kw.get("text", rna.name)
                 if kw.get("expand"):
+                    share = len(rna.enum_items)
                     label = max((item.name for item in rna.enum_items), key=len)
-                limit = {"ENUM": 14, "STRING": 14, "POINTER": 14}.get(rna.type, 26)
-                if rna.type == "BOOLEAN":
-                    limit = 30  # beside its check box: the whole row
-                assert len(label) <= limit, (args[1], label)
+                limit = 5 if rna.type in ("ENUM", "STRING", "POINTER") and label and not kw.get("expand") else 26
+                assert len(label) <= limit // share, (args[1], label, share)
 
 
 def test_panel_draws_every_setting_and_the_native_reason():
