@@ -28,7 +28,7 @@ def output_dir():
     return os.path.join(addon_package.ROOT, "out", "reference_frames", "blender%d" % addon_package.blender_version()[0])
 
 
-FRAMES = ("scene_eevee", "suzanne_noblend_eevee", "scene_cycles")
+FRAMES = ("scene_eevee", "suzanne_noblend_eevee", "scene_cycles", "suzanne_round_eevee")
 # A pixel fails when a channel differs by more than 0.06 (~15/255); a frame fails when more than 0.5 %
 # of its pixels fail or any pixel differs by more than 0.6. Software-GL Eevee is deterministic here;
 # the margins absorb driver and CPU differences, not changes of the synthesized mapping.

@@ -19,6 +19,9 @@ FRAMES = {
     # Same without blending: the raw jump-map patches and their seams.
     "suzanne_noblend_eevee": dict(engine="BLENDER_EEVEE", resolution=(320, 240), samples=16, blend=False,
                                   jobs=(("Suzanne", "bricks.png", 1.2, 5),)),
+    # Round neighbourhoods: Suzanne's colours synthesized into a 256² image through its UV map.
+    "suzanne_round_eevee": dict(engine="BLENDER_EEVEE", resolution=(320, 240), samples=16, blend=True,
+                                jobs=(("Suzanne", "bricks.png", 1.2, 5, "ROUND"),)),
     # The blend group in Cycles (CPU, fixed seed and samples, no denoising).
     "scene_cycles": dict(engine="CYCLES", resolution=(160, 120), samples=8, blend=True,
                          jobs=(("Ground", "bark.png", 2.0, 2), ("Suzanne", "bricks.png", 1.2, 5))),
@@ -30,11 +33,18 @@ def render(name, out_path):
     texsynth = harness.load_addon()
     from texsynth.core import pipeline
     from texsynth.uv_methods import synthesis
-    for obj_name, sample, world_size, seed in frame["jobs"]:
-        settings = pipeline.Settings(sample_world_size=world_size, seed=seed, blend=frame["blend"])
-        report = synthesis.synthesize([bpy.data.objects[obj_name]],
-                                      synthesis.Sample(path=os.path.join(harness.SAMPLES_DIR, sample)),
-                                      settings, cache_dir=os.environ.get("TEXSYNTH_CACHE_DIR") or None)
+    for obj_name, sample, world_size, seed, *method in frame["jobs"]:
+        method = method[0] if method else "JUMPMAP"
+        settings = pipeline.Settings(method=method, sample_world_size=world_size, seed=seed, blend=frame["blend"])
+        path = os.path.join(harness.SAMPLES_DIR, sample)
+        if method in pipeline.SURFACE_METHODS:
+            from texsynth.bake import options
+            from texsynth.surface_colour import synthesis as surface
+            report = surface.synthesize([bpy.data.objects[obj_name]], synthesis.Sample(path=path), settings,
+                                        options.BakeRequest(size=256, margin=4, create_uv=True))
+        else:
+            report = synthesis.synthesize([bpy.data.objects[obj_name]], synthesis.Sample(path=path), settings,
+                                          cache_dir=os.environ.get("TEXSYNTH_CACHE_DIR") or None)
         if report.failures:
             raise RuntimeError(report.summary())
         print("FRAME", name, report.summary(), flush=True)

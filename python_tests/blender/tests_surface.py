@@ -227,6 +227,9 @@ def test_same_seed_same_image():
     core.contexts.clear()
     run([obj])
     assert np.array_equal(pixels_of(bpy.data.images["TexSynth Round: Plane"]), first)
+    report = run([obj])  # the kept context gives the same bytes as a fresh one
+    assert "neighbourhoods reused" in report.summary()
+    assert np.array_equal(pixels_of(bpy.data.images["TexSynth Round: Plane"]), first)
 
 
 def test_operator_runs_round_from_the_scene_settings_and_saves_next_to_the_blend():
