@@ -715,6 +715,28 @@ std::string error_of(const std::function<void()>& f) {
   return "";
 }
 
+// A fold of 6 texels (a right triangle with 3.9-texel legs from texel corner (2, 2): centres at
+// (u, v) = (0.5 + a, 0.5 + b) with u + v <= 3.9, no centre on an edge) over a 32² plane's 1024 texels:
+// accepted at the default 1 % and counted; refused when no overlap is allowed.
+TEST(RoundSynth, AFewFoldedTexelsAreAcceptedAndCountedMoreAreRefused) {
+  UvMesh m = uv_plane(4);
+  const int32_t v0 = m.num_vertices();
+  m.positions.insert(m.positions.end(), {0.f, 0.f, 1.f, 0.12f, 0.f, 1.f, 0.f, 0.12f, 1.f});
+  m.triangles.insert(m.triangles.end(), {v0, v0 + 1, v0 + 2});
+  const float a = 2.f / 32.f, b = 5.9f / 32.f;
+  m.uvs.insert(m.uvs.end(), {a, a, b, a, a, b});
+  RoundContextParams p = image_params(32, 32, 32);
+  const texsynth::RoundSynthesisContext ctx = texsynth::build_round_context(m.input(), p);
+  EXPECT_EQ(ctx.stats.overlapping_texels, 6);
+  EXPECT_EQ(ctx.levels[0].num_points, 1024);
+  p.max_overlap_fraction = 0.0;
+  const std::string e = error_of([&] { texsynth::build_round_context(m.input(), p); });
+  EXPECT_NE(e.find("6 texels"), std::string::npos) << e;
+  p.max_overlap_fraction = 1.5;
+  EXPECT_NE(error_of([&] { texsynth::build_round_context(m.input(), p); }).find("max_overlap_fraction"),
+            std::string::npos);
+}
+
 TEST(RoundSynth, BadInputIsRefusedWithAClearMessage) {
   UvMesh plane = uv_plane(4);
   auto build = [&](const UvMesh& m, const RoundContextParams& p) { return [&m, p] { texsynth::build_round_context(m.input(), p); }; };

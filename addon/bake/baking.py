@@ -13,6 +13,7 @@ failed bake leaves no image or material behind.
 Surface-colour methods (round neighbourhoods) write their texels directly: write_surface_colour().
 """
 import dataclasses
+import math
 import time
 
 import bpy
@@ -180,7 +181,8 @@ def smart_project(obj, request, context):
                 getattr(mesh, kind).foreach_set("hide", np.zeros(count, bool))
             getattr(mesh, kind).foreach_set("select", np.ones(count, bool))
         with _edit_mode(obj, context):
-            bpy.ops.uv.smart_project(island_margin=options.smart_uv_island_margin(request.margin, request.size))
+            bpy.ops.uv.smart_project(angle_limit=math.radians(options.SMART_UV_ANGLE_DEGREES),
+                                     island_margin=options.smart_uv_island_margin(request.margin, request.size))
     except Exception:
         remove_uv_map(mesh, name)
         raise

@@ -218,6 +218,7 @@ def synthesize_round(sample, mesh_arrays, triangles, corner_uvs, settings, seed,
         "seconds_synthesis": float(native_stats.get("seconds_total", 0.0)),
         "context_reused": reused,
         "surface_samples": int(context.num_points),
+        "overlapping_texels": int(context_stats.get("overlapping_texels", 0)),
         "working_sample": [int(sample.shape[1]), int(sample.shape[0])],
         "target_density": density,
         # sample pixels per surface sample spacing before any reduction (> 1: the target is coarser)

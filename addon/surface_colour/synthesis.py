@@ -202,6 +202,10 @@ class Job:
                         self._write_attribute(item)
                 stats = dict(item.result["stats"])
                 self.report.add_object(name, item.arrays, stats)
+                if stats.get("overlapping_texels"):
+                    self.report.notes.append(
+                        "%s: %d texels of UV map %r are covered twice (folded or overlapping UVs): each shows one "
+                        "of its faces" % (name, stats["overlapping_texels"], item.uv_map))
                 coarse = stats.get("sample_pixels_per_spacing", 0.0)
                 if coarse > 2.0:
                     self.report.notes.append(

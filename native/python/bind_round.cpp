@@ -37,6 +37,7 @@ py::dict context_stats(const Context& c) {
   d["estimated_bytes"] = c.stats.estimated_bytes;
   d["context_bytes"] = c.context_bytes;
   d["invalid_ring_fraction"] = c.stats.invalid_ring_fraction;
+  d["overlapping_texels"] = c.stats.overlapping_texels;
   std::vector<int32_t> points, rings;
   for (const texsynth::RoundLevel& L : c.levels) points.push_back(L.num_points), rings.push_back(L.rings);
   d["level_points"] = points;
@@ -48,7 +49,7 @@ std::unique_ptr<Context> make_context(py::object positions, py::object triangles
                                       const std::string& target, int32_t width, int32_t height, int32_t margin,
                                       double texels_per_unit, py::object scale_multiplier, int levels, int coarse_rings,
                                       int fine_rings, double facing_limit_degrees, double max_megabytes,
-                                      py::object cancel) {
+                                      double max_overlap_fraction, py::object cancel) {
   FloatArray pos = float_array(positions, "positions");
   IntArray tris = int_array(triangles, "triangles");
   require_shape(pos, {-1, 3}, "positions");
@@ -81,6 +82,7 @@ std::unique_ptr<Context> make_context(py::object positions, py::object triangles
   p.fine_rings = fine_rings;
   p.facing_limit_degrees = facing_limit_degrees;
   p.max_megabytes = max_megabytes;
+  p.max_overlap_fraction = max_overlap_fraction;
   p.cancel = cancel_flag(cancel);
   p.progress = progress_slot(cancel);
   auto ctx = std::make_unique<Context>();
@@ -172,11 +174,12 @@ void bind_round(py::module_& m) {
            py::arg("margin") = 2, py::arg("texels_per_unit"), py::arg("scale_multiplier") = py::none(),
            py::arg("levels") = 3, py::arg("coarse_rings") = 4, py::arg("fine_rings") = 2,
            py::arg("facing_limit_degrees") = 75.0, py::arg("max_megabytes") = texsynth::kRoundDefaultMaxMegabytes,
-           py::arg("cancel") = py::none(),
+           py::arg("max_overlap_fraction") = 0.01, py::arg("cancel") = py::none(),
            "positions (V, 3), triangles (T, 3), corner_uvs (T, 3, 2) (target='image'), target 'image' (width x "
            "height texels, margin texels of bake margin) or 'vertices'; texels_per_unit = sample pixels per world "
            "unit (times scale_multiplier (V,) > 0). levels 1..6, coarse_rings (K at the coarsest level) and "
-           "fine_rings 1..6. ValueError on bad input, overlapping UVs or when the estimated memory exceeds "
+           "fine_rings 1..6. ValueError on bad input, UVs whose overlapping texels exceed max_overlap_fraction of the "
+           "covered ones (fewer are accepted and counted in stats['overlapping_texels']) or when the estimated memory exceeds "
            "max_megabytes; cancel: a CancelToken (its progress goes 0..1).")
       .def_property_readonly("target", [](const Context& c) {
         return c.target == texsynth::RoundTarget::kImage ? "image" : "vertices";

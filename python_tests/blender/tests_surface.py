@@ -139,6 +139,37 @@ def test_overlapping_uv_islands_are_refused_and_change_nothing():
     assert state(obj) == before
 
 
+def suzanne_without_uvs(levels=2):
+    harness.reset_scene()
+    obj = harness.add_primitive("monkey", "Suzanne")
+    harness.select_only([obj])
+    modifier = obj.modifiers.new("Subdivision", "SUBSURF")
+    modifier.levels = levels
+    bpy.ops.object.modifier_apply(modifier=modifier.name)
+    while len(obj.data.uv_layers):
+        obj.data.uv_layers.remove(obj.data.uv_layers[0])
+    return obj
+
+
+def test_a_few_folded_texels_are_accepted_with_a_note_and_texsynths_own_map_has_none():
+    # Smart UV Project at Blender's default angle (66°) folds a few faces of a subdivided Suzanne.
+    obj = suzanne_without_uvs()
+    obj.data.uv_layers.new(name="Folded")
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.uv.smart_project()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    report = run([obj], options.BakeRequest(size=512, margin=2, uv_map="Folded"), sample_world_size=1.0)
+    assert report.objects == ["Suzanne"], report.summary()
+    folded = report.native_stats["Suzanne"]["overlapping_texels"]
+    assert 0 < folded < 0.01 * report.native_stats["Suzanne"]["surface_samples"], folded
+    assert "%d texels of UV map 'Folded' are covered twice" % folded in report.summary(), report.summary()
+    obj = suzanne_without_uvs()  # the map TexSynth makes itself (Smart UV Project at 45°)
+    report = run([obj], options.BakeRequest(size=512, margin=2, create_uv=True), sample_world_size=1.0)
+    assert report.objects == ["Suzanne"] and report.native_stats["Suzanne"]["overlapping_texels"] == 0, \
+        report.summary()
+
+
 def test_nan_coordinates_are_refused_and_change_nothing():
     obj = plane(cells=2)
     obj.data.vertices[4].co = (float("nan"), 0.0, 0.0)

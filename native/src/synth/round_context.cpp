@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <numeric>
 #include <sstream>
@@ -54,6 +55,8 @@ void validate(const RoundMeshInput& m, const RoundContextParams& p) {
                                 std::to_string(p.fine_rings));
   if (!std::isfinite(p.facing_limit_degrees) || p.facing_limit_degrees <= 0 || p.facing_limit_degrees > 180)
     throw std::invalid_argument("round synthesis: facing_limit_degrees must be in (0, 180]");
+  if (!(p.max_overlap_fraction >= 0 && p.max_overlap_fraction <= 1))
+    throw std::invalid_argument("round synthesis: max_overlap_fraction must be in [0, 1]");
   if (!std::isfinite(p.texels_per_unit) || p.texels_per_unit <= 0 || p.texels_per_unit > 1e12)
     throw std::invalid_argument("round synthesis: texels_per_unit must be finite and in (0, 1e12]");
   if (!(p.max_megabytes > 0)) throw std::invalid_argument("round synthesis: max_megabytes must be > 0");
@@ -126,7 +129,8 @@ void set_radius(RoundLevel& L, const RoundMeshInput& m, const RoundContextParams
 
 // The texels of one level's UV grid (texel_samples.hpp); islands from the finest level's table
 // (coarser grids drop more sliver triangles, which could split an island differently).
-void sample_level(RoundSynthesisContext& ctx, RoundLevel& L, const RoundMeshInput& m, const std::atomic<bool>* cancel) {
+void sample_level(RoundSynthesisContext& ctx, RoundLevel& L, const RoundMeshInput& m, double max_overlap_fraction,
+                  const std::atomic<bool>* cancel) {
   TexelSampleInput in;
   in.positions = m.positions;
   in.num_vertices = m.num_vertices;
@@ -137,12 +141,20 @@ void sample_level(RoundSynthesisContext& ctx, RoundLevel& L, const RoundMeshInpu
   in.height = L.height;
   in.margin = kReadGutter;
   TexelSamples s = sample_texels(in, cancel);
-  if (s.num_overlapping_texels > 0)
+  // Judged at the finest level only: coarser grids merge texels, so a fold's share grows there.
+  if (L.level == 0 && double(s.num_overlapping_texels) > max_overlap_fraction * double(s.size())) {
+    char share[32];
+    std::snprintf(share, sizeof share, "%.2f", 100.0 * double(s.num_overlapping_texels) / double(std::max<size_t>(s.size(), 1)));
     throw std::invalid_argument("round synthesis: the UV map overlaps itself: " +
                                 std::to_string(s.num_overlapping_texels) + " texels of the " + std::to_string(L.width) +
-                                " x " + std::to_string(L.height) + " grid are covered twice (every texel needs "
-                                "exactly one surface point)");
-  if (L.level == 0) ctx.triangle_island = s.triangle_island;
+                                " x " + std::to_string(L.height) + " grid are covered twice (" + share +
+                                "% of the covered texels; at most " + std::to_string(int(100 * max_overlap_fraction + 0.5)) +
+                                "% are accepted): every texel needs one surface point, so islands must not overlap");
+  }
+  if (L.level == 0) {
+    ctx.triangle_island = s.triangle_island;
+    ctx.stats.overlapping_texels = s.num_overlapping_texels;
+  }
   const size_t n = s.size();
   if (n > size_t(std::numeric_limits<int32_t>::max() / 2)) throw std::invalid_argument("round synthesis: too many texels");
   L.num_points = int32_t(n);
@@ -442,7 +454,7 @@ RoundSynthesisContext build_round_context(const RoundMeshInput& m, const RoundCo
       RoundLevel& L = ctx.levels[l];
       L.width = p.width >> l;
       L.height = p.height >> l;
-      sample_level(ctx, L, m, p.cancel);
+      sample_level(ctx, L, m, p.max_overlap_fraction, p.cancel);
       if (l == 0 && L.num_points == 0)
         throw std::invalid_argument("round synthesis: no texel centre of the " + std::to_string(p.width) + " x " +
                                     std::to_string(p.height) + " image lies inside a UV triangle");
