@@ -11,21 +11,7 @@ import pytest
 
 import texsynth_native as ts
 
-
-def plane(n=8, side=1.0):
-    """(n+1)^2 vertices on z = 0, two counter-clockwise triangles per cell, UV = position / side."""
-    ys, xs = np.mgrid[0:n + 1, 0:n + 1]
-    pos = np.zeros(((n + 1) ** 2, 3), np.float32)
-    pos[:, 0] = xs.ravel() * side / n
-    pos[:, 1] = ys.ravel() * side / n
-    tris, uvs = [], []
-    for y in range(n):
-        for x in range(n):
-            corners = [(x, y), (x + 1, y), (x + 1, y + 1), (x, y + 1)]
-            for tri in ((0, 1, 2), (0, 2, 3)):
-                tris.append([corners[k][1] * (n + 1) + corners[k][0] for k in tri])
-                uvs.append([[corners[k][0] / n, corners[k][1] / n] for k in tri])
-    return pos, np.array(tris, np.int32), np.array(uvs, np.float32)
+from uv_meshes import plane
 
 
 def sample_image(size=48, channels=3, seed=1):

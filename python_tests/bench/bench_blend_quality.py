@@ -117,29 +117,10 @@ def setup_view(width, pixels):
     scene.collection.objects.link(camera)
     scene.camera = camera
     scene.world = None
-    texsynth = harness.load_addon()
-    texsynth.compat.use_eevee(scene)
-    scene.eevee.taa_render_samples = 1
-    scene.render.resolution_x = scene.render.resolution_y = pixels
-    scene.render.resolution_percentage = 100
+    harness.flat_render_settings(scene, pixels)
     scene.render.image_settings.file_format = "PNG"
     scene.render.image_settings.color_depth = "16"
-    scene.view_settings.view_transform = "Standard"
-    scene.view_settings.look = "None"
     return scene
-
-
-def emission_material(name, build_color):
-    """A material whose surface is Emission(colour) with colour = build_color(nodes, links)."""
-    material = bpy.data.materials.new(name)
-    material.use_nodes = True
-    nodes, links = material.node_tree.nodes, material.node_tree.links
-    nodes.clear()
-    emission = nodes.new("ShaderNodeEmission")
-    output = nodes.new("ShaderNodeOutputMaterial")
-    links.new(emission.outputs["Emission"], output.inputs["Surface"])
-    links.new(build_color(nodes, links), emission.inputs["Color"])
-    return material
 
 
 def projected_material(name, image, world_size, projection="FLAT", shift=(0.0, 0.0), turn=0.0):
@@ -163,7 +144,7 @@ def projected_material(name, image, world_size, projection="FLAT", shift=(0.0, 0
         links.new(rotate.outputs["Vector"], scale.inputs[0])
         links.new(scale.outputs["Vector"], texture.inputs["Vector"])
         return texture.outputs["Color"]
-    return emission_material(name, color)
+    return harness.emission_material(name, color)
 
 
 def texsynth_material(image, blend_mode, cache_dir, method):
@@ -175,7 +156,7 @@ def texsynth_material(image, blend_mode, cache_dir, method):
         group = nodes.new("ShaderNodeGroup")
         group.node_tree = blend_groups.ensure_blend_group(image, inputs)
         return group.outputs["Color"]
-    return emission_material("TexSynth emission", color)
+    return harness.emission_material("TexSynth emission", color)
 
 
 def render(scene, path):
@@ -294,7 +275,7 @@ def wireframe_mask(scene, obj, path):
         return wire.outputs["Fac"]
     saved = list(obj.data.materials)
     obj.data.materials.clear()
-    obj.data.materials.append(emission_material("Wire", color))
+    obj.data.materials.append(harness.emission_material("Wire", color))
     engine = scene.render.engine
     scene.render.engine = "CYCLES"
     scene.cycles.samples = 16

@@ -19,22 +19,9 @@ sys.path.insert(0, os.path.dirname(HERE))
 import texsynth_native as ts  # noqa: E402
 
 import addon_package  # noqa: E402
+from uv_meshes import plane  # noqa: E402
 
 core = addon_package.load("surface_colour.core")
-
-
-def plane(n=8, side=1.0):
-    ys, xs = np.mgrid[0:n + 1, 0:n + 1]
-    positions = np.zeros(((n + 1) ** 2, 3), np.float32)
-    positions[:, 0], positions[:, 1] = xs.ravel() * side / n, ys.ravel() * side / n
-    triangles, uvs = [], []
-    for y in range(n):
-        for x in range(n):
-            corners = [(x, y), (x + 1, y), (x + 1, y + 1), (x, y + 1)]
-            for tri in ((0, 1, 2), (0, 2, 3)):
-                triangles.append([corners[k][1] * (n + 1) + corners[k][0] for k in tri])
-                uvs.append([[corners[k][0] / n, corners[k][1] / n] for k in tri])
-    return positions, np.array(triangles, np.int32), np.array(uvs, np.float32)
 
 
 def patches(image, k, step=1):

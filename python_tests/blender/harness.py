@@ -31,6 +31,31 @@ def reset_scene():
     bpy.ops.wm.read_factory_settings(use_empty=True)
 
 
+def flat_render_settings(scene, pixels, samples=1):
+    """Eevee (the version's own), `samples` samples, a square image of `pixels`, the Standard view
+    transform with no look: rendered values are the shaders' values, for measurements."""
+    load_addon().compat.use_eevee(scene)
+    scene.eevee.taa_render_samples = samples
+    scene.render.resolution_x = scene.render.resolution_y = pixels
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    return scene
+
+
+def emission_material(name, build_color):
+    """A material whose surface is Emission(colour) with colour = build_color(nodes, links)."""
+    material = bpy.data.materials.new(name)
+    material.use_nodes = True
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    nodes.clear()
+    emission = nodes.new("ShaderNodeEmission")
+    output = nodes.new("ShaderNodeOutputMaterial")
+    links.new(emission.outputs["Emission"], output.inputs["Surface"])
+    links.new(build_color(nodes, links), emission.inputs["Color"])
+    return material
+
+
 def select_only(objects):
     # 4.x lists removed objects as None until the view layer is updated.
     bpy.context.view_layer.update()
