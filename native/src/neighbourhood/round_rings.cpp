@@ -20,6 +20,7 @@
 
 #include "texsynth/common/errors.hpp"
 #include "texsynth/mesh/vec_math.hpp"
+#include "texsynth/mesh/walk_mesh.hpp"
 
 namespace texsynth {
 namespace {
@@ -28,34 +29,6 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kTwoPi = 2 * kPi;
 // Texel centres clamped into their face by the caller may still sit a rounding error outside.
 constexpr double kBarycentricTolerance = 1e-4;
-// |e1 × e2| below this × (longest edge)² is a zero-area triangle: its barycentric gradients would be
-// noise at float precision, so it is a wall, never entered (and never NaN).
-constexpr double kDegenerateRelativeArea = 1e-7;
-
-// Per triangle of the welded walk mesh.
-struct WalkTriangle {
-  V3 grad1, grad2;  // ∇β1, ∇β2 in the triangle's plane (β0 = 1 - β1 - β2): rates of a unit 3D direction
-  V3 normal;        // unit geometric normal, for the facing test and the unfolding
-  std::array<double, 3> inv_edge{};  // 1 / |edge k|: unit edge vectors without a square root per crossing
-  // Across edge k (corner k -> k+1): (neighbour << 2) | neighbour's edge, or -1 where a walk stops
-  // (boundary, non-manifold, inconsistent orientation, degenerate on either side).
-  std::array<int32_t, 3> across{-1, -1, -1};
-  bool degenerate = true;
-};
-
-struct WalkMesh {
-  std::vector<int32_t> weld;    // vertex -> smallest-index vertex at exactly the same position
-  std::vector<V3> vertex_normal;  // area-weighted, per weld representative (unit or zero)
-  std::vector<WalkTriangle> tris;
-};
-
-template <class F>
-void parallel_range(int32_t n, int32_t grain, const std::atomic<bool>* cancel, F&& f) {
-  tbb::parallel_for(tbb::blocked_range<int32_t>(0, n, grain), [&](const tbb::blocked_range<int32_t>& r) {
-    throw_if_cancelled(cancel);
-    for (int32_t i = r.begin(); i < r.end(); ++i) f(i);
-  });
-}
 
 void validate(const TriangleMeshInput& mesh, const SurfacePoints& pts, const RoundRingsParams& p) {
   if (p.rings < 1 || p.rings > kMaxRings)
@@ -109,108 +82,6 @@ void validate(const TriangleMeshInput& mesh, const SurfacePoints& pts, const Rou
   }
 }
 
-V3 position(const TriangleMeshInput& m, int32_t v) { return v3(m.positions + 3 * size_t(v)); }
-
-// Exactly coincident positions share one representative (the smallest index), so meshes split at UV
-// seams or imported with split vertices still connect. Exact float equality (0 == -0): welding by a
-// distance would merge genuinely separate surfaces and needs a scale we do not have.
-std::vector<int32_t> weld_positions(const TriangleMeshInput& m, const std::atomic<bool>* cancel) {
-  const int32_t nv = m.num_vertices;
-  std::vector<int32_t> order(static_cast<size_t>(nv));
-  std::iota(order.begin(), order.end(), 0);
-  // A total order (index breaks ties), so the result does not depend on the sort's scheduling.
-  tbb::parallel_sort(order.begin(), order.end(), [&](int32_t a, int32_t b) {
-    const float *pa = m.positions + 3 * size_t(a), *pb = m.positions + 3 * size_t(b);
-    for (int k = 0; k < 3; ++k)
-      if (pa[k] != pb[k]) return pa[k] < pb[k];
-    return a < b;
-  });
-  throw_if_cancelled(cancel);
-  std::vector<int32_t> weld(static_cast<size_t>(nv));
-  int32_t rep = -1;
-  for (int32_t i = 0; i < nv; ++i) {
-    const int32_t v = order[i];
-    if (i == 0) {
-      rep = v;
-    } else {
-      const float *pa = m.positions + 3 * size_t(v), *pb = m.positions + 3 * size_t(order[i - 1]);
-      if (pa[0] != pb[0] || pa[1] != pb[1] || pa[2] != pb[2]) rep = v;
-    }
-    weld[v] = rep;
-  }
-  return weld;
-}
-
-void build_triangle_geometry(const TriangleMeshInput& m, WalkMesh& w, const std::atomic<bool>* cancel) {
-  w.tris.resize(size_t(m.num_triangles));
-  parallel_range(m.num_triangles, 4096, cancel, [&](int32_t t) {
-    const int32_t* c = m.triangles + 3 * size_t(t);
-    const V3 p0 = position(m, c[0]), e1 = position(m, c[1]) - p0, e2 = position(m, c[2]) - p0;
-    const V3 e3 = e2 - e1;
-    const V3 n = cross(e1, e2);
-    const double n2 = dot(n, n), longest2 = std::max({dot(e1, e1), dot(e2, e2), dot(e3, e3)});
-    WalkTriangle& wt = w.tris[t];
-    wt.degenerate = !(std::sqrt(n2) > kDegenerateRelativeArea * longest2) || !std::isfinite(n2);
-    if (wt.degenerate) return;
-    // ∇β1 = (e2 × n)/|n|², ∇β2 = (n × e1)/|n|²: ∇β1·e1 = 1, ∇β1·e2 = 0 and likewise for β2.
-    wt.grad1 = cross(e2, n) * (1.0 / n2);
-    wt.grad2 = cross(n, e1) * (1.0 / n2);
-    wt.normal = n * (1.0 / std::sqrt(n2));
-    wt.inv_edge = {1 / norm(e1), 1 / norm(e3), 1 / norm(e2)};  // edges 0->1, 1->2, 2->0
-  });
-}
-
-// Area-weighted normals of the welded mesh, summed serially in triangle order: the same doubles for
-// any thread count, and cheap next to the walks.
-void build_vertex_normals(const TriangleMeshInput& m, WalkMesh& w) {
-  w.vertex_normal.assign(size_t(m.num_vertices), V3{});
-  for (int32_t t = 0; t < m.num_triangles; ++t) {
-    const int32_t* c = m.triangles + 3 * size_t(t);
-    const V3 p0 = position(m, c[0]);
-    const V3 n = cross(position(m, c[1]) - p0, position(m, c[2]) - p0);  // 2 × area × unit normal
-    for (int k = 0; k < 3; ++k) {
-      V3& acc = w.vertex_normal[w.weld[c[k]]];
-      acc = acc + n;
-    }
-  }
-  for (V3& n : w.vertex_normal) n = normalized_or(n, V3{}, 1e-300);
-}
-
-// Edges shared by exactly two non-degenerate triangles that traverse them in opposite directions
-// (consistent orientation: the facing test and the counter-clockwise sense need it) connect; every
-// other edge stops a walk. Half-edges are keyed by welded endpoints and sorted with a total order.
-void link_edges(const TriangleMeshInput& m, WalkMesh& w, const std::atomic<bool>* cancel) {
-  struct HalfEdge {
-    uint64_t key;
-    int32_t id;  // 3 × triangle + edge
-  };
-  std::vector<HalfEdge> half;
-  half.reserve(3 * size_t(m.num_triangles));
-  for (int32_t t = 0; t < m.num_triangles; ++t)
-    for (int k = 0; k < 3; ++k) {
-      const int32_t a = w.weld[m.triangles[3 * size_t(t) + k]], b = w.weld[m.triangles[3 * size_t(t) + (k + 1) % 3]];
-      if (a == b) continue;  // collapsed edge: its triangle is degenerate anyway
-      half.push_back({(uint64_t(uint32_t(std::min(a, b))) << 32) | uint32_t(std::max(a, b)), 3 * t + k});
-    }
-  tbb::parallel_sort(half.begin(), half.end(), [](const HalfEdge& x, const HalfEdge& y) {
-    return x.key != y.key ? x.key < y.key : x.id < y.id;
-  });
-  throw_if_cancelled(cancel);
-  auto from = [&](int32_t id) { return w.weld[m.triangles[size_t(id)]]; };
-  for (size_t s = 0; s < half.size();) {
-    size_t e = s + 1;
-    while (e < half.size() && half[e].key == half[s].key) ++e;
-    if (e - s == 2) {
-      const int32_t h0 = half[s].id, h1 = half[s + 1].id, t0 = h0 / 3, t1 = h1 / 3;
-      if (t0 != t1 && from(h0) != from(h1) && !w.tris[t0].degenerate && !w.tris[t1].degenerate) {
-        w.tris[t0].across[h0 % 3] = (t1 << 2) | (h1 % 3);
-        w.tris[t1].across[h1 % 3] = (t0 << 2) | (h0 % 3);
-      }
-    }
-    s = e;
-  }
-}
-
 // The distinct walk directions of rings 1..K: ring m's bin a is at angle index a·L/(8m) on a grid of
 // L = 8·lcm(1..K) steps, so one walk per distinct index serves every ring with a bin there (48 walks
 // instead of 80 for K = 4, total walked length 176·r instead of 240·r).
@@ -258,14 +129,6 @@ struct PointFrame {
   V3 n, t0;
 };
 
-// Rotates v about n × nt by the angle from n to nt (c = n·nt > -1), the minimal rotation taking n to
-// nt: maps one tangent plane onto the other keeping angles (a projection would squeeze them where
-// the smooth normal differs from the face normal).
-V3 rotate_between(V3 v, V3 n, V3 nt, double c) {
-  const V3 a = cross(n, nt);
-  return v * c + cross(a, v) + a * (dot(a, v) / (1 + c));
-}
-
 // Smooth normal n (welded vertex normals interpolated, else the face's, else +z) and the reference
 // tangent t0, geometry only so the rings never depend on the direction field: the containing
 // triangle's first edge rotated (not projected) from the face plane into the tangent plane, so the
@@ -282,15 +145,15 @@ PointFrame point_frame(const TriangleMeshInput& m, const WalkMesh& w, int32_t t,
   if (!wt.degenerate) {
     const double cn = dot(wt.normal, n);
     if (1 + cn > 1e-9) {
-      const V3 edge = normalized_or(position(m, c[1]) - position(m, c[0]), V3{});
+      const V3 edge = normalized_or(mesh_position(m, c[1]) - mesh_position(m, c[0]), V3{});
       f.t0 = normalized_or(project_to_plane(rotate_between(edge, wt.normal, n, cn), n), V3{});
       if (norm(f.t0) > 0) return f;
     }
   }
   for (int k = 0; k < 3; ++k) {
-    const V3 e = project_to_plane(position(m, c[(k + 1) % 3]) - position(m, c[k]), n);
+    const V3 e = project_to_plane(mesh_position(m, c[(k + 1) % 3]) - mesh_position(m, c[k]), n);
     const double len = norm(e);
-    if (len > 1e-12 * (1 + norm(position(m, c[k]))) && std::isfinite(len)) {
+    if (len > 1e-12 * (1 + norm(mesh_position(m, c[k]))) && std::isfinite(len)) {
       f.t0 = e * (1.0 / len);
       return f;
     }
@@ -382,7 +245,7 @@ class PointWalker {
       // component (along our inward perpendicular n × ê, negative) turns into the neighbour's plane,
       // where n' × ê points the same way across the edge. Unit length is kept without a square root.
       const int32_t* cc = m_.triangles + 3 * size_t(t);
-      const V3 edge = (position(m_, cc[k]) - position(m_, cc[j])) * wt->inv_edge[j];
+      const V3 edge = (mesh_position(m_, cc[k]) - mesh_position(m_, cc[j])) * wt->inv_edge[j];
       const double along = dot(dir, edge), leaving = dot(dir, cross(wt->normal, edge));
       dir = edge * along + cross(nw->normal, edge) * leaving;
       // Same edge, reversed in the neighbour (consistent orientation): its corner ne is our k.
@@ -421,10 +284,7 @@ RoundRingsMemory estimate_round_rings_memory(int64_t num_points, int64_t num_tri
   RoundRingsMemory mem;
   const int64_t entries = ring_entries(std::clamp(rings, 0, kMaxRings));
   mem.result_bytes = num_points * (entries * int64_t(sizeof(RingPoint)) + 6 * int64_t(sizeof(float)));
-  // Walk mesh: per triangle its WalkTriangle plus the half-edge sort (3 × 16 B, freed before the walks,
-  // counted anyway); per vertex the weld map, its sort order and the normal.
-  mem.peak_bytes = mem.result_bytes + num_triangles * int64_t(sizeof(WalkTriangle) + 48) +
-                   num_vertices * int64_t(2 * sizeof(int32_t) + sizeof(V3));
+  mem.peak_bytes = mem.result_bytes + walk_mesh_peak_bytes(num_triangles, num_vertices);
   return mem;
 }
 
@@ -432,11 +292,7 @@ RoundRings build_round_rings(const TriangleMeshInput& mesh, const SurfacePoints&
   validate(mesh, pts, p);
   const std::atomic<bool>* cancel = p.cancel;
   throw_if_cancelled(cancel);
-  WalkMesh w;
-  w.weld = weld_positions(mesh, cancel);
-  build_triangle_geometry(mesh, w, cancel);
-  build_vertex_normals(mesh, w);
-  link_edges(mesh, w, cancel);
+  const WalkMesh w = build_walk_mesh(mesh, cancel);
   throw_if_cancelled(cancel);
 
   RoundRings out;

@@ -26,16 +26,9 @@
 #include <vector>
 
 #include "texsynth/common/uninitialized_vector.hpp"
+#include "texsynth/mesh/walk_mesh.hpp"
 
 namespace texsynth {
-
-// A triangle mesh as Blender's loop triangles give it (triangle corners -> vertices).
-struct TriangleMeshInput {
-  const float* positions = nullptr;    // num_vertices*3, finite
-  int32_t num_vertices = 0;
-  const int32_t* triangles = nullptr;  // num_triangles*3, each in [0, num_vertices)
-  int32_t num_triangles = 0;
-};
 
 // The sample points: P = (1 - b1 - b2)·p0 + b1·p1 + b2·p2 of triangle[i]'s corners.
 struct SurfacePoints {
