@@ -1,0 +1,86 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""texsynth_native.patch_field / trace_grid_patches: shapes checked at the boundary, grids rebuilt
+from the returned triangle + barycentrics land on the returned positions, a cylinder's grid follows
+its circumferential field, and a raised CancelToken stops tracing."""
+import math
+
+import numpy as np
+import pytest
+
+from test_neighbourhood_binding import plane
+
+tn = pytest.importorskip("texsynth_native")
+
+
+def cylinder(segments=96, rows=40, radius=1.0, dz=0.1):
+    a = 2 * math.pi * np.arange(segments) / segments
+    z = dz * np.arange(rows + 1)
+    pos = np.stack([np.tile(radius * np.cos(a), rows + 1), np.tile(radius * np.sin(a), rows + 1),
+                    np.repeat(z, segments)], axis=1).astype(np.float32)
+    i, j = np.meshgrid(np.arange(segments), np.arange(rows))
+    i, j = i.ravel(), j.ravel()
+    v00, v10 = j * segments + i, j * segments + (i + 1) % segments
+    v01, v11 = v00 + segments, v10 + segments
+    tris = np.concatenate([np.stack([v00, v10, v11], 1), np.stack([v00, v11, v01], 1)]).astype(np.int32)
+    return pos, tris
+
+
+def test_grid_points_rebuilt_from_faces_match_positions_and_follow_the_field():
+    pos, tris = cylinder()
+    dirs = np.stack([-pos[:, 1], pos[:, 0], np.zeros(len(pos))], axis=1)  # counter-clockwise about +z
+    field = tn.patch_field(pos, tris, dirs, spacing=0.04)
+    assert field.num_triangles == len(tris) and field.unset_vertices == 0
+    centres = np.array([100 * 7 + 3, 2000], np.int32) % len(tris)
+    out = tn.trace_grid_patches(field, centres, np.full((2, 2), 0.25, np.float32), size=16)
+    assert out["triangle"].shape == (2, 16, 16) and out["positions"].shape == (2, 16, 16, 3)
+    assert out["cell_valid"].shape == (2, 15, 15) and out["invalid_points"] == 0
+    t, b = out["triangle"], out["barycentrics"]
+    corners = pos[tris[t]]  # (2, 16, 16, 3 corners, 3)
+    rebuilt = (corners[..., 0, :] * (1 - b[..., :1] - b[..., 1:]) + corners[..., 1, :] * b[..., :1]
+               + corners[..., 2, :] * b[..., 1:])
+    np.testing.assert_allclose(rebuilt, out["positions"], atol=1e-5)
+    p = out["positions"].astype(np.float64)
+    # +y (axis 1) goes around at constant height, +x (axis 2) goes down the axis: up x outward normal = -z.
+    np.testing.assert_allclose(p[:, :, 8, 2] - p[:, 8:9, 8, 2], 0, atol=1e-5)
+    np.testing.assert_allclose(np.diff(p[:, 8, :, 2], axis=1), -0.04, atol=1e-5)
+    steps = np.linalg.norm(np.diff(p, axis=1), axis=-1)
+    np.testing.assert_allclose(steps, 0.04, rtol=0.01)
+
+
+def test_density_halves_the_step():
+    pos, tris = plane()
+    dirs = np.tile([0.0, 1.0, 0.0], (len(pos), 1))
+    field = tn.patch_field(pos, tris, dirs, spacing=0.02, density=np.full(len(pos), 2.0))
+    np.testing.assert_allclose(field.scale, 0.5)
+    centre = int(np.argmin(np.linalg.norm(pos[tris].mean(axis=1)[:, :2] - 1.5, axis=1)))
+    out = tn.trace_grid_patches(field, [centre], [[0.3, 0.3]], size=8)
+    np.testing.assert_allclose(np.diff(out["positions"][0, :, 4, 1]), 0.01, atol=1e-6)
+
+
+def test_shapes_and_values_are_checked_at_the_boundary():
+    pos, tris = plane(n=4)
+    dirs = np.tile([0.0, 1.0, 0.0], (len(pos), 1))
+    with pytest.raises(ValueError, match="directions"):
+        tn.patch_field(pos, tris, dirs[:-1], spacing=0.1)
+    with pytest.raises(ValueError, match="density"):
+        tn.patch_field(pos, tris, dirs, spacing=0.1, density=np.ones(3))
+    with pytest.raises(ValueError, match="spacing"):
+        tn.patch_field(pos, tris, dirs, spacing=-1.0)
+    with pytest.raises(ValueError, match="no vertex has a direction"):
+        tn.patch_field(pos, tris, np.full_like(dirs, np.nan), spacing=0.1)
+    field = tn.patch_field(pos, tris, dirs, spacing=0.1)
+    with pytest.raises(ValueError, match="centre_barycentrics"):
+        tn.trace_grid_patches(field, [0, 1], [[0.2, 0.2]])
+    with pytest.raises(ValueError, match="size must be"):
+        tn.trace_grid_patches(field, [0], [[0.2, 0.2]], size=1)
+    with pytest.raises(ValueError, match="is in triangle"):
+        tn.trace_grid_patches(field, [len(tris)], [[0.2, 0.2]])
+
+
+def test_raised_token_stops_tracing():
+    pos, tris = plane(n=4)
+    field = tn.patch_field(pos, tris, np.tile([0.0, 1.0, 0.0], (len(pos), 1)), spacing=0.1)
+    token = tn.CancelToken()
+    token.cancel()
+    with pytest.raises(tn.Cancelled):
+        tn.trace_grid_patches(field, [0], [[0.2, 0.2]], size=8, cancel=token)
