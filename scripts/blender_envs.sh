@@ -24,7 +24,7 @@ BUILD_PACKAGES=(
   build-essential cmake pkg-config
   python3-dev python3-numpy python3-pytest pybind11-dev
   libopenimageio-dev openimageio-tools
-  libembree-dev libeigen3-dev libtbb-dev libgtest-dev
+  libembree-dev libeigen3-dev libtbb-dev libgtest-dev libhnswlib-dev
   xvfb xauth
 )
 # Debian's blender package does not depend on (or recommend) python3-numpy, which TexSynth needs.
