@@ -409,6 +409,16 @@ TEST(PatchesExemplar, SerializationRoundTripAndCorruptBuffers) {
     if (bad == bytes) continue;
     EXPECT_THROW(texsynth::deserialize_exemplar_index(bad.data(), bad.size()), std::invalid_argument);
   }
+  // The tail (reduced vectors and the HNSW link lists): all-ones in any 4-byte field is invalid
+  // (NaN, a label, level, count or link out of range), checksum or not.
+  const uint32_t ones = 0xffffffffu;
+  int tried = 0;
+  for (size_t at = (bytes.size() * 6 / 10) & ~size_t(3); at + 8 < bytes.size(); at += 4 * 37, ++tried) {
+    const auto bad = resealed(at, &ones, 4);
+    if (bad == bytes) continue;
+    EXPECT_THROW(texsynth::deserialize_exemplar_index(bad.data(), bad.size()), std::invalid_argument) << at;
+  }
+  EXPECT_GT(tried, 100);
   // Files: round trip, missing file.
   texsynth_test::TempDir dir;
   texsynth::save_exemplar_index(e, dir.file("x.tsexemplar"));
