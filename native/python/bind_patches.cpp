@@ -2,14 +2,18 @@
 // Vector-field patches (Chen, Liu & Dong): the traced direction field and its grid patches.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
 
 #include <cstdint>
 #include <memory>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "array_args.hpp"
 #include "cancel_arg.hpp"
 #include "texsynth/patches/grid_patch.hpp"
+#include "texsynth/patches/patch_synth.hpp"
 
 namespace py = pybind11;
 using namespace texsynth_py;
@@ -110,4 +114,158 @@ void bind_patches(py::module_& m) {
       "is [size//2, size//2]. Returns dict: triangle (N, size, size) int32 (-1: the trace stopped at a boundary, "
       "singularity or crossing cap), barycentrics (N, size, size, 2), positions (N, size, size, 3) (0 where "
       "invalid), cell_valid (N, size-1, size-1) uint8, invalid_points, invalid_cells.");
+
+  py::class_<texsynth::ExemplarIndex, std::shared_ptr<texsynth::ExemplarIndex>>(
+      m, "PatchExemplar",
+      "A sample analysed for vector-field patches (patch_exemplar()): appearance space, patch features, PCA "
+      "and HNSW indices. save(path) / load_patch_exemplar(path, key).")
+      .def_property_readonly("key", [](const texsynth::ExemplarIndex& e) { return e.key; })
+      .def_property_readonly("patch_size", [](const texsynth::ExemplarIndex& e) { return e.patch_size; })
+      .def_property_readonly("width", [](const texsynth::ExemplarIndex& e) { return e.width; })
+      .def_property_readonly("height", [](const texsynth::ExemplarIndex& e) { return e.height; })
+      .def_property_readonly("channels", [](const texsynth::ExemplarIndex& e) { return e.channels; })
+      .def_property_readonly("tileable", [](const texsynth::ExemplarIndex& e) { return e.tileable; })
+      .def_property_readonly("stats", [](const texsynth::ExemplarIndex& e) {
+        py::dict d;
+        d["seconds_appearance"] = e.stats.seconds_appearance;
+        d["seconds_features"] = e.stats.seconds_features;
+        d["seconds_hnsw"] = e.stats.seconds_hnsw;
+        d["seconds_total"] = e.stats.seconds_total;
+        d["index_bytes"] = e.stats.index_bytes;
+        return d;
+      })
+      .def("save", [](const texsynth::ExemplarIndex& e, const std::string& path) {
+        py::gil_scoped_release release;
+        texsynth::save_exemplar_index(e, path);
+      });
+
+  m.def(
+      "patch_exemplar",
+      [](py::object pixels, int patch_size, bool tileable, uint64_t seed, int band_width, double max_megabytes,
+         py::object cancel) {
+        FloatArray px = float_array(pixels, "sample");
+        if (px.ndim() != 3) throw std::invalid_argument("sample must have shape (height, width, channels)");
+        texsynth::ExemplarSample sample{px.data(), checked_count(px.shape(1), "sample width"),
+                                        checked_count(px.shape(0), "sample height"),
+                                        checked_count(px.shape(2), "sample channels")};
+        texsynth::ExemplarParams params;
+        params.patch_size = texsynth::fit_patch_size(sample.width, sample.height, patch_size, tileable);
+        params.tileable = tileable;
+        params.seed = seed;
+        params.band_width = band_width;
+        params.full_index = true;
+        params.band_index = true;
+        params.max_megabytes = max_megabytes;
+        params.cancel = cancel_flag(cancel);
+        auto index = std::make_shared<texsynth::ExemplarIndex>();
+        {
+          py::gil_scoped_release release;
+          *index = texsynth::build_exemplar_index(sample, params);
+        }
+        return index;
+      },
+      py::arg("sample"), py::kw_only(), py::arg("patch_size") = 32, py::arg("tileable") = false, py::arg("seed") = 0,
+      py::arg("band_width") = 4, py::arg("max_megabytes") = texsynth::kExemplarDefaultMaxMegabytes,
+      py::arg("cancel") = py::none(),
+      "Analyses a sample (H, W, 3|4) float, row 0 = bottom, for vector-field patches: both the full-patch and the "
+      "boundary-band index. A sample too small for patch_size gets the largest multiple of 4 that fits "
+      "(PatchExemplar.patch_size says which). ValueError on bad input; cancel: a CancelToken.");
+
+  m.def(
+      "load_patch_exemplar",
+      [](const std::string& path, py::object key) {
+        std::optional<uint64_t> expected;
+        if (!key.is_none()) expected = key.cast<uint64_t>();
+        auto index = std::make_shared<texsynth::ExemplarIndex>();
+        {
+          py::gil_scoped_release release;
+          *index = texsynth::load_exemplar_index(path, expected);
+        }
+        return index;
+      },
+      py::arg("path"), py::arg("key") = py::none(),
+      "Loads a PatchExemplar saved with save(); ValueError for a missing, corrupt or stale file (another key).");
+
+  m.def(
+      "synthesize_patches",
+      [](const texsynth::PatchField& field, const texsynth::ExemplarIndex& exemplar, py::object pixels,
+         py::object positions, py::object normals, py::object triangles, py::object barycentrics,
+         const std::string& mode, uint64_t seed, double centre_spacing, double tolerance, int candidates,
+         int iterations, double robust_exponent, bool exhaustive, py::object cancel, py::object progress) {
+        FloatArray px = float_array(pixels, "sample");
+        if (px.ndim() != 3) throw std::invalid_argument("sample must have shape (height, width, channels)");
+        FloatArray pos = float_array(positions, "positions");
+        require_shape(pos, {-1, 3}, "positions");
+        FloatArray nrm;
+        if (!normals.is_none()) {
+          nrm = float_array(normals, "normals");
+          require_shape(nrm, {pos.shape(0), 3}, "normals");
+        }
+        IntArray tri = int_array(triangles, "triangles");
+        require_shape(tri, {pos.shape(0)}, "triangles");
+        FloatArray bary = float_array(barycentrics, "barycentrics");
+        require_shape(bary, {pos.shape(0), 2}, "barycentrics");
+        texsynth::ExemplarSample sample{px.data(), checked_count(px.shape(1), "sample width"),
+                                        checked_count(px.shape(0), "sample height"),
+                                        checked_count(px.shape(2), "sample channels")};
+        texsynth::PatchSamples samples;
+        samples.positions = pos.data();
+        samples.normals = normals.is_none() ? nullptr : nrm.data();
+        samples.triangle = tri.data();
+        samples.barycentric = bary.data();
+        samples.count = checked_count(pos.shape(0), "positions");
+        texsynth::SurfacePatchParams params;
+        if (mode == "sampling")
+          params.synth.mode = texsynth::PatchMode::kSampling;
+        else if (mode == "optimisation" || mode == "optimization")
+          params.synth.mode = texsynth::PatchMode::kOptimisation;
+        else
+          throw std::invalid_argument("mode must be 'sampling' or 'optimisation', got '" + mode + "'");
+        params.centre_spacing = centre_spacing;
+        params.synth.seed = seed;
+        params.synth.tolerance = tolerance;
+        params.synth.candidates = candidates;
+        params.synth.iterations = iterations;
+        params.synth.robust_exponent = robust_exponent;
+        params.synth.exhaustive = exhaustive;
+        params.synth.cancel = cancel_flag(cancel);
+        params.synth.progress = progress_slot(progress);
+        texsynth::SurfacePatchResult r;
+        {
+          py::gil_scoped_release release;
+          r = texsynth::synthesize_patches_on_surface(field, samples, exemplar, sample, params);
+        }
+        const py::ssize_t n = samples.count, C = r.synth.channels, np = r.patches;
+        py::dict stats;
+        stats["patches"] = r.patches;
+        stats["extra_patches"] = r.extra_patches;
+        stats["random_patches"] = r.synth.stats.random_patches;
+        stats["uncovered_samples"] = r.synth.stats.uncovered_samples;
+        stats["invalid_grid_points"] = r.invalid_grid_points;
+        stats["coverage_entries"] = r.coverage_entries;
+        stats["extrapolated_samples"] = r.extrapolated_samples;
+        stats["seconds_centres"] = r.seconds_centres;
+        stats["seconds_trace"] = r.seconds_trace;
+        stats["seconds_locate"] = r.seconds_locate;
+        stats["seconds_sampling"] = r.synth.stats.seconds_sampling;
+        stats["seconds_optimisation"] = r.synth.stats.seconds_optimisation;
+        stats["energy"] = r.synth.stats.energy;
+        stats["changed"] = r.synth.stats.changed;
+        py::dict out;
+        out["colour"] = to_numpy(std::move(r.synth.colour), {n, C});
+        out["source"] = to_numpy(std::move(r.synth.source), {n, 2});
+        out["origin"] = to_numpy(std::move(r.synth.origin), {np, 2});
+        out["stats"] = stats;
+        return out;
+      },
+      py::arg("field"), py::arg("exemplar"), py::arg("sample"), py::arg("positions"), py::arg("normals"),
+      py::arg("triangles"), py::arg("barycentrics"), py::kw_only(), py::arg("mode") = "sampling",
+      py::arg("seed") = 0, py::arg("centre_spacing") = 0.5, py::arg("tolerance") = 1.2, py::arg("candidates") = 16,
+      py::arg("iterations") = 6, py::arg("robust_exponent") = 0.8, py::arg("exhaustive") = true,
+      py::arg("cancel") = py::none(),
+      py::arg("progress") = py::none(),
+      "Vector-field patch synthesis onto N surface samples (positions (N, 3), normals (N, 3) or None, triangles "
+      "(N,), barycentrics (N, 2) in the field's mesh): mode 'sampling' (§5) or 'optimisation' (§4.3, from the "
+      "sampling result). Returns dict: colour (N, C), source (N, 2) exemplar pixel coordinates (-1: uncovered), "
+      "origin (patches, 2), stats.");
 }

@@ -1,0 +1,102 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+// Patch synthesis in a direction field (Chen, Liu & Dong §4–5; note 001): exemplar patches pasted
+// onto surface samples through grid patches traced along the field (grid_patch.hpp), located with
+// coverage.hpp, matched with the exemplar index (exemplar_index.hpp).
+//
+// Grids are traced with a margin of 2 points on every side (size w + 4), so the 5x5 appearance
+// windows of the representative pixels are on the surface too: grid point (i, j) shows exemplar pixel
+// origin + (i - 2, j - 2), and a patch pastes onto the samples with u, v in [2, w + 1].
+//
+// Surface -> grid: the colours of the settled samples a patch covers are splatted onto its grid
+// points with bilinear weights (the paper's barycentric read needs a colour per mesh vertex; this works
+// for texels and vertices alike). A grid point is known when its weight is >= 0.25.
+//
+// Patch sampling (§5, note "Band vs overlap"):
+//  - patches in breadth-first order over patches that share samples, from a seeded start;
+//  - candidates: the band index's HNSW shortlist for the known band cells (cells touching the
+//    boundary zone of width W_E; unknown ones are masked), reranked by the exact appearance distance
+//    over the known band cells, then one drawn uniformly among those within tolerance × the best;
+//    a patch with no known band cell takes a seeded random origin;
+//  - paste: the whole patch is written; samples that were already settled are cross-faded over the
+//    boundary zone (weight distance-from-border / W_E), so the seam lies where the band was matched.
+// Texture optimisation (§4.3, note "Optimisation"): starts from the patch-sampling result; each
+// iteration matches every patch against the full index (M-step, in parallel) and sets each sample to
+// the weighted mean of its patches' proposals (E-step), ω = (d² + ε²)^((r − 2) / 2) with r the robust
+// exponent ([10]'s 0.8; the paper's |X − Z|^−0.8 is r = 1.2) and ε² = 1e-6 per dimension, which keeps
+// exact copies finite. Least squares blurs; the last iteration is a discrete vote instead ([8]): each
+// sample keeps the proposal nearest the weighted mean. It stops early when fewer than 1 % of the
+// patches change their match.
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+#include "texsynth/patches/coverage.hpp"
+#include "texsynth/patches/exemplar_index.hpp"
+
+namespace texsynth {
+
+constexpr int kPatchGridMargin = 2;
+
+enum class PatchMode { kSampling, kOptimisation };
+
+struct PatchSynthParams {
+  PatchMode mode = PatchMode::kSampling;
+  double tolerance = 1.2;          // >= 1: candidates within tolerance × the best band distance
+  int candidates = 16;             // ANN shortlist, 1..256
+  int iterations = 6;              // optimisation: 1..50 (the last is the discrete vote)
+  double robust_exponent = 0.8;    // r in (0, 2]
+  uint64_t seed = 0;
+  bool exhaustive = false;         // exact search over every origin instead of the HNSW shortlist
+  const std::atomic<bool>* cancel = nullptr;
+  std::atomic<float>* progress = nullptr;
+};
+
+struct PatchSynthStats {
+  double seconds_sampling = 0, seconds_optimisation = 0, seconds_total = 0;
+  int32_t patches = 0;
+  int32_t random_patches = 0;        // placed without a known band cell
+  int64_t uncovered_samples = 0;     // no patch covers them: left at colour 0, source -1
+  std::vector<double> energy;        // optimisation: Σ ω d² per iteration
+  std::vector<double> changed;       // optimisation: fraction of patches whose match changed
+};
+
+struct PatchSynthResult {
+  int32_t channels = 0;
+  std::vector<float> colour;    // samples × channels
+  std::vector<float> source;    // samples × 2: exemplar pixel coordinate (pixel x covers [x, x+1)), -1 if uncovered
+  std::vector<int32_t> origin;  // patches × 2: the exemplar patch each grid patch shows
+  PatchSynthStats stats;
+};
+
+// `patches` must be traced with size = index.patch_size + 2·kPatchGridMargin; `coverage` located on the
+// same samples. The index needs the band index (sampling) and the full index (optimisation). Throws
+// std::invalid_argument for mismatched sizes or parameters out of range; texsynth::Cancelled.
+// Deterministic for a seed whatever the thread count.
+PatchSynthResult synthesize_patches(const GridPatches& patches, const PatchCoverage& coverage, int32_t num_samples,
+                                    const ExemplarIndex& index, const ExemplarSample& sample,
+                                    const PatchSynthParams& params);
+
+// The whole surface pass: patch centres (Poisson-disk, spacing = centre_spacing × patch size, in
+// local steps), grids traced with the margin, samples located, one more round of centres among the
+// samples still uncovered, then synthesize_patches(). centre_spacing: the note's w/2 for sampling
+// and w/4 for optimisation are 0.5 and 0.25.
+struct SurfacePatchParams {
+  PatchSynthParams synth;
+  double centre_spacing = 0.5;  // (0, 1]
+};
+struct SurfacePatchResult {
+  PatchSynthResult synth;
+  int32_t patches = 0, extra_patches = 0;
+  int64_t invalid_grid_points = 0;
+  double seconds_centres = 0, seconds_trace = 0, seconds_locate = 0;
+  int64_t coverage_entries = 0;  // (sample, patch) pairs
+  // Samples no patch pasted onto (stats.uncovered_samples), continued from the nearest pasted sample:
+  // its exemplar coordinate plus their offset in its frame.
+  int64_t extrapolated_samples = 0;
+};
+SurfacePatchResult synthesize_patches_on_surface(const PatchField& field, const PatchSamples& samples,
+                                                 const ExemplarIndex& index, const ExemplarSample& sample,
+                                                 const SurfacePatchParams& params);
+
+}  // namespace texsynth
