@@ -508,6 +508,8 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
             const auto o = full.origin(match[q]);
             const double sx = o[0] + (u - kPatchGridMargin) + 0.5, sy = o[1] + (v - kPatchGridMargin) + 0.5;
             reader.read(sx, sy, prop.data());
+            // (Measured against keeping the most interior patch's proposal, a Voronoi of patch cores:
+            // that broke twice as many mortar lines on bricks in a sine field.)
             double d = 0;
             for (int c = 0; c < C; ++c) d += (prop[c] - acc[c] / wsum) * (prop[c] - acc[c] / wsum);
             if (d < best_d) {

@@ -1,0 +1,263 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Patch centres, sample location and patch synthesis on the surface (patches/coverage.hpp,
+// patches/patch_synth.hpp), on a plane whose samples form a lattice one grid step apart.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "neighbourhood_fixtures.hpp"
+#include "synthetic_texture.hpp"
+#include "texsynth/common/errors.hpp"
+#include "texsynth/common/rng.hpp"
+#include "texsynth/patches/patch_synth.hpp"
+
+namespace {
+
+using texsynth::FacePoint;
+using texsynth::V3;
+
+// A unit plane (cells x cells grid of triangles) with a constant field along +y and
+// res x res samples at the centres of a res² lattice: sample (x, y) at index y·res + x.
+struct PlaneScene {
+  ring_fixtures::TriMesh mesh;
+  std::vector<float> dirs, positions, normals, bary;
+  std::vector<int32_t> tri;
+  int res = 0;
+  double h = 0;
+  texsynth::PatchField field;
+
+  PlaneScene(int res_, int cells = 13) : res(res_), h(1.0 / res_) {
+    mesh = ring_fixtures::plane(cells, cells, 1.0 / cells, 0.0);  // edges across the lattice, not along it
+    for (int32_t v = 0; v < mesh.num_vertices(); ++v) dirs.insert(dirs.end(), {0.f, 1.f, 0.f});
+    for (int y = 0; y < res; ++y)
+      for (int x = 0; x < res; ++x) {
+        const double px = (x + 0.5) * h, py = (y + 0.5) * h;
+        const FacePoint f = locate(px, py);
+        positions.insert(positions.end(), {float(px), float(py), 0.f});
+        normals.insert(normals.end(), {0.f, 0.f, 1.f});
+        tri.push_back(f.triangle);
+        bary.insert(bary.end(), {f.b1, f.b2});
+      }
+    texsynth::PatchFieldInput in;
+    in.mesh = mesh.input();
+    in.directions = dirs.data();
+    texsynth::PatchFieldParams p;
+    p.spacing = h;
+    field = texsynth::build_patch_field(in, p);
+  }
+  FacePoint locate(double x, double y) const {
+    for (int32_t t = 0; t < mesh.num_triangles(); ++t) {
+      auto p0 = mesh.corner(t, 0), p1 = mesh.corner(t, 1), p2 = mesh.corner(t, 2);
+      const double d = (p1[0] - p0[0]) * (p2[1] - p0[1]) - (p2[0] - p0[0]) * (p1[1] - p0[1]);
+      const double b1 = ((x - p0[0]) * (p2[1] - p0[1]) - (p2[0] - p0[0]) * (y - p0[1])) / d;
+      const double b2 = ((p1[0] - p0[0]) * (y - p0[1]) - (x - p0[0]) * (p1[1] - p0[1])) / d;
+      if (b1 >= -1e-9 && b2 >= -1e-9 && b1 + b2 <= 1 + 1e-9) return {t, float(std::max(b1, 0.0)), float(std::max(b2, 0.0))};
+    }
+    return {};
+  }
+  texsynth::PatchSamples samples() const {
+    texsynth::PatchSamples s;
+    s.positions = positions.data();
+    s.normals = normals.data();
+    s.triangle = tri.data();
+    s.barycentric = bary.data();
+    s.count = int32_t(tri.size());
+    return s;
+  }
+};
+
+struct Exemplar {
+  int size;
+  std::vector<float> pixels;
+  texsynth::ExemplarIndex index;
+  texsynth::ExemplarSample view() const { return {pixels.data(), size, size, 3}; }
+};
+
+// Value noise: every patch is distinct. Tileable noise wraps exactly (period = size).
+Exemplar noise_exemplar(int size, int patch, bool tileable, uint64_t seed = 9) {
+  Exemplar e{size, std::vector<float>(size_t(size) * size * 3), {}};
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x)
+      for (int c = 0; c < 3; ++c) {
+        float v = 0;
+        if (tileable) {
+          const double a = 2 * 3.14159265358979 * x / size, b = 2 * 3.14159265358979 * y / size;
+          v = float(0.5 + 0.2 * std::sin(3 * a + c + std::cos(2 * b)) + 0.15 * std::sin(5 * b + 2 * c + std::sin(a)) +
+                    0.1 * std::sin(7 * a + 4 * b + c));
+        } else {
+          v = 0.6f * texsynth_test::value_noise(float(x), float(y), 5.f, seed + c) +
+              0.4f * texsynth_test::value_noise(float(x), float(y), 2.f, seed + 7 + c);
+        }
+        e.pixels[(size_t(y) * size + x) * 3 + c] = v;
+      }
+  texsynth::ExemplarParams p;
+  p.patch_size = patch;
+  p.tileable = tileable;
+  p.band_index = true;
+  p.seed = seed;
+  e.index = texsynth::build_exemplar_index(e.view(), p);
+  return e;
+}
+
+texsynth::SurfacePatchResult run(const PlaneScene& scene, const Exemplar& ex, texsynth::PatchMode mode,
+                                 double tolerance = 1.2, uint64_t seed = 1) {
+  texsynth::SurfacePatchParams p;
+  p.synth.mode = mode;
+  p.synth.tolerance = tolerance;
+  p.synth.seed = seed;
+  p.synth.exhaustive = true;
+  p.synth.iterations = 4;
+  p.centre_spacing = mode == texsynth::PatchMode::kSampling ? 0.5 : 0.25;
+  return texsynth::synthesize_patches_on_surface(scene.field, scene.samples(), ex.index, ex.view(), p);
+}
+
+TEST(PatchesCoverage, CentresAreAPoissonDiskOverTheSamplesAndDependOnTheSeed) {
+  const PlaneScene scene(96);
+  const double spacing = 8;  // steps
+  const auto a = texsynth::choose_patch_centres(scene.field, scene.samples(), spacing, 1);
+  const auto b = texsynth::choose_patch_centres(scene.field, scene.samples(), spacing, 1);
+  const auto c = texsynth::choose_patch_centres(scene.field, scene.samples(), spacing, 2);
+  ASSERT_GT(a.size(), 50u);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(FacePoint)));
+  EXPECT_TRUE(a.size() != c.size() || std::memcmp(a.data(), c.data(), a.size() * sizeof(FacePoint)) != 0);
+  std::vector<std::array<double, 3>> pts;
+  for (const FacePoint& f : a) pts.push_back(scene.mesh.point(f.triangle, f.b1, f.b2));
+  const double r = spacing * scene.h;
+  for (size_t i = 0; i < pts.size(); ++i)
+    for (size_t j = i + 1; j < pts.size(); ++j)
+      EXPECT_GE(std::hypot(pts[i][0] - pts[j][0], pts[i][1] - pts[j][1]), r * (1 - 1e-6));
+  // Nothing is far from a centre: no sample lies farther than 2r from all of them.
+  double worst = 0;
+  for (size_t s = 0; s < scene.tri.size(); ++s) {
+    double best = 1e9;
+    for (auto& p : pts) best = std::min(best, std::hypot(p[0] - scene.positions[3 * s], p[1] - scene.positions[3 * s + 1]));
+    worst = std::max(worst, best);
+  }
+  EXPECT_LT(worst, 2 * r);
+}
+
+TEST(PatchesCoverage, SamplesAreLocatedAtTheirExactGridCoordinates) {
+  const PlaneScene scene(64);
+  const auto centres = texsynth::choose_patch_centres(scene.field, scene.samples(), 6, 3);
+  const int n = 20, c = n / 2;
+  const texsynth::GridPatches g = texsynth::trace_grid_patches(scene.field, centres.data(), int32_t(centres.size()), n);
+  const texsynth::PatchCoverage cov = texsynth::locate_samples(scene.field, g, scene.samples());
+  ASSERT_EQ(cov.sample_start.size(), scene.tri.size() + 1);
+  int64_t entries = 0;
+  double worst = 0;
+  for (int32_t p = 0; p < g.count; ++p) {
+    const V3 pc = texsynth::v3(&g.positions[3 * ((size_t(p) * n + c) * n + c)]);
+    for (int64_t e = cov.patch_start[p]; e < cov.patch_start[size_t(p) + 1]; ++e) {
+      const int32_t s = cov.patch_sample[e];
+      const double u = c + (scene.positions[3 * size_t(s)] - pc.x) / scene.h;
+      const double v = c + (scene.positions[3 * size_t(s) + 1] - pc.y) / scene.h;
+      worst = std::max({worst, std::fabs(cov.patch_uv[2 * e] - u), std::fabs(cov.patch_uv[2 * e + 1] - v)});
+      ++entries;
+    }
+  }
+  EXPECT_LT(worst, 1e-3);
+  EXPECT_EQ(entries, int64_t(cov.sample_patch.size()));
+  // Every sample inside the plane (away from the border the grids cannot cross) is located.
+  for (int y = 2; y < 62; ++y)
+    for (int x = 2; x < 62; ++x) {
+      const size_t s = size_t(y) * 64 + x;
+      EXPECT_GT(cov.sample_start[s + 1], cov.sample_start[s]) << "sample " << x << "," << y;
+    }
+}
+
+TEST(PatchesSynth, SamplingContinuesATileableExemplarWithoutASeam) {
+  // Every patch has an exact continuation (distance 0) in a tileable exemplar: with tolerance 1 the
+  // whole plane becomes one coherent copy, so neighbouring samples read neighbouring exemplar pixels.
+  // Any error in location, alignment, matching or pasting breaks this somewhere.
+  const PlaneScene scene(80);
+  const Exemplar ex = noise_exemplar(48, 16, true);
+  const texsynth::SurfacePatchResult r = run(scene, ex, texsynth::PatchMode::kSampling, 1.0);
+  EXPECT_EQ(r.synth.stats.random_patches, 1);  // only the first
+  const auto& src = r.synth.source;
+  int64_t pairs = 0, continuous = 0;
+  auto wrapped = [](double d) { return d - 48 * std::round(d / 48); };
+  for (int y = 0; y < 80; ++y)
+    for (int x = 0; x + 1 < 80; ++x) {
+      const size_t a = size_t(y) * 80 + x, b = a + 1;
+      ++pairs;
+      continuous += std::fabs(wrapped(src[2 * b] - src[2 * a] - 1)) < 0.05 && std::fabs(wrapped(src[2 * b + 1] - src[2 * a + 1])) < 0.05;
+    }
+  EXPECT_GE(double(continuous) / double(pairs), 0.995) << continuous << " of " << pairs;
+}
+
+TEST(PatchesSynth, SameBytesForOneAndTwoThreadsInBothModes) {
+  const PlaneScene scene(64);
+  const Exemplar ex = noise_exemplar(56, 16, false);
+  for (auto mode : {texsynth::PatchMode::kSampling, texsynth::PatchMode::kOptimisation}) {
+    auto once = [&](int threads) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(threads));
+      return run(scene, ex, mode);
+    };
+    const auto a = once(1), b = once(2);
+    ASSERT_EQ(a.synth.colour.size(), b.synth.colour.size());
+    EXPECT_EQ(0, std::memcmp(a.synth.colour.data(), b.synth.colour.data(), a.synth.colour.size() * sizeof(float)));
+    EXPECT_EQ(a.synth.origin, b.synth.origin);
+    const auto c = run(scene, ex, mode, 1.2, 99);
+    EXPECT_NE(a.synth.colour, c.synth.colour) << "another seed gives another texture";
+  }
+}
+
+TEST(PatchesSynth, OptimisationLowersTheEnergyAndEverySampleIsColoured) {
+  const PlaneScene scene(64);
+  const Exemplar ex = noise_exemplar(56, 16, false);
+  const auto r = run(scene, ex, texsynth::PatchMode::kOptimisation);
+  ASSERT_GE(r.synth.stats.energy.size(), 2u);
+  EXPECT_LT(r.synth.stats.energy.back(), r.synth.stats.energy.front());
+  for (size_t s = 0; s < scene.tri.size(); ++s) EXPECT_GE(r.synth.source[2 * s], 0.f) << "sample " << s;
+  for (float v : r.synth.colour) ASSERT_TRUE(std::isfinite(v));
+}
+
+TEST(PatchesSynth, BadParametersAreRefusedClearly) {
+  const PlaneScene scene(32);
+  const Exemplar ex = noise_exemplar(40, 16, false);
+  auto expect_refused = [&](auto&& mutate, const char* fragment) {
+    texsynth::SurfacePatchParams p;
+    mutate(p);
+    try {
+      texsynth::synthesize_patches_on_surface(scene.field, scene.samples(), ex.index, ex.view(), p);
+      ADD_FAILURE() << "accepted; expected '" << fragment << "'";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+    }
+  };
+  expect_refused([](auto& p) { p.synth.tolerance = 0.5; }, "tolerance");
+  expect_refused([](auto& p) { p.synth.candidates = 0; }, "candidates");
+  expect_refused([](auto& p) { p.synth.iterations = 0; }, "iterations");
+  expect_refused([](auto& p) { p.synth.robust_exponent = 3; }, "robust_exponent");
+  expect_refused([](auto& p) { p.centre_spacing = 0; }, "centre_spacing");
+  // A sample other than the analysed one.
+  std::vector<float> other(size_t(40) * 40 * 4, 0.5f);
+  texsynth::SurfacePatchParams p;
+  EXPECT_THROW(texsynth::synthesize_patches_on_surface(scene.field, scene.samples(), ex.index, {other.data(), 40, 40, 4}, p),
+               std::invalid_argument);
+  // Grids traced at another size than the exemplar's patches need.
+  const auto centres = texsynth::choose_patch_centres(scene.field, scene.samples(), 8, 1);
+  const auto g = texsynth::trace_grid_patches(scene.field, centres.data(), int32_t(centres.size()), 16);
+  const auto cov = texsynth::locate_samples(scene.field, g, scene.samples());
+  EXPECT_THROW(texsynth::synthesize_patches(g, cov, int32_t(scene.tri.size()), ex.index, ex.view(), {}), std::invalid_argument);
+}
+
+TEST(PatchesSynth, CancelStopsTheSynthesis) {
+  const PlaneScene scene(32);
+  const Exemplar ex = noise_exemplar(40, 16, false);
+  std::atomic<bool> cancel{true};
+  texsynth::SurfacePatchParams p;
+  p.synth.cancel = &cancel;
+  EXPECT_THROW(texsynth::synthesize_patches_on_surface(scene.field, scene.samples(), ex.index, ex.view(), p),
+               texsynth::Cancelled);
+}
+
+}  // namespace
