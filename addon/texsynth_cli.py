@@ -2,7 +2,7 @@
 """Headless TexSynth for pipelines:
 
   blender -b [scene.blend] --python-exit-code 1 --python addon/texsynth_cli.py -- \\
-      --sample IMAGE (--object NAME | --mesh FILE.obj|.ply|.stl) [--method jumpmap|texton|round] [--scale S]
+      --sample IMAGE (--object NAME | --mesh FILE.obj|.ply|.stl) [--method jumpmap|texton|round|patches] [--scale S]
       [--seed N] [--no-blend] [--blend-mode auto|histogram|variance|linear] [--blend-threshold PHI]
       [--direction-attribute NAME]
       [--scale-attribute NAME | --scale-group NAME [--scale-range LO HI]] [--save OUT.blend]
@@ -10,9 +10,12 @@
       [--bake IMAGE.png [--bake-uv NAME|auto] [--bake-size N] [--bake-margin PX] [--bake-material]]
       [--target image|vertices] [--levels N] [--coarse-rings K] [--fine-rings K] [--candidates N]
       [--synthesis-resolution auto|full]
+      [--mode sampling|optimisation] [--patch-size N] [--boundary-width N] [--tolerance T] [--iterations N]
 
---method round synthesizes a colour per texel of the --bake image through --bake-uv (default: the first
-UV map, or a new Smart UV Project map), or per vertex with --target vertices (attribute TexSynth_Colour).
+--method round and --method patches synthesize a colour per texel of the --bake image through --bake-uv
+(default: the first UV map, or a new Smart UV Project map), or per vertex with --target vertices
+(attribute TexSynth_Colour). patches: vector-field patches (Chen, Liu & Dong), --mode sampling (default,
+fast) or optimisation (refines the sampled result).
 
 Exit 0 on success; bad arguments or inputs print one line "texsynth_cli: error: ..." and exit 2
 (arguments) or 1 (inputs, synthesis failures).
@@ -52,9 +55,18 @@ def parse_args(argv):
     target.add_argument("--object", action="append", metavar="NAME",
                         help="mesh object in the opened scene (repeatable)")
     target.add_argument("--mesh", metavar="FILE", help=".obj, .ply or .stl file to import")
-    parser.add_argument("--method", default="jumpmap", choices=["jumpmap", "texton", "round"])
+    parser.add_argument("--method", default="jumpmap", choices=["jumpmap", "texton", "round", "patches"])
     parser.add_argument("--target", choices=("image", "vertices"), default=None,
-                        help="round: colours per texel of the --bake image (default) or per vertex")
+                        help="round, patches: colours per texel of the --bake image (default) or per vertex")
+    parser.add_argument("--mode", choices=("sampling", "optimisation", "optimization"), default=None,
+                        help="patches: sampling (default) pastes matched patches; optimisation refines them")
+    parser.add_argument("--patch-size", type=int, default=None, help="patches: patch size in sample pixels "
+                        "(multiple of 4, 8-64; default 32)")
+    parser.add_argument("--boundary-width", type=int, default=None,
+                        help="patches: boundary zone matched and cross-faded, in sample pixels (default 4)")
+    parser.add_argument("--tolerance", type=float, default=None,
+                        help="patches: candidates within this factor of the best match are equally likely (default 1.2)")
+    parser.add_argument("--iterations", type=int, default=None, help="patches, optimisation: iterations (default 6)")
     parser.add_argument("--levels", type=int, default=3, help="round: resolution levels on the surface (1-6)")
     parser.add_argument("--coarse-rings", type=int, default=4, help="round: neighbourhood rings, coarsest level")
     parser.add_argument("--fine-rings", type=int, default=2, help="round: neighbourhood rings, finer levels")
@@ -105,12 +117,25 @@ def parse_args(argv):
         raise UsageError("--scale-range must be two positive numbers, got %s" % list(args.scale_range))
     if args.resolution and not all(4 <= v <= 16384 for v in args.resolution):
         raise UsageError("--resolution must be two integers in [4, 16384], got %s" % args.resolution)
-    if args.target is not None and args.method != "round":
-        raise UsageError("--target is for --method round")
+    surface = args.method in ("round", "patches")
+    if args.target is not None and not surface:
+        raise UsageError("--target is for --method round or patches")
+    patch_options = [name for name in ("mode", "patch_size", "boundary_width", "tolerance", "iterations")
+                     if getattr(args, name) is not None]
+    if patch_options and args.method != "patches":
+        raise UsageError("--%s is for --method patches" % patch_options[0].replace("_", "-"))
+    if args.iterations is not None and (args.mode or "sampling") == "sampling":
+        raise UsageError("--iterations is for --mode optimisation")
+    args.mode = {"optimization": "optimisation"}.get(args.mode, args.mode or "sampling")
+    args.patch_size = 32 if args.patch_size is None else args.patch_size
+    args.boundary_width = 4 if args.boundary_width is None else args.boundary_width
+    args.tolerance = 1.2 if args.tolerance is None else args.tolerance
+    args.iterations = 6 if args.iterations is None else args.iterations
     args.target = args.target or "image"
-    if args.method == "round" and args.bake_material:
-        raise UsageError("--bake-material is for baking jump-map or texton results; --method round uses --material")
-    if args.method == "round" and args.target == "vertices" and args.bake is not None:
+    if surface and args.bake_material:
+        raise UsageError("--bake-material is for baking jump-map or texton results; --method %s uses --material"
+                         % args.method)
+    if surface and args.target == "vertices" and args.bake is not None:
         raise UsageError("--target vertices writes a colour attribute: drop --bake")
     check_bake_args(args)
     for option in ("save", "render", "stats", "bake"):
@@ -287,7 +312,10 @@ def main(argv):
                                  scale_max=args.scale_range[1], surface_target=args.target.upper(),
                                  round_levels=args.levels, round_coarse_rings=args.coarse_rings,
                                  round_fine_rings=args.fine_rings, round_candidates=args.candidates,
-                                 round_resolution=args.synthesis_resolution.upper())
+                                 round_resolution=args.synthesis_resolution.upper(),
+                                 patch_mode=args.mode.upper(), patch_size=args.patch_size,
+                                 patch_boundary=args.boundary_width, patch_tolerance=args.tolerance,
+                                 patch_iterations=args.iterations)
     sample = synthesis.Sample(path=os.path.abspath(args.sample))
     surface = settings.method in pipeline.SURFACE_METHODS
     try:
@@ -296,7 +324,8 @@ def main(argv):
             from texsynth.bake import options
             from texsynth.surface_colour import synthesis as surface_synthesis
             request = bake_request(args, options) if args.bake else options.BakeRequest(create_uv=True)
-            report = surface_synthesis.synthesize(objects, sample, settings, request, args.material.upper())
+            report = surface_synthesis.synthesize(objects, sample, settings, request, args.material.upper(),
+                                                  cache_dir=args.cache_dir or synthesis.default_cache_dir())
         else:
             report = synthesis.synthesize(objects, sample, settings, args.cache_dir or None, args.material.upper())
     except (ValueError, RuntimeError) as error:

@@ -14,14 +14,19 @@ import numpy as np
 
 from .. import native
 
-METHODS = ("JUMPMAP", "TEXTON", "ROUND")
-IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON", "ROUND")
+METHODS = ("JUMPMAP", "TEXTON", "ROUND", "PATCHES")
+IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON", "ROUND", "PATCHES")
 UV_METHODS = ("JUMPMAP", "TEXTON")   # write coordinates into the sample + blend data (uv_methods/)
-SURFACE_METHODS = ("ROUND",)         # write a colour per surface sample (surface_colour/)
+SURFACE_METHODS = ("ROUND", "PATCHES")  # write a colour per surface sample (surface_colour/)
 SURFACE_TARGETS = ("IMAGE", "VERTICES")
 # Round neighbourhoods: the native limits (round_synth.hpp) and the defaults the README measures.
 ROUND_LEVEL_RANGE, ROUND_RING_RANGE, ROUND_CANDIDATE_RANGE = (1, 6), (1, 6), (0, 16)
 ROUND_RESOLUTIONS = ("AUTO", "FULL")
+# Vector-field patches (patches/patch_synth.hpp): SAMPLING pastes matched patches (paper §5), OPTIMISATION
+# refines that result by texture optimisation (§4.3). Sizes in sample pixels.
+PATCH_MODES = ("SAMPLING", "OPTIMISATION")
+PATCH_SIZE_RANGE, PATCH_BOUNDARY_RANGE = (8, 64), (1, 16)
+PATCH_TOLERANCE_RANGE, PATCH_ITERATION_RANGE = (1.0, 4.0), (1, 50)
 ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
 SCALE_SOURCES = ("NONE", "ATTRIBUTE", "VERTEX_GROUP")
 BLEND_MODES = ("AUTO", "HISTOGRAM", "VARIANCE", "LINEAR")  # see blend_groups.py
@@ -100,6 +105,11 @@ class Settings:
     round_candidates: int = 2       # random candidates per point at the coarsest level
     # AUTO: a sample finer than the target is reduced to the target's density first (surface_colour/core.py)
     round_resolution: str = "AUTO"
+    patch_mode: str = "SAMPLING"
+    patch_size: int = 32            # w_B, a multiple of 4
+    patch_boundary: int = 4         # W_E: the boundary zone matched and cross-faded
+    patch_tolerance: float = 1.2    # candidates within this factor of the best match are equally likely
+    patch_iterations: int = 6       # OPTIMISATION: EM iterations (the last one a discrete vote)
 
     def validate(self):
         """Raises SettingsError naming the first bad setting; returns self."""
@@ -150,7 +160,27 @@ class Settings:
                 if not isinstance(value, int) or isinstance(value, bool) or not low <= value <= high:
                     raise SettingsError("%s must be an integer in [%d, %d], got %r"
                                         % (name.replace("_", " "), low, high, value))
+        if self.method == "PATCHES":
+            self._validate_patches()
         return self
+
+    def _validate_patches(self):
+        if self.patch_mode not in PATCH_MODES:
+            raise SettingsError("unknown patch mode %r (choose one of %s)" % (self.patch_mode, ", ".join(PATCH_MODES)))
+        low, high = PATCH_SIZE_RANGE
+        if not _is_int(self.patch_size) or not low <= self.patch_size <= high or self.patch_size % 4:
+            raise SettingsError("patch size must be a multiple of 4 in [%d, %d] sample pixels, got %r"
+                                % (low, high, self.patch_size))
+        low, high = PATCH_BOUNDARY_RANGE
+        if not _is_int(self.patch_boundary) or not low <= self.patch_boundary <= min(high, self.patch_size // 2):
+            raise SettingsError("boundary width must be an integer in [%d, %d] (at most half the patch size), got %r"
+                                % (low, min(high, self.patch_size // 2), self.patch_boundary))
+        low, high = PATCH_TOLERANCE_RANGE
+        if not (_finite(self.patch_tolerance) and low <= self.patch_tolerance <= high):
+            raise SettingsError("tolerance must be a number in [%g, %g], got %r" % (low, high, self.patch_tolerance))
+        low, high = PATCH_ITERATION_RANGE
+        if not _is_int(self.patch_iterations) or not low <= self.patch_iterations <= high:
+            raise SettingsError("iterations must be an integer in [%d, %d], got %r" % (low, high, self.patch_iterations))
 
     def resolved_blend_mode(self):
         return AUTO_BLEND_MODE.get(self.method, "HISTOGRAM") if self.blend_mode == "AUTO" else self.blend_mode
@@ -158,6 +188,10 @@ class Settings:
     def preprocess_params(self):
         """Keyword arguments of texsynth_native.preprocess / cache_status that key the cache."""
         return {"neighbourhood": self.neighbourhood, "tileable": bool(self.tileable), "seed": 0}
+
+
+def _is_int(value):
+    return isinstance(value, int) and not isinstance(value, bool)
 
 
 def _finite(value):

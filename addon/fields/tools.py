@@ -80,13 +80,24 @@ def _report_warning(operator, warning):
         operator.report({"WARNING"}, warning)
 
 
+# Vector-field patches preview after a field edit: patch sampling into an image of at most this size
+# (the analysed sample stays in memory), so combing gives feedback in a fraction of a second.
+PATCH_PREVIEW_SIZE = 256
+
+
 def live_update(context, obj):
     """Re-synthesizes obj with the sample kept in memory, reading the field just written.
-    Only rewrites the UV layers and weights (materials are left as they are)."""
+    UV methods only rewrite the UV layers and weights (materials are left as they are); vector-field
+    patches rewrite the object's image at preview size (Synthesize makes the full-size one)."""
     props = context.scene.texsynth
     settings = props.to_settings()
     if settings.orientation == "AXIS":
         settings.orientation, settings.direction_attribute = "FIELD", authoring.DIRECTION_NAME
+    if settings.method == "PATCHES":
+        return _patch_preview(context, obj, props, settings)
+    if settings.method in pipeline.SURFACE_METHODS:
+        raise pipeline.SettingsError("live update is not available for %s: press Synthesize"
+                                     % props.bl_rna.properties["method"].enum_items[settings.method].name)
     settings.validate()
     sample = operators.sample_from_settings(props)
     cache_dir = properties.cache_dir(context)
@@ -100,6 +111,24 @@ def live_update(context, obj):
     report = synthesis.synthesize([obj], sample, settings, cache_dir, "NONE", preprocessed=pre)
     last_timings["live_update"] = time.perf_counter() - start
     last_timings["live_native"] = report.native_stats.get(obj.name, {}).get("seconds", 0.0)
+    if report.failures:
+        raise pipeline.SettingsError(report.summary())
+    return report
+
+
+def _patch_preview(context, obj, props, settings):
+    from ..surface_colour import synthesis as surface_synthesis
+    settings.patch_mode = "SAMPLING"
+    settings.validate()
+    request = props.to_bake_request()
+    request.size = min(int(request.size), PATCH_PREVIEW_SIZE)
+    request.margin = min(int(request.margin), 4)
+    start = time.perf_counter()
+    report = surface_synthesis.synthesize([obj], operators.sample_from_settings(props), settings, request,
+                                          props.material_mode, context=context,
+                                          cache_dir=properties.cache_dir(context))
+    last_timings["live_update"] = time.perf_counter() - start
+    last_timings["live_native"] = report.native_stats.get(obj.name, {}).get("seconds_synthesis", 0.0)
     if report.failures:
         raise pipeline.SettingsError(report.summary())
     return report

@@ -1,13 +1,14 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """bpy-free part of the surface-colour methods: the sample in the synthesizer's row order and colour
-space, the direction field, the direction-invariant context kept for re-synthesis, and the native call.
+space, the direction field, the direction-invariant context kept for re-synthesis, and the native calls.
 
-Round neighbourhoods (Chen & Dong 2008) synthesize values as the sample stores them; the bpy layer
-decides the output's colour space (an sRGB byte image keeps them, a float image or a colour attribute
-gets linear values).
+Round neighbourhoods (Chen & Dong 2008) and vector-field patches (Chen, Liu & Dong) synthesize values as
+the sample stores them; the bpy layer decides the output's colour space (an sRGB byte image keeps them, a
+float image or a colour attribute gets linear values).
 """
 import dataclasses
 import hashlib
+import os
 import threading
 
 import numpy as np
@@ -16,7 +17,12 @@ from .. import native
 from ..core import pipeline
 
 COLOUR_ATTRIBUTE_NAME = "TexSynth_Colour"  # VERTICES target: FLOAT_COLOR point attribute
-IMAGE_PREFIX = "TexSynth Round: "          # default image name for the IMAGE target
+IMAGE_PREFIXES = {"ROUND": "TexSynth Round: ", "PATCHES": "TexSynth Patches: "}  # default IMAGE target names
+# Vector-field patches: patch centres spaced at this fraction of the patch size (note 001, "Coverage"):
+# half a patch for sampling, a quarter for optimisation (each sample then sees ~16 patches).
+PATCH_CENTRE_SPACING = {"SAMPLING": 0.5, "OPTIMISATION": 0.25}
+PATCH_MAX_MEGABYTES = 2500.0
+MAX_OVERLAP_FRACTION = 0.01  # as round_synth.hpp: a few folded texels are accepted, overlapping islands not
 
 
 def linear_to_srgb(values):
@@ -225,5 +231,171 @@ def synthesize_round(sample, mesh_arrays, triangles, corner_uvs, settings, seed,
         "sample_pixels_per_spacing": float(full_width / float(sample.shape[1]) * texels_per_unit / density)
         if density > 0.0 else 0.0,
         "levels": [dict(level) for level in native_stats.get("levels", [])],
+    }
+    return result
+
+
+class ExemplarCache:
+    """Analysed samples for vector-field patches (appearance PCA, patch features, HNSW indices): the last
+    one in memory (a new field or seed reuses it: the live preview), and on disk under cache_dir when
+    given, keyed by the pixels and every parameter that changes the analysis."""
+
+    def __init__(self):
+        self.entry = None  # (key, exemplar)
+        self.lock = threading.Lock()
+
+    @staticmethod
+    def key(sample, patch_size, boundary, tileable):
+        digest = hashlib.blake2b(digest_size=16)
+        digest.update(str(sample.shape).encode())
+        digest.update(np.ascontiguousarray(sample).data)
+        digest.update(repr((int(patch_size), int(boundary), bool(tileable), 1)).encode())
+        return digest.hexdigest()
+
+    def get(self, sample, patch_size, boundary, tileable, cache_dir="", cancel=None):
+        """(exemplar, how): how is 'memory', 'disk' or 'built'."""
+        module = native.require()
+        key = self.key(sample, patch_size, boundary, tileable)
+        with self.lock:
+            if self.entry is not None and self.entry[0] == key:
+                return self.entry[1], "memory"
+        path = os.path.join(cache_dir, "patches-%s.tsx" % key) if cache_dir else ""
+        exemplar, how = None, "built"
+        if path and os.path.exists(path):
+            try:
+                exemplar, how = module.load_patch_exemplar(path), "disk"
+            except ValueError:
+                exemplar = None  # stale or corrupt: rebuilt and overwritten below
+        if exemplar is None:
+            extra = {} if cancel is None else {"cancel": cancel}
+            exemplar = module.patch_exemplar(sample, patch_size=int(patch_size), band_width=int(boundary),
+                                             tileable=bool(tileable), **extra)
+            if path:
+                os.makedirs(cache_dir, exist_ok=True)
+                exemplar.save(path)
+        with self.lock:
+            self.entry = (key, exemplar)
+        return exemplar, how
+
+    def clear(self):
+        with self.lock:
+            self.entry = None
+
+
+exemplars = ExemplarCache()
+
+
+def vertex_samples(positions, triangles):
+    """The VERTICES target's surface samples: each vertex used by a triangle, in the first triangle that
+    has it (barycentrics of that corner), with area-weighted normals. Returns (vertex ids, positions,
+    normals, triangle, barycentrics)."""
+    positions = np.asarray(positions, dtype=np.float32)
+    triangles = np.asarray(triangles, dtype=np.int32)
+    corners = triangles.ravel()
+    used, first = np.unique(corners, return_index=True)
+    tri = (first // 3).astype(np.int32)
+    corner = first % 3
+    bary = np.zeros((used.size, 2), np.float32)
+    bary[corner == 1, 0] = 1.0
+    bary[corner == 2, 1] = 1.0
+    p = positions.astype(np.float64)[triangles]
+    face_normals = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    normals = np.zeros((positions.shape[0], 3), np.float64)
+    for k in range(3):
+        np.add.at(normals, triangles[:, k], face_normals)
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = np.where(length > 0, normals / np.maximum(length, 1e-300), [0.0, 0.0, 1.0])
+    return used, positions[used], normals[used].astype(np.float32), tri, bary
+
+
+def estimate_patch_megabytes(samples, mode, patch_size):
+    """Peak memory of a patch synthesis (MB): every grid point (face, barycentrics, position, cell flag:
+    25 B) and every (sample, patch) pair of the coverage, held both ways round (24 B)."""
+    spacing = PATCH_CENTRE_SPACING[mode] * patch_size
+    entries = samples * ((patch_size + 4.0) / spacing) ** 2
+    return entries * 49.0 / 1e6
+
+
+def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, seed, texels_per_unit, target,
+                       cancel=None, stage=None, cache_dir="", cache=exemplars):
+    """Vector-field patch synthesis on one mesh (same contract as synthesize_round): IMAGE target ->
+    'image' (H, W, C) with the bake margin filled and 'mask' (1 covered, 2 margin); VERTICES -> 'vertex_colour'
+    (V, C). ValueError on bad input (overlapping UV islands, a target above the memory limit, ...)."""
+    module = native.require()
+    if mesh_arrays.num_faces == 0 or triangles.shape[0] == 0:
+        raise pipeline.SettingsError("mesh has no faces")
+    stage = stage or (lambda name: None)
+    extra = {} if cancel is None else {"cancel": cancel}
+    up = directions(mesh_arrays, settings)
+    density = target_density(mesh_arrays.positions, triangles, corner_uvs, target)
+    full_width = sample.shape[1]
+    sample, texels_per_unit = working_sample(sample, texels_per_unit, density, settings.round_resolution,
+                                             2 * settings.patch_size)
+    stage("context")
+    if target.kind == "IMAGE":
+        texels = module.sample_texels(mesh_arrays.positions, triangles, corner_uvs, int(target.width),
+                                      int(target.height), margin=int(target.margin), **extra)
+        covered = int(texels["texel"].size)
+        if covered == 0:
+            raise pipeline.SettingsError("the UV map covers no texel of a %dx%d image" % (target.width, target.height))
+        overlapping = int(texels["num_overlapping_texels"])
+        if overlapping > MAX_OVERLAP_FRACTION * covered:
+            raise pipeline.SettingsError(
+                "UV map has overlapping islands: %d of %d texels are covered twice; unwrap without overlaps "
+                "(or let TexSynth make a map with Smart UV Project)" % (overlapping, covered))
+        positions, normals = texels["position"], texels["normal"]
+        tri, bary = texels["triangle"], texels["barycentric"]
+    else:
+        vertex_ids, positions, normals, tri, bary = vertex_samples(mesh_arrays.positions, triangles)
+        overlapping = 0
+    mode = settings.patch_mode
+    needed = estimate_patch_megabytes(positions.shape[0], mode, settings.patch_size)
+    if needed > PATCH_MAX_MEGABYTES:
+        raise pipeline.SettingsError(
+            "%d surface samples in %s mode need about %d MB (limit %d MB): use a smaller image, sampling mode or "
+            "larger patches" % (positions.shape[0], mode.lower(), needed, PATCH_MAX_MEGABYTES))
+    exemplar, exemplar_from = cache.get(sample, settings.patch_size, settings.patch_boundary, settings.tileable,
+                                        cache_dir, cancel)
+    field = module.patch_field(mesh_arrays.positions, triangles, up, spacing=1.0 / float(texels_per_unit),
+                               density=mesh_arrays.scale_multiplier, **extra)
+    stage("synthesis")
+    native_result = module.synthesize_patches(
+        field, exemplar, sample, positions, normals, tri, bary, mode=mode.lower(), seed=int(seed),
+        centre_spacing=PATCH_CENTRE_SPACING[mode], tolerance=float(settings.patch_tolerance),
+        iterations=int(settings.patch_iterations), **extra)
+    colour = native_result["colour"]
+    channels = colour.shape[1]
+    result = {}
+    if target.kind == "IMAGE":
+        image = np.zeros((int(target.height) * int(target.width), channels), np.float32)
+        mask = np.zeros(int(target.height) * int(target.width), np.uint8)
+        image[texels["texel"]] = colour
+        mask[texels["texel"]] = 1
+        image[texels["gutter_texel"]] = colour[texels["gutter_source"]]
+        mask[texels["gutter_texel"]] = 2
+        result["image"] = image.reshape(int(target.height), int(target.width), channels)
+        result["mask"] = mask.reshape(int(target.height), int(target.width))
+    else:
+        vertex_colour = np.zeros((mesh_arrays.positions.shape[0], channels), np.float32)
+        vertex_colour[vertex_ids] = colour
+        result["vertex_colour"] = vertex_colour
+    native_stats = dict(native_result["stats"])
+    seconds = sum(float(native_stats[k]) for k in ("seconds_centres", "seconds_trace", "seconds_locate",
+                                                    "seconds_sampling", "seconds_optimisation"))
+    result["context_reused"] = False
+    result["stats"] = {
+        "seconds_synthesis": seconds,
+        "surface_samples": int(positions.shape[0]),
+        "overlapping_texels": overlapping,
+        "working_sample": [int(sample.shape[1]), int(sample.shape[0])],
+        "target_density": density,
+        "sample_pixels_per_spacing": float(full_width / float(sample.shape[1]) * texels_per_unit / density)
+        if density > 0.0 else 0.0,
+        "exemplar": exemplar_from,
+        "patch_size": int(exemplar.patch_size),
+        "mode": mode,
+        "patches": int(native_stats["patches"]),
+        "unreached_samples": int(native_stats["uncovered_samples"]),
+        "native": native_stats,
     }
     return result

@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""One Synthesize run of a surface-colour method (round neighbourhoods) over Blender objects, shared by
+"""One Synthesize run of a surface-colour method (round neighbourhoods, vector-field patches) over Blender
+objects, shared by
 the operator and the CLI. Same stages as uv_methods.synthesis.Job:
 
 prepare()  main thread: validates, reads every mesh (loop triangles and the target UV map) and the
@@ -48,8 +49,9 @@ class _Item:
 
 
 class Job:
-    def __init__(self, objects, sample, settings, request=None, material_mode="NEW", context=None):
+    def __init__(self, objects, sample, settings, request=None, material_mode="NEW", context=None, cache_dir=""):
         self.objects, self.sample, self.settings = objects, sample, settings
+        self.cache_dir = cache_dir  # PATCHES: where analysed samples are kept ('' = memory only)
         self.request = request or options.BakeRequest(create_uv=True)
         self.material_mode, self.context = material_mode, context or bpy.context
         self.report, self.timings = pipeline.Report(uses_cache=False), pipeline.Timings()
@@ -103,7 +105,7 @@ class Job:
 
     def _prepare_image_target(self, item):
         obj, request = item.obj, self.request
-        name = request.target or core.IMAGE_PREFIX + obj.name
+        name = request.target or core.IMAGE_PREFIXES[self.settings.method] + obj.name
         item.target = options.resolve_target(name, obj.name, request.save_mode, bpy.data.filepath)
         item.uv_map = baking.choose_uv_map(obj.data, request)
         if item.uv_map is None:
@@ -165,12 +167,18 @@ class Job:
                 size = self.request.size
                 target = core.SurfaceTarget(target_kind, size, size, self.request.margin) \
                     if target_kind == "IMAGE" else core.SurfaceTarget("VERTICES")
+                seed = pipeline.object_seed(self.settings.seed, item.obj.name)
                 try:
                     with self.timings.phase("synthesis"):
-                        item.result = core.synthesize_round(
-                            self.sample_array, item.arrays, item.triangles, item.corner_uvs, self.settings,
-                            pipeline.object_seed(self.settings.seed, item.obj.name), self.texels_per_unit, target,
-                            self.token, stage=self._set_stage(index))
+                        if self.settings.method == "PATCHES":
+                            item.result = core.synthesize_patches(
+                                self.sample_array, item.arrays, item.triangles, item.corner_uvs, self.settings, seed,
+                                self.texels_per_unit, target, self.token, stage=self._set_stage(index),
+                                cache_dir=self.cache_dir)
+                        else:
+                            item.result = core.synthesize_round(
+                                self.sample_array, item.arrays, item.triangles, item.corner_uvs, self.settings, seed,
+                                self.texels_per_unit, target, self.token, stage=self._set_stage(index))
                 except module.Cancelled:
                     raise
                 except (ValueError, RuntimeError) as error:
@@ -216,6 +224,10 @@ class Job:
                                                            == "IMAGE" else "subdivide the mesh"))
                 if stats.get("context_reused"):
                     self.report.outputs.append("%s: neighbourhoods reused (only the synthesis ran)" % name)
+                if stats.get("unreached_samples"):
+                    self.report.notes.append(
+                        "%s: %d surface samples lie where no patch reached (along boundaries or next to field "
+                        "singularities): they continue the nearest patch" % (name, stats["unreached_samples"]))
             except (ValueError, RuntimeError, ReferenceError) as error:
                 if item.created_uv:
                     baking.remove_uv_map(item.obj.data, item.created_uv)
@@ -267,9 +279,10 @@ class Job:
         self.report.outputs.append("%s: colour attribute %r" % (item.obj.name, core.COLOUR_ATTRIBUTE_NAME))
 
 
-def synthesize(objects, sample, settings, request=None, material_mode="NEW", progress=None, context=None):
+def synthesize(objects, sample, settings, request=None, material_mode="NEW", progress=None, context=None,
+               cache_dir=""):
     """Runs every stage; returns the pipeline.Report (discarding prepare()'s changes on failure)."""
-    job = Job(objects, sample, settings, request, material_mode, context).prepare()
+    job = Job(objects, sample, settings, request, material_mode, context, cache_dir).prepare()
     try:
         job.compute(progress)
     except BaseException:

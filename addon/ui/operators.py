@@ -109,7 +109,8 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
         if settings.method in pipeline.SURFACE_METHODS:
             from ..surface_colour import synthesis as surface_synthesis
             return surface_synthesis.Job(objects, sample_from_settings(props), settings, props.to_bake_request(),
-                                         props.material_mode, context)
+                                         props.material_mode, context,
+                                         properties.cache_dir(context) or synthesis.default_cache_dir())
         return synthesis.Job(objects, sample_from_settings(props), settings, properties.cache_dir(context),
                              props.material_mode, context.scene)
 

@@ -70,6 +70,17 @@ class TEXSYNTH_PT_method(_SubPanel, bpy.types.Panel):
         layout.prop(props, "seed")
         if props.method == "JUMPMAP":
             layout.prop(props, "jump_rate")
+        if props.method == "PATCHES":
+            layout.prop(props, "patch_mode", text="")
+            column = layout.column(align=True)
+            column.prop(props, "patch_size")
+            column.prop(props, "patch_boundary")
+            column.prop(props, "patch_tolerance")
+            if props.patch_mode == "OPTIMISATION":
+                column.prop(props, "patch_iterations")
+            layout.label(text="Synthesis Resolution:")
+            layout.prop(props, "round_resolution", text="")
+            return
         if props.method in pipeline.SURFACE_METHODS:
             column = layout.column(align=True)
             column.prop(props, "round_levels")

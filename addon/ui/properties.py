@@ -24,7 +24,11 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                             "better on structured samples"),
                ("ROUND", "Round Neighbourhoods", "Pixel-level synthesis on the surface (Chen & Dong): a colour "
                                                  "per texel of an image through a UV map, or per vertex; no "
-                                                 "seams across UV islands")),
+                                                 "seams across UV islands"),
+               ("PATCHES", "Vector-Field Patches", "Whole sample patches resampled along the direction field "
+                                                   "(Chen, Liu & Dong): large, structured samples (bricks, weaves, "
+                                                   "scales) follow the field without distortion; colours per texel "
+                                                   "or per vertex")),
         default="JUMPMAP")
     surface_target: bpy.props.EnumProperty(
         name="Target",
@@ -50,6 +54,27 @@ class TexSynthSettings(bpy.types.PropertyGroup):
         name="Random Candidates", default=2, min=pipeline.ROUND_CANDIDATE_RANGE[0],
         max=pipeline.ROUND_CANDIDATE_RANGE[1],
         description="Random sample positions tried per point at the coarsest level: more gives more variety")
+    patch_mode: bpy.props.EnumProperty(
+        name="Mode",
+        items=(("SAMPLING", "Patch Sampling", "Paste patches whose boundary zones match what is already there "
+                                              "(fast; the live preview uses it)"),
+               ("OPTIMISATION", "Optimisation", "Start from patch sampling, then refine every patch by texture "
+                                                "optimisation (slower, fewer broken structures)")),
+        default="SAMPLING")
+    patch_size: bpy.props.IntProperty(
+        name="Patch Size", default=32, min=pipeline.PATCH_SIZE_RANGE[0], max=pipeline.PATCH_SIZE_RANGE[1], step=4,
+        description="Patch width in sample pixels (a multiple of 4): larger keeps larger structures whole")
+    patch_boundary: bpy.props.IntProperty(
+        name="Boundary", default=4, min=pipeline.PATCH_BOUNDARY_RANGE[0], max=pipeline.PATCH_BOUNDARY_RANGE[1],
+        description="Width in sample pixels of the zone where a new patch is matched and cross-faded into its "
+                    "neighbours")
+    patch_tolerance: bpy.props.FloatProperty(
+        name="Tolerance", default=1.2, min=pipeline.PATCH_TOLERANCE_RANGE[0], max=pipeline.PATCH_TOLERANCE_RANGE[1],
+        description="Candidates matching within this factor of the best are equally likely: higher gives more "
+                    "variety, lower better fits")
+    patch_iterations: bpy.props.IntProperty(
+        name="Iterations", default=6, min=pipeline.PATCH_ITERATION_RANGE[0], max=pipeline.PATCH_ITERATION_RANGE[1],
+        description="Optimisation passes over every patch")
     scale: bpy.props.FloatProperty(name="Scale", subtype="DISTANCE", default=1.0, min=1e-4, soft_max=100.0,
                                    description="World size of the sample's width: one sample spans this many "
                                                "world units on every selected object")
@@ -171,7 +196,10 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                  round_levels=int(self.round_levels), round_coarse_rings=int(self.round_coarse_rings),
                                  round_fine_rings=int(self.round_fine_rings),
                                  round_candidates=int(self.round_candidates),
-                                 round_resolution=self.round_resolution)
+                                 round_resolution=self.round_resolution, patch_mode=self.patch_mode,
+                                 patch_size=int(self.patch_size) // 4 * 4, patch_boundary=int(self.patch_boundary),
+                                 patch_tolerance=float(self.patch_tolerance),
+                                 patch_iterations=int(self.patch_iterations))
 
 
 class TexSynthPreferences(bpy.types.AddonPreferences):

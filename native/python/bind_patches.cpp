@@ -191,7 +191,7 @@ void bind_patches(py::module_& m) {
       [](const texsynth::PatchField& field, const texsynth::ExemplarIndex& exemplar, py::object pixels,
          py::object positions, py::object normals, py::object triangles, py::object barycentrics,
          const std::string& mode, uint64_t seed, double centre_spacing, double tolerance, int candidates,
-         int iterations, double robust_exponent, bool exhaustive, py::object cancel, py::object progress) {
+         int iterations, double robust_exponent, bool exhaustive, bool discrete, py::object cancel) {
         FloatArray px = float_array(pixels, "sample");
         if (px.ndim() != 3) throw std::invalid_argument("sample must have shape (height, width, channels)");
         FloatArray pos = float_array(positions, "positions");
@@ -228,8 +228,9 @@ void bind_patches(py::module_& m) {
         params.synth.iterations = iterations;
         params.synth.robust_exponent = robust_exponent;
         params.synth.exhaustive = exhaustive;
+        params.synth.discrete = discrete;
         params.synth.cancel = cancel_flag(cancel);
-        params.synth.progress = progress_slot(progress);
+        params.synth.progress = progress_slot(cancel);
         texsynth::SurfacePatchResult r;
         {
           py::gil_scoped_release release;
@@ -261,11 +262,10 @@ void bind_patches(py::module_& m) {
       py::arg("field"), py::arg("exemplar"), py::arg("sample"), py::arg("positions"), py::arg("normals"),
       py::arg("triangles"), py::arg("barycentrics"), py::kw_only(), py::arg("mode") = "sampling",
       py::arg("seed") = 0, py::arg("centre_spacing") = 0.5, py::arg("tolerance") = 1.2, py::arg("candidates") = 16,
-      py::arg("iterations") = 6, py::arg("robust_exponent") = 0.8, py::arg("exhaustive") = true,
+      py::arg("iterations") = 6, py::arg("robust_exponent") = 0.8, py::arg("exhaustive") = true, py::arg("discrete") = false,
       py::arg("cancel") = py::none(),
-      py::arg("progress") = py::none(),
       "Vector-field patch synthesis onto N surface samples (positions (N, 3), normals (N, 3) or None, triangles "
       "(N,), barycentrics (N, 2) in the field's mesh): mode 'sampling' (§5) or 'optimisation' (§4.3, from the "
       "sampling result). Returns dict: colour (N, C), source (N, 2) exemplar pixel coordinates (-1: uncovered), "
-      "origin (patches, 2), stats.");
+      "origin (patches, 2), stats. cancel: a CancelToken, whose progress the call updates.");
 }

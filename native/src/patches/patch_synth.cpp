@@ -25,6 +25,9 @@ namespace {
 
 constexpr float kKnownWeight = 0.25f;
 constexpr double kWindowKnownFraction = 1.0;  // a window with an unknown point is an unknown cell
+// ... unless no cell near the frontier is fully known (a thin sliver of settled samples): then windows
+// this full are used, mean-filled, rather than pasting a random patch.
+constexpr double kSparseWindowKnownFraction = 0.5;
 constexpr double kStopChanged = 0.01;
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -91,7 +94,7 @@ struct GridColours {
 
 // The query of one patch for `index`: raw appearance per cell and a known mask.
 void patch_query(const GridColours& g, const PatchIndex& index, const AppearanceSpace& space, std::vector<float>& raw,
-                 std::vector<uint8_t>& valid, std::vector<float>& window) {
+                 std::vector<uint8_t>& valid, std::vector<float>& window, double known_fraction = kWindowKnownFraction) {
   const int d = index.appearance_dims, C = g.C;
   raw.assign(index.cells.size() * size_t(d), 0.f);
   valid.assign(index.cells.size(), 0);
@@ -106,7 +109,7 @@ void patch_query(const GridColours& g, const PatchIndex& index, const Appearance
           ++known;
           for (int c = 0; c < C; ++c) mean[c] += g.at(ci + dx, cj + dy)[c];
         }
-    if (known < kWindowKnownFraction * 25) continue;
+    if (known < known_fraction * 25) continue;
     for (int c = 0; c < C; ++c) mean[c] /= known;
     for (int dy = -2; dy <= 2; ++dy)
       for (int dx = -2; dx <= 2; ++dx) {
@@ -119,14 +122,19 @@ void patch_query(const GridColours& g, const PatchIndex& index, const Appearance
   }
 }
 
-// Every origin's raw feature (and its square) as rows, for exact masked searches.
+// Every origin's raw feature (and its square), one row per origin, column-major so that the few
+// columns of the known cells are contiguous blocks.
 struct DenseFeatures {
-  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> features, squared;
+  Eigen::MatrixXf features, squared;
   DenseFeatures(const PatchIndex& index, const ExemplarAppearance& app) {
     const int64_t D = int64_t(index.cells.size()) * index.appearance_dims;
     features.resize(index.count(), D);
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, index.count(), 1024), [&](const tbb::blocked_range<int32_t>& r) {
-      for (int32_t id = r.begin(); id < r.end(); ++id) index.raw_feature(app, id, features.row(id).data());
+      std::vector<float> row(static_cast<size_t>(D));
+      for (int32_t id = r.begin(); id < r.end(); ++id) {
+        index.raw_feature(app, id, row.data());
+        for (int64_t i = 0; i < D; ++i) features(id, i) = row[size_t(i)];
+      }
     });
     squared = features.cwiseProduct(features);
   }
@@ -140,18 +148,19 @@ std::vector<std::pair<double, int32_t>> ranked_candidates(const PatchIndex& inde
                                                           std::vector<float>& reduced, std::vector<float>& feature) {
   std::vector<std::pair<double, int32_t>> out;
   if (dense) {
-    // Every origin, exact distance over the known cells: Σ m f² − 2 f·(m q) + Σ m q², two matrix-vector
-    // products over the origins' raw features (the paper's "Exhaustive" column, without its cost).
-    const int64_t D = int64_t(raw.size());
+    // Every origin, exact distance over the known cells: Σ m f² − 2 f·(m q) + Σ m q², summed cell by
+    // cell over column blocks of the origins' features (the paper's "Exhaustive" column, at the cost
+    // of the known cells only).
     const int d = index.appearance_dims;
-    Eigen::VectorXf m(D), mq(D);
+    Eigen::VectorXf a = Eigen::VectorXf::Zero(index.count()), b = Eigen::VectorXf::Zero(index.count());
     double qq = 0;
-    for (int64_t i = 0; i < D; ++i) {
-      m[i] = valid[size_t(i / d)] ? 1.f : 0.f;
-      mq[i] = m[i] * raw[size_t(i)];
-      qq += double(mq[i]) * raw[size_t(i)];
+    for (size_t c = 0; c < valid.size(); ++c) {
+      if (!valid[c]) continue;
+      const Eigen::Map<const Eigen::VectorXf> q(raw.data() + c * d, d);
+      a.noalias() += dense->squared.middleCols(Eigen::Index(c) * d, d).rowwise().sum();
+      b.noalias() += dense->features.middleCols(Eigen::Index(c) * d, d) * q;
+      qq += double(q.squaredNorm());
     }
-    const Eigen::VectorXf a = dense->squared * m, b = dense->features * mq;
     out.resize(size_t(index.count()));
     for (int32_t id = 0; id < index.count(); ++id) out[size_t(id)] = {std::max(0.0, double(a[id]) - 2.0 * b[id] + qq), id};
     const size_t keep = std::min(out.size(), size_t(k));
@@ -400,10 +409,19 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
     if (cov.patch_start[pid] == cov.patch_start[size_t(pid) + 1]) continue;  // covers no sample
     grid.splat(cov, pid, out.colour, settled);
     if (!frontier_distance(grid, w, frontier)) continue;  // nothing left to fill: the patch is not used
+    auto near_frontier = [&]() {  // only the boundary zone of the frontier is matched
+      bool any = false;
+      for (size_t c = 0; c < valid.size(); ++c) {
+        const int32_t ci = match_index.cells[c][0] + kPatchGridMargin, cj = match_index.cells[c][1] + kPatchGridMargin;
+        if (frontier[size_t(cj) * n + size_t(ci)] > band + kPatchCellOffset) valid[c] = 0;
+        any = any || valid[c];
+      }
+      return any;
+    };
     patch_query(grid, match_index, ix.appearance.space, raw, valid, window);
-    for (size_t c = 0; c < valid.size(); ++c) {  // only the boundary zone of the frontier is matched
-      const int32_t ci = match_index.cells[c][0] + kPatchGridMargin, cj = match_index.cells[c][1] + kPatchGridMargin;
-      if (frontier[size_t(cj) * n + size_t(ci)] > band + kPatchCellOffset) valid[c] = 0;
+    if (!near_frontier()) {
+      patch_query(grid, match_index, ix.appearance.space, raw, valid, window, kSparseWindowKnownFraction);
+      near_frontier();
     }
     int32_t id;
     if (std::find(valid.begin(), valid.end(), 1) == valid.end()) {
@@ -495,7 +513,7 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
           }
           if (wsum <= 0) continue;
           float* dst = &out.colour[size_t(s) * C];
-          if (!last) {
+          if (!last && !p.discrete) {
             for (int c = 0; c < C; ++c) dst[c] = float(acc[c] / wsum);
             continue;
           }

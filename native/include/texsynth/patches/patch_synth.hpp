@@ -48,6 +48,7 @@ struct PatchSynthParams {
   double robust_exponent = 0.8;    // r in (0, 2]
   uint64_t seed = 0;
   bool exhaustive = false;         // exact search over every origin instead of the HNSW shortlist
+  bool discrete = false;           // optimisation: every E-step a discrete vote, not only the last
   const std::atomic<bool>* cancel = nullptr;
   std::atomic<float>* progress = nullptr;
 };

@@ -1,0 +1,215 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Vector-field patches inside Blender (addon/surface_colour/, method PATCHES):
+
+  blender -b --factory-startup --python-exit-code 1 --python python_tests/blender/tests_patches.py [-- test_name ...]
+
+Expected values come from the sample's own pixels, Blender's data and the settings, never from the
+add-on's code. Targets stay small (64-128 px): the machine is shared.
+"""
+import os
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+import harness  # noqa: E402
+
+texsynth = harness.load_addon()
+texsynth.register()
+from texsynth.bake import options  # noqa: E402
+from texsynth.bridge import mesh_io  # noqa: E402
+from texsynth.core import pipeline  # noqa: E402
+from texsynth.fields import authoring, tools  # noqa: E402
+from texsynth.surface_colour import core, synthesis as surface  # noqa: E402
+from texsynth.uv_methods import synthesis  # noqa: E402
+
+from tests_surface import BRICKS, SAMPLE, pixels_of, plane, sample_bytes, state  # noqa: E402
+
+IMAGE = "TexSynth Patches: Plane"
+
+
+def settings(**changes):
+    values = dict(method="PATCHES", sample_world_size=3.0, seed=5, axis=(0.0, 1.0, 0.0), patch_size=16)
+    values.update(changes)
+    return pipeline.Settings(**values)
+
+
+def run(objects, request=None, cache_dir="", **changes):
+    return surface.synthesize(objects, SAMPLE, settings(**changes),
+                              request or options.BakeRequest(size=128, margin=4, create_uv=True), "NEW",
+                              cache_dir=cache_dir)
+
+
+def test_image_target_shows_whole_sample_patches_along_the_field():
+    # 2 x 2 units, UV [0, 1]² at 128 px: 64 texels per unit, the sample's own density at scale 3. With the
+    # field along +y every texel centre is a grid point, so outside the cross-faded boundary zones the
+    # texels are the sample's own pixels, and rows of the sample stay rows of the image.
+    obj = plane()
+    core.exemplars.clear()
+    report = run([obj])
+    assert report.objects == ["Plane"] and not report.failures, report.summary()
+    image = bpy.data.images[IMAGE]
+    assert tuple(image.size) == (128, 128) and image.packed_file is not None
+    pixels = pixels_of(image)
+    assert np.all(pixels[..., 3] == 1.0), "every texel of the one island is covered"
+    texels = np.round(pixels[..., :3].reshape(-1, 3) * 255).astype(np.int32)
+    palette = {tuple(p) for p in sample_bytes()}
+    copied = np.mean([tuple(t) in palette for t in texels])
+    assert copied > 0.6, "too few texels are sample pixels: %.3f" % copied
+    stats = report.native_stats["Plane"]
+    assert stats["surface_samples"] == 128 * 128 and stats["mode"] == "SAMPLING" and stats["patches"] > 4
+    assert stats["exemplar"] == "built" and report.seconds["synthesis"] > 0.0
+    material = obj.material_slots[0].material
+    assert next(n for n in material.node_tree.nodes if n.type == "TEX_IMAGE").image == image
+
+
+def test_bricks_follow_a_field_turned_by_ninety_degrees():
+    # The sample's mortar courses run along its x axis: with up = +y the image's rows are smoother than
+    # its columns; with up = +x (a quarter turn) the other way round.
+    obj = plane()
+    run([obj])
+    along_y = pixels_of(bpy.data.images[IMAGE])[..., :3].mean(axis=2)
+    run([obj], axis=(1.0, 0.0, 0.0))
+    along_x = pixels_of(bpy.data.images[IMAGE])[..., :3].mean(axis=2)
+
+    def row_vs_column(grey):
+        return np.abs(np.diff(grey, axis=1)).mean() / np.abs(np.diff(grey, axis=0)).mean()
+    sample = sample_bytes().reshape(192, 192, 3).mean(axis=2)
+    assert (row_vs_column(sample) < 1) == (row_vs_column(along_y) < 1), (row_vs_column(sample), row_vs_column(along_y))
+    assert (row_vs_column(along_x) < 1) != (row_vs_column(along_y) < 1), (row_vs_column(along_x), row_vs_column(along_y))
+
+
+def test_vertex_target_writes_the_colour_attribute():
+    obj = plane(cells=48)
+    report = run([obj], surface_target="VERTICES", sample_world_size=192 / 24.5)
+    assert report.objects == ["Plane"], report.summary()
+    attribute = obj.data.attributes[core.COLOUR_ATTRIBUTE_NAME]
+    values = np.empty(len(attribute.data) * 4, np.float32)
+    attribute.data.foreach_get("color", values)
+    rgb = values.reshape(-1, 4)[:, :3]
+    srgb = np.where(rgb <= 0.0031308, rgb * 12.92, 1.055 * np.power(np.maximum(rgb, 0), 1 / 2.4) - 0.055)
+    assert abs(srgb.mean() - (sample_bytes() / 255.0).mean()) < 0.05
+    assert rgb.std() > 0.02, "a texture, not a flat colour"
+
+
+def test_optimisation_refines_the_sampled_texture():
+    # Starts from patch sampling (same seed), then re-matches every patch: the image changes, each pass
+    # re-matches fewer patches, and the native stats report the passes made.
+    obj = plane()
+    run([obj])
+    sampled = pixels_of(bpy.data.images[IMAGE]).copy()
+    report = run([obj], patch_mode="OPTIMISATION", patch_iterations=4)
+    assert report.objects == ["Plane"], report.summary()
+    native = report.native_stats["Plane"]["native"]
+    assert 2 <= len(native["energy"]) <= 4 and len(native["changed"]) == len(native["energy"]), native
+    assert native["changed"][-1] < native["changed"][0] == 1.0, native["changed"]
+    assert native["seconds_optimisation"] > 0.0
+    assert not np.array_equal(pixels_of(bpy.data.images[IMAGE]), sampled)
+
+
+def test_same_seed_same_image_and_another_seed_another():
+    obj = plane()
+    run([obj])
+    first = pixels_of(bpy.data.images[IMAGE]).copy()
+    run([obj])
+    assert np.array_equal(pixels_of(bpy.data.images[IMAGE]), first)
+    run([obj], seed=6)
+    assert not np.array_equal(pixels_of(bpy.data.images[IMAGE]), first)
+
+
+def test_analysed_sample_is_cached_on_disk_and_a_corrupt_file_is_rebuilt():
+    obj = plane()
+    folder = tempfile.mkdtemp(prefix="texsynth_patches_cache_")
+    core.exemplars.clear()
+    assert run([obj], cache_dir=folder).native_stats["Plane"]["exemplar"] == "built"
+    files = [name for name in os.listdir(folder) if name.startswith("patches-")]
+    assert len(files) == 1, os.listdir(folder)
+    assert run([obj], cache_dir=folder).native_stats["Plane"]["exemplar"] == "memory"
+    core.exemplars.clear()
+    assert run([obj], cache_dir=folder).native_stats["Plane"]["exemplar"] == "disk"
+    path = os.path.join(folder, files[0])
+    with open(path, "r+b") as handle:
+        handle.seek(os.path.getsize(path) // 2)
+        handle.write(b"\xff" * 64)
+    core.exemplars.clear()
+    report = run([obj], cache_dir=folder)
+    assert report.objects == ["Plane"] and report.native_stats["Plane"]["exemplar"] == "built", report.summary()
+
+
+def test_bad_patch_settings_are_refused_and_change_nothing():
+    obj = plane()
+    before = state(obj)
+    for changes, fragment in ((dict(patch_size=30), "multiple of 4"), (dict(patch_boundary=12), "boundary width"),
+                              (dict(patch_tolerance=0.5), "tolerance"), (dict(patch_iterations=0), "iterations"),
+                              (dict(patch_mode="FAST"), "patch mode")):
+        try:
+            run([obj], **changes)
+            raise AssertionError("accepted %r" % (changes,))
+        except pipeline.SettingsError as error:
+            assert fragment in str(error), (changes, str(error))
+        assert state(obj) == before
+
+
+def test_a_sample_smaller_than_the_patch_uses_smaller_patches():
+    obj = plane()
+    small = os.path.join(tempfile.mkdtemp(), "small.png")
+    image = bpy.data.images.new("small", 24, 24)
+    image.pixels.foreach_set(np.random.default_rng(1).random(24 * 24 * 4).astype(np.float32))
+    image.filepath_raw, image.file_format = small, "PNG"
+    image.save()
+    bpy.data.images.remove(image)
+    report = surface.synthesize([obj], synthesis.Sample(path=small), settings(patch_size=32, sample_world_size=0.375,
+                                                                               round_resolution="FULL"),
+                                options.BakeRequest(size=64, margin=2), "NEW")
+    assert report.objects == ["Plane"], report.summary()
+    assert report.native_stats["Plane"]["patch_size"] == 12  # largest multiple of 4 <= 24 / 2
+
+
+def test_cancel_leaves_nothing_behind():
+    obj = plane()
+    before = state(obj)
+    job = surface.Job([obj], SAMPLE, settings(), options.BakeRequest(size=64, margin=2)).prepare()
+    job.cancel()
+    try:
+        job.compute()
+        raise AssertionError("compute() did not raise after cancel()")
+    except synthesis.Cancelled:
+        pass
+    job.discard()
+    assert state(obj) == before
+
+
+def test_live_preview_after_a_field_edit_writes_a_small_image():
+    obj = plane()
+    props = bpy.context.scene.texsynth
+    props.sample_path, props.method, props.scale, props.axis = BRICKS, "PATCHES", 3.0, (0.0, 1.0, 0.0)
+    props.patch_size, props.bake_size, props.bake_margin = 16, 512, 4
+    state = tools.field_state(bpy.context, obj)  # what a comb stroke leaves: a painted field on the mesh
+    authoring.preset_axis(state, (0.0, 1.0, 0.0))
+    mesh_io.write_field_state(obj, state)
+    tools.live_update(bpy.context, obj)
+    image = bpy.data.images[IMAGE]
+    assert tuple(image.size) == (tools.PATCH_PREVIEW_SIZE,) * 2, tuple(image.size)
+    assert tools.last_timings["live_update"] > 0.0
+
+
+def test_settings_persist_in_the_blend_file():
+    plane()
+    props = bpy.context.scene.texsynth
+    props.method, props.patch_mode, props.patch_size = "PATCHES", "OPTIMISATION", 24
+    props.patch_boundary, props.patch_tolerance, props.patch_iterations = 3, 1.5, 9
+    path = os.path.join(tempfile.mkdtemp(), "patches.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    s = bpy.context.scene.texsynth.to_settings()
+    assert (s.method, s.patch_mode, s.patch_size, s.patch_boundary, s.patch_iterations) == \
+        ("PATCHES", "OPTIMISATION", 24, 3, 9)
+    assert abs(s.patch_tolerance - 1.5) < 1e-6
+
+
+if __name__ == "__main__":
+    harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")],
+                         only=harness.script_args())
