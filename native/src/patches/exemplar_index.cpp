@@ -29,9 +29,11 @@
 #include <sstream>
 #include <unistd.h>
 
+#include "texsynth/common/byte_writer.hpp"
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/hash.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/image/border.hpp"
 #include "texsynth/image/image.hpp"
 
 // Defaults, measured with bench_patches_exemplar (2-core machine, Release, SSE-only hnswlib
@@ -101,24 +103,6 @@ class Progress {
   std::atomic<float>* out_;
   double p0_, p1_;
 };
-
-// Padded coordinate i (window offsets included) -> sample coordinate; mirrors without repeating the
-// edge pixel, or wraps.
-std::vector<int32_t> border_table(int32_t size, int radius, bool periodic) {
-  std::vector<int32_t> table(size_t(size) + 2 * size_t(radius));
-  for (int32_t i = 0; i < int32_t(table.size()); ++i) {
-    int32_t v = i - radius;
-    if (periodic) {
-      v = ((v % size) + size) % size;
-    } else {
-      if (v < 0) v = -v;
-      if (v >= size) v = 2 * (size - 1) - v;
-      v = std::clamp(v, 0, size - 1);
-    }
-    table[size_t(i)] = v;
-  }
-  return table;
-}
 
 struct Pca {
   Eigen::VectorXf mean;   // raw
@@ -693,22 +677,6 @@ namespace {
 constexpr char kMagic[8] = {'T', 'S', 'E', 'X', 'E', 'M', 'P', 'L'};
 constexpr uint64_t kChecksumSeed = 0x74736578656d706cull;
 
-class Writer {
- public:
-  std::vector<uint8_t> bytes;
-  template <typename T>
-  void put(T value) {
-    const size_t at = bytes.size();
-    bytes.resize(at + sizeof(T));
-    std::memcpy(bytes.data() + at, &value, sizeof(T));  // little-endian hosts only (x86, ARM)
-  }
-  void put_floats(const std::vector<float>& v) {
-    const size_t at = bytes.size();
-    bytes.resize(at + v.size() * sizeof(float));
-    if (!v.empty()) std::memcpy(bytes.data() + at, v.data(), v.size() * sizeof(float));
-  }
-};
-
 class Reader {
  public:
   Reader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
@@ -749,7 +717,7 @@ class Reader {
   size_t at_ = 0;
 };
 
-void put_graph(Writer& w, const PatchIndex& ix) {
+void put_graph(ByteWriter& w, const PatchIndex& ix) {
   if (!ix.graph) throw std::invalid_argument("serialize_exemplar_index: an index without its HNSW graph");
   const auto& h = ix.graph->hnsw;
   if (h.cur_element_count != size_t(ix.count())) throw std::invalid_argument("serialize_exemplar_index: graph size");
@@ -850,7 +818,7 @@ void get_graph(Reader& r, PatchIndex& ix, const std::atomic<bool>* cancel) {
   ix.graph = std::move(graph);
 }
 
-void put_index(Writer& w, const PatchIndex& ix) {
+void put_index(ByteWriter& w, const PatchIndex& ix) {
   w.put<int32_t>(int32_t(ix.spec.region));
   w.put<int32_t>(ix.spec.patch_size);
   w.put<int32_t>(ix.spec.band_width);
@@ -911,7 +879,7 @@ std::vector<uint8_t> serialize_exemplar_index(const ExemplarIndex& e) {
       a.space.basis.size() != size_t(a.space.dims) * size_t(a.space.raw_dims()) ||
       a.space.mean.size() != size_t(a.space.raw_dims()) || (!e.full && !e.band))
     throw std::invalid_argument("serialize_exemplar_index: inconsistent ExemplarIndex");
-  Writer w;
+  ByteWriter w;
   w.bytes.reserve(size_t(1) << 16);
   for (char c : kMagic) w.put<char>(c);
   w.put<uint32_t>(kExemplarFormatVersion);

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <unistd.h>
 
+#include "texsynth/common/byte_writer.hpp"
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/hash.hpp"
 #include "texsynth/image/image.hpp"
@@ -24,23 +25,6 @@ constexpr char kMagic[8] = {'T', 'S', 'P', 'R', 'E', 'P', 'R', 'C'};
 constexpr uint64_t kChecksumSeed = 0x747363616368ull;
 // magic + version + params(4*4 + 4 + 8 + 8 + 4) + hash + 6*4
 constexpr size_t kHeaderSize = 8 + 4 + 40 + 8 + 24;
-
-class Writer {
- public:
-  std::vector<uint8_t> bytes;
-  template <typename T>
-  void put(T value) {
-    const size_t at = bytes.size();
-    bytes.resize(at + sizeof(T));
-    std::memcpy(bytes.data() + at, &value, sizeof(T));  // x86/ARM: little-endian hosts only
-  }
-  template <typename T>
-  void put_array(const T* data, size_t count) {
-    const size_t at = bytes.size();
-    bytes.resize(at + count * sizeof(T));
-    if (count) std::memcpy(bytes.data() + at, data, count * sizeof(T));
-  }
-};
 
 class Reader {
  public:
@@ -73,7 +57,7 @@ class Reader {
   size_t at_ = 0;
 };
 
-void put_params(Writer& w, const PreprocessParams& p) {
+void put_params(ByteWriter& w, const PreprocessParams& p) {
   w.put<int32_t>(p.neighbourhood);
   w.put<int32_t>(p.num_textons);
   w.put<int32_t>(p.jump_candidates);
@@ -106,7 +90,7 @@ std::vector<uint8_t> read_file(const std::string& path, uint64_t max_bytes, uint
 uint64_t cache_checksum(const void* data, size_t size) { return hash_bytes(data, size, kChecksumSeed); }
 
 uint32_t params_hash(const PreprocessParams& params) {
-  Writer w;
+  ByteWriter w;
   w.put<uint32_t>(kCacheFormatVersion);
   put_params(w, params);
   const uint64_t h = hash_bytes(w.bytes.data(), w.bytes.size(), 0x706172616D73ull);
@@ -128,7 +112,7 @@ void save_preprocessed(const Preprocessed& r, const std::string& path) {
       k < 1 || k > kMaxJumpCandidates || r.jump_map.targets.size() != size_t(n) * k ||
       r.jump_map.weights.size() != size_t(n) * k)
     throw std::invalid_argument("save_preprocessed: inconsistent Preprocessed object");
-  Writer w;
+  ByteWriter w;
   w.bytes.reserve(kHeaderSize + payload_size(n, r.num_textons, r.texton_dims, k) + 8);
   w.put_array(kMagic, 8);
   w.put<uint32_t>(kCacheFormatVersion);

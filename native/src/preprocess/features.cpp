@@ -11,27 +11,10 @@
 
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/image/border.hpp"
 
 namespace texsynth {
 namespace {
-
-// Maps padded coordinate i (window offsets included) to a sample coordinate.
-std::vector<int> border_table(int size, int radius, bool periodic) {
-  std::vector<int> table(size_t(size) + 2 * size_t(radius));
-  for (int i = 0; i < int(table.size()); ++i) {
-    int v = i - radius;
-    if (periodic) {
-      v = ((v % size) + size) % size;
-    } else {
-      // Reflect without repeating the edge pixel; radius < size is guaranteed by validation.
-      if (v < 0) v = -v;
-      if (v >= size) v = 2 * (size - 1) - v;
-      v = std::clamp(v, 0, size - 1);
-    }
-    table[size_t(i)] = v;
-  }
-  return table;
-}
 
 struct WindowGatherer {
   int width, height, channels, n, radius;
