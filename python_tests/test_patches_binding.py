@@ -84,3 +84,55 @@ def test_raised_token_stops_tracing():
     token.cancel()
     with pytest.raises(tn.Cancelled):
         tn.trace_grid_patches(field, [0], [[0.2, 0.2]], size=8, cancel=token)
+
+
+def lattice_samples(pos, tris, res):
+    """Texel-like samples at the centres of a res² lattice over the plane(n=4) fixture's square."""
+    lo, hi = pos[:, :2].min(axis=0), pos[:, :2].max(axis=0)
+    ys, xs = np.mgrid[0:res, 0:res]
+    pts = np.stack([lo[0] + (xs.ravel() + 0.5) * (hi[0] - lo[0]) / res,
+                    lo[1] + (ys.ravel() + 0.5) * (hi[1] - lo[1]) / res], axis=1)
+    a, b, c = (pos[tris[:, k], :2].astype(np.float64) for k in range(3))
+    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
+    tri, bary = np.zeros(len(pts), np.int32), np.zeros((len(pts), 2), np.float32)
+    for i, p in enumerate(pts):
+        b1 = ((p[0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (p[1] - a[:, 1])) / det
+        b2 = ((b[:, 0] - a[:, 0]) * (p[1] - a[:, 1]) - (p[0] - a[:, 0]) * (b[:, 1] - a[:, 1])) / det
+        inside = np.flatnonzero((b1 >= -1e-9) & (b2 >= -1e-9) & (b1 + b2 <= 1 + 1e-9))[0]
+        tri[i], bary[i] = inside, (max(b1[inside], 0), max(b2[inside], 0))
+    positions = np.concatenate([pts, np.zeros((len(pts), 1))], axis=1).astype(np.float32)
+    return positions, tri, bary
+
+
+def test_exemplar_and_synthesis_round_trip_through_numpy_and_a_cache_file(tmp_path):
+    rng = np.random.default_rng(3)
+    sample = rng.random((40, 40, 3)).astype(np.float32)
+    exemplar = tn.patch_exemplar(sample, patch_size=16, seed=1)
+    assert (exemplar.patch_size, exemplar.width, exemplar.height, exemplar.channels) == (16, 40, 40, 3)
+    path = str(tmp_path / "sample.tsx")
+    exemplar.save(path)
+    assert tn.load_patch_exemplar(path, exemplar.key).key == exemplar.key
+    with pytest.raises(ValueError):
+        tn.load_patch_exemplar(path, exemplar.key + 1)  # stale: another sample's key
+    with open(path, "r+b") as handle:
+        handle.seek(100)
+        handle.write(b"\0" * 32)
+    with pytest.raises(ValueError):
+        tn.load_patch_exemplar(path)
+    pos, tris = plane(n=4, spacing=0.25, jitter=0.0)
+    positions, tri, bary = lattice_samples(pos, tris, 32)
+    field = tn.patch_field(pos, tris, np.tile([0.0, 1.0, 0.0], (len(pos), 1)), spacing=1.0 / 32)
+    out = tn.synthesize_patches(field, exemplar, sample, positions, None, tri, bary, seed=2)
+    assert out["colour"].shape == (32 * 32, 3) and out["source"].shape == (32 * 32, 2)
+    assert np.all(out["source"] >= 0), "every sample is pasted or continued"
+    # Each colour is the sample read (bilinearly) at its source coordinate, away from cross-faded zones.
+    sx, sy = out["source"][:, 0] - 0.5, out["source"][:, 1] - 0.5
+    whole = (np.abs(sx - np.round(sx)) < 1e-3) & (np.abs(sy - np.round(sy)) < 1e-3)
+    px = sample[np.clip(np.round(sy[whole]).astype(int), 0, 39), np.clip(np.round(sx[whole]).astype(int), 0, 39)]
+    assert whole.mean() > 0.5 and np.mean(np.all(np.abs(px - out["colour"][whole]) < 1e-5, axis=1)) > 0.6
+    with pytest.raises(ValueError, match="mode"):
+        tn.synthesize_patches(field, exemplar, sample, positions, None, tri, bary, mode="fast")
+    with pytest.raises(ValueError, match="barycentrics"):
+        tn.synthesize_patches(field, exemplar, sample, positions, None, tri, bary[:-1])
+    with pytest.raises(ValueError, match="sample"):
+        tn.synthesize_patches(field, exemplar, sample[:, :, 0], positions, None, tri, bary)

@@ -18,6 +18,17 @@
 namespace py = pybind11;
 using namespace texsynth_py;
 
+namespace {
+
+// A borrowed view of an (H, W, C) sample array (row 0 = bottom); the caller keeps `px` alive.
+texsynth::ExemplarSample exemplar_sample(const FloatArray& px) {
+  if (px.ndim() != 3) throw std::invalid_argument("sample must have shape (height, width, channels)");
+  return {px.data(), checked_count(px.shape(1), "sample width"), checked_count(px.shape(0), "sample height"),
+          checked_count(px.shape(2), "sample channels")};
+}
+
+}  // namespace
+
 void bind_patches(py::module_& m) {
   py::class_<texsynth::PatchField, std::shared_ptr<texsynth::PatchField>>(
       m, "PatchField",
@@ -144,10 +155,7 @@ void bind_patches(py::module_& m) {
       [](py::object pixels, int patch_size, bool tileable, uint64_t seed, int band_width, double max_megabytes,
          py::object cancel) {
         FloatArray px = float_array(pixels, "sample");
-        if (px.ndim() != 3) throw std::invalid_argument("sample must have shape (height, width, channels)");
-        texsynth::ExemplarSample sample{px.data(), checked_count(px.shape(1), "sample width"),
-                                        checked_count(px.shape(0), "sample height"),
-                                        checked_count(px.shape(2), "sample channels")};
+        const texsynth::ExemplarSample sample = exemplar_sample(px);
         texsynth::ExemplarParams params;
         params.patch_size = texsynth::fit_patch_size(sample.width, sample.height, patch_size, tileable);
         params.tileable = tileable;
@@ -193,7 +201,7 @@ void bind_patches(py::module_& m) {
          const std::string& mode, uint64_t seed, double centre_spacing, double tolerance, int candidates,
          int iterations, double robust_exponent, bool exhaustive, bool discrete, py::object cancel) {
         FloatArray px = float_array(pixels, "sample");
-        if (px.ndim() != 3) throw std::invalid_argument("sample must have shape (height, width, channels)");
+        const texsynth::ExemplarSample sample = exemplar_sample(px);
         FloatArray pos = float_array(positions, "positions");
         require_shape(pos, {-1, 3}, "positions");
         FloatArray nrm;
@@ -205,9 +213,6 @@ void bind_patches(py::module_& m) {
         require_shape(tri, {pos.shape(0)}, "triangles");
         FloatArray bary = float_array(barycentrics, "barycentrics");
         require_shape(bary, {pos.shape(0), 2}, "barycentrics");
-        texsynth::ExemplarSample sample{px.data(), checked_count(px.shape(1), "sample width"),
-                                        checked_count(px.shape(0), "sample height"),
-                                        checked_count(px.shape(2), "sample channels")};
         texsynth::PatchSamples samples;
         samples.positions = pos.data();
         samples.normals = normals.is_none() ? nullptr : nrm.data();
