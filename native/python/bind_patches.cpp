@@ -199,7 +199,8 @@ void bind_patches(py::module_& m) {
       [](const texsynth::PatchField& field, const texsynth::ExemplarIndex& exemplar, py::object pixels,
          py::object positions, py::object normals, py::object triangles, py::object barycentrics,
          const std::string& mode, uint64_t seed, double centre_spacing, double tolerance, int candidates,
-         int iterations, double robust_exponent, bool exhaustive, bool discrete, py::object cancel) {
+         int iterations, double robust_exponent, bool exhaustive, bool discrete, const std::string& vote,
+         py::object cancel) {
         FloatArray px = float_array(pixels, "sample");
         const texsynth::ExemplarSample sample = exemplar_sample(px);
         FloatArray pos = float_array(positions, "positions");
@@ -234,6 +235,12 @@ void bind_patches(py::module_& m) {
         params.synth.robust_exponent = robust_exponent;
         params.synth.exhaustive = exhaustive;
         params.synth.discrete = discrete;
+        if (vote == "mean")
+          params.synth.vote = texsynth::PatchVote::kNearestMean;
+        else if (vote == "patch")
+          params.synth.vote = texsynth::PatchVote::kBestPatch;
+        else
+          throw std::invalid_argument("vote must be 'mean' or 'patch', got '" + vote + "'");
         params.synth.cancel = cancel_flag(cancel);
         params.synth.progress = progress_slot(cancel);
         texsynth::SurfacePatchResult r;
@@ -268,6 +275,7 @@ void bind_patches(py::module_& m) {
       py::arg("triangles"), py::arg("barycentrics"), py::kw_only(), py::arg("mode") = "sampling",
       py::arg("seed") = 0, py::arg("centre_spacing") = 0.5, py::arg("tolerance") = 1.2, py::arg("candidates") = 16,
       py::arg("iterations") = 6, py::arg("robust_exponent") = 0.8, py::arg("exhaustive") = true, py::arg("discrete") = false,
+      py::arg("vote") = "mean",
       py::arg("cancel") = py::none(),
       "Vector-field patch synthesis onto N surface samples (positions (N, 3), normals (N, 3) or None, triangles "
       "(N,), barycentrics (N, 2) in the field's mesh): mode 'sampling' (§5) or 'optimisation' (§4.3, from the "

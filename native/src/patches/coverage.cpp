@@ -217,6 +217,17 @@ PatchCoverage locate_samples(const PatchField& field, const GridPatches& g, cons
           const double gu = c + dot(d, f.ex) / f.ex2, gv = c + dot(d, f.ey) / f.ey2;
           if (gu < -3 || gv < -3 || gu > n + 2 || gv > n + 2) continue;
           int32_t i = std::clamp(int32_t(std::floor(gu)), 0, n - 2), j = std::clamp(int32_t(std::floor(gv)), 0, n - 2);
+          // A sample on the last row of valid cells (next to a boundary) may be guessed into the invalid
+          // cell beyond it: start from the nearest valid cell around the guess instead.
+          if (!g.cell_valid[(size_t(p) * (n - 1) + size_t(j)) * (n - 1) + size_t(i)]) {
+            const int32_t di = gu - std::floor(gu) < 0.5 ? -1 : 1, dj = gv - std::floor(gv) < 0.5 ? -1 : 1;
+            for (auto [a, b] : {std::pair{i + di, j}, std::pair{i, j + dj}, std::pair{i + di, j + dj}})
+              if (a >= 0 && b >= 0 && a <= n - 2 && b <= n - 2 &&
+                  g.cell_valid[(size_t(p) * (n - 1) + size_t(b)) * (n - 1) + size_t(a)]) {
+                i = a, j = b;
+                break;
+              }
+          }
           for (int step = 0; step < kMaxWalk; ++step) {
             if (!g.cell_valid[(size_t(p) * (n - 1) + size_t(j)) * (n - 1) + size_t(i)]) break;
             const V3 p00 = point(p, i, j), p10 = point(p, i + 1, j), p11 = point(p, i + 1, j + 1),

@@ -65,17 +65,24 @@ class ExemplarReader {
 
 // One patch's view of the surface: the settled colours splatted onto its grid.
 struct GridColours {
+  GridColours(int32_t n_, int C_) : n(n_), C(C_) {}
   int32_t n = 0;
   int C = 0;
-  std::vector<float> colour, weight;
+  std::vector<float> colour, weight, box_colour, box_weight;
+  std::vector<uint8_t> hit;
   void splat(const PatchCoverage& cov, int32_t p, const std::vector<float>& colours, const std::vector<uint8_t>& settled) {
     colour.assign(size_t(n) * n * C, 0.f);
     weight.assign(size_t(n) * n, 0.f);
+    hit.assign(size_t(n) * n, 0);
+    int64_t entries = 0, cells = 0;
     for (int64_t e = cov.patch_start[p]; e < cov.patch_start[size_t(p) + 1]; ++e) {
-      const int32_t s = cov.patch_sample[e];
-      if (!settled[s]) continue;
       const float u = cov.patch_uv[2 * e], v = cov.patch_uv[2 * e + 1];
       const int32_t i = std::min(int32_t(u), n - 2), j = std::min(int32_t(v), n - 2);
+      ++entries;
+      uint8_t& h = hit[size_t(j) * n + size_t(i)];
+      cells += !h, h = 1;
+      const int32_t s = cov.patch_sample[e];
+      if (!settled[s]) continue;
       const float au = u - float(i), av = v - float(j);
       for (int k = 0; k < 4; ++k) {
         const float w = ((k & 1) ? au : 1 - au) * ((k >> 1) ? av : 1 - av);
@@ -84,12 +91,41 @@ struct GridColours {
         for (int c = 0; c < C; ++c) colour[g * C + c] += w * colours[size_t(s) * C + c];
       }
     }
+    // Samples sparser than the grid (a density above 1, a coarse target): a point between samples gets
+    // the weighted mean of the settled ones within the samples' own spacing, R grid steps.
+    const double per_cell = cells > 0 ? double(entries) / double(cells) : 1.0;
+    if (per_cell < 0.7) fill_between_samples(int32_t(std::ceil(std::sqrt(1.0 / per_cell))));
     for (size_t g = 0; g < weight.size(); ++g)
       if (weight[g] >= kKnownWeight)
         for (int c = 0; c < C; ++c) colour[g * C + c] /= weight[g];
   }
   bool known(int32_t i, int32_t j) const { return weight[size_t(j) * n + size_t(i)] >= kKnownWeight; }
   const float* at(int32_t i, int32_t j) const { return &colour[(size_t(j) * n + size_t(i)) * C]; }
+
+ private:
+  void fill_between_samples(int32_t radius) {
+    box_colour = colour;
+    box_weight = weight;
+    for (int32_t j = 0; j < n; ++j)
+      for (int32_t i = 0; i < n; ++i) {
+        const size_t g = size_t(j) * n + size_t(i);
+        if (weight[g] >= kKnownWeight) continue;
+        float w = 0;
+        for (int32_t b = std::max(0, j - radius); b <= std::min(n - 1, j + radius); ++b)
+          for (int32_t a = std::max(0, i - radius); a <= std::min(n - 1, i + radius); ++a) w += weight[size_t(b) * n + a];
+        if (w < kKnownWeight) continue;
+        box_weight[g] = w;
+        for (int c = 0; c < C; ++c) {
+          float sum = 0;
+          for (int32_t b = std::max(0, j - radius); b <= std::min(n - 1, j + radius); ++b)
+            for (int32_t a = std::max(0, i - radius); a <= std::min(n - 1, i + radius); ++a)
+              sum += colour[(size_t(b) * n + a) * C + c];
+          box_colour[g * C + c] = sum;
+        }
+      }
+    colour.swap(box_colour);
+    weight.swap(box_weight);
+  }
 };
 
 // The query of one patch for `index`: raw appearance per cell and a known mask.
@@ -225,6 +261,43 @@ bool inner_covered(const PatchCoverage& cov, int32_t s, int w) {
       return true;
   }
   return false;
+}
+
+// Representative-pixel features place a match to within a few pixels; overlapping patches a pixel or
+// two apart cross-fade into blur (and seams). The match moves to the origin within ±kRefineRadius with
+// the smallest mean colour difference over the grid points in `use` (the known ones; near the frontier
+// when sampling). Ties keep the match itself.
+constexpr int kRefineRadius = 2;
+int32_t refine_origin(const GridColours& g, const std::vector<uint8_t>& use, const PatchIndex& index,
+                      const ExemplarSample& s, bool tileable, int32_t id) {
+  const auto o = index.origin(id);
+  double best = std::numeric_limits<double>::infinity();
+  int32_t best_id = id;
+  for (int dy = -kRefineRadius; dy <= kRefineRadius; ++dy)
+    for (int dx = -kRefineRadius; dx <= kRefineRadius; ++dx) {
+      const int32_t ox = o[0] + dx, oy = o[1] + dy;
+      if (ox < 0 || oy < 0 || ox >= index.origins_x || oy >= index.origins_y) continue;
+      double sum = 0;
+      int64_t count = 0;
+      for (int32_t j = 0; j < g.n; ++j)
+        for (int32_t i = 0; i < g.n; ++i) {
+          if (!use[size_t(j) * g.n + size_t(i)]) continue;
+          int32_t x = ox + i - kPatchGridMargin, y = oy + j - kPatchGridMargin;
+          if (tileable) {
+            x = ((x % s.width) + s.width) % s.width, y = ((y % s.height) + s.height) % s.height;
+          } else if (x < 0 || y < 0 || x >= s.width || y >= s.height) {
+            continue;
+          }
+          const float* px = s.pixels + (size_t(y) * size_t(s.width) + size_t(x)) * size_t(g.C);
+          const float* q = g.at(i, j);
+          for (int c = 0; c < g.C; ++c) sum += double(px[c] - q[c]) * double(px[c] - q[c]);
+          ++count;
+        }
+      if (count == 0) continue;
+      const double mean = sum / double(count);
+      if (mean < best || (mean == best && dx == 0 && dy == 0)) best = mean, best_id = oy * index.origins_x + ox;
+    }
+  return best_id;
 }
 
 // Patches in order of growth from a seeded start: Dijkstra over patches that share samples, edges
@@ -396,9 +469,9 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
   if (p.exhaustive) dense = std::make_unique<DenseFeatures>(match_index, ix.appearance);
   const std::vector<int32_t> order = patch_order(g, cov, num_samples, p.seed);
   Rng rng(p.seed, 7);
-  GridColours grid{n, C, {}, {}};
+  GridColours grid(n, C);
   std::vector<float> raw, window, reduced, feature, colour(static_cast<size_t>(C)), frontier;
-  std::vector<uint8_t> valid;
+  std::vector<uint8_t> valid, use;
   for (size_t k = 0; k < order.size(); ++k) {
     if ((k & 15) == 0) {
       throw_if_cancelled(p.cancel);
@@ -424,7 +497,8 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
       near_frontier();
     }
     int32_t id;
-    if (std::find(valid.begin(), valid.end(), 1) == valid.end()) {
+    const bool matched = std::find(valid.begin(), valid.end(), 1) != valid.end();
+    if (!matched) {
       id = int32_t(rng.below(uint32_t(match_index.count())));
       ++out.stats.random_patches;
     } else {
@@ -433,6 +507,12 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
       size_t within = 0;
       while (within < ranked.size() && ranked[within].first <= limit) ++within;
       id = ranked[rng.below(uint32_t(within))].second;
+    }
+    if (matched) {
+      use.assign(size_t(n) * n, 0);
+      for (size_t g = 0; g < use.size(); ++g)
+        use[g] = grid.weight[g] >= kKnownWeight && frontier[g] <= band + kPatchCellOffset;
+      id = refine_origin(grid, use, match_index, sample, ix.tileable, id);
     }
     const auto o = match_index.origin(id);
     out.origin[2 * size_t(pid)] = o[0], out.origin[2 * size_t(pid) + 1] = o[1];
@@ -471,15 +551,17 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
       std::vector<int32_t> next(static_cast<size_t>(np), -1);
       tbb::parallel_for(tbb::blocked_range<int32_t>(0, np, 8), [&](const tbb::blocked_range<int32_t>& r) {
         throw_if_cancelled(p.cancel);
-        GridColours gc{n, C, {}, {}};
+        GridColours gc(n, C);
         std::vector<float> qraw, qwin, qred, qfeat;
-        std::vector<uint8_t> qvalid;
+        std::vector<uint8_t> qvalid, quse;
         for (int32_t q = r.begin(); q < r.end(); ++q) {
           gc.splat(cov, q, out.colour, settled);
           patch_query(gc, full, ix.appearance.space, qraw, qvalid, qwin);
           if (std::find(qvalid.begin(), qvalid.end(), 1) == qvalid.end()) continue;
           const auto ranked = ranked_candidates(full, ix.appearance, qraw, qvalid, p.candidates, nullptr, qred, qfeat);
-          next[q] = ranked.front().second;
+          quse.assign(size_t(n) * n, 0);
+          for (size_t g = 0; g < quse.size(); ++g) quse[g] = gc.weight[g] >= kKnownWeight;
+          next[q] = refine_origin(gc, quse, full, sample, ix.tileable, ranked.front().second);
           dist2[q] = ranked.front().first;
         }
       });
@@ -517,7 +599,7 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
             for (int c = 0; c < C; ++c) dst[c] = float(acc[c] / wsum);
             continue;
           }
-          // Discrete vote: the proposal nearest the weighted mean.
+          // Discrete vote (see PatchVote).
           double best_d = std::numeric_limits<double>::infinity();
           for (int64_t e = cov.sample_start[s]; e < cov.sample_start[size_t(s) + 1]; ++e) {
             const int32_t q = cov.sample_patch[e];
@@ -526,10 +608,13 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
             const auto o = full.origin(match[q]);
             const double sx = o[0] + (u - kPatchGridMargin) + 0.5, sy = o[1] + (v - kPatchGridMargin) + 0.5;
             reader.read(sx, sy, prop.data());
-            // (Measured against keeping the most interior patch's proposal, a Voronoi of patch cores:
-            // that broke twice as many mortar lines on bricks in a sine field.)
             double d = 0;
-            for (int c = 0; c < C; ++c) d += (prop[c] - acc[c] / wsum) * (prop[c] - acc[c] / wsum);
+            if (p.vote == PatchVote::kBestPatch) {
+              const double border = std::min({u - inner_lo, inner_hi - u, v - inner_lo, inner_hi - v});
+              d = -std::pow(dist2[q] + eps2, (p.robust_exponent - 2) / 2) * std::clamp(border / band, 0.05, 1.0);
+            } else {
+              for (int c = 0; c < C; ++c) d += (prop[c] - acc[c] / wsum) * (prop[c] - acc[c] / wsum);
+            }
             if (d < best_d) {
               best_d = d;
               std::copy(prop.begin(), prop.end(), best.begin());
