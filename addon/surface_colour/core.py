@@ -329,7 +329,13 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
     up = directions(mesh_arrays, settings)
     density = target_density(mesh_arrays.positions, triangles, corner_uvs, target)
     full_width = sample.shape[1]
-    sample, texels_per_unit = working_sample(sample, texels_per_unit, density, settings.round_resolution,
+    # A scale field above 1 asks for features finer than the samples there: the sample is reduced by the
+    # largest multiplier too, so no patch reads an exemplar finer than the surface samples can hold
+    # (unfiltered, bricks at density 2 broke into fragments; README, Vector-field patches).
+    finest = 1.0
+    if mesh_arrays.scale_multiplier is not None and settings.round_resolution == "AUTO":
+        finest = max(1.0, float(np.max(mesh_arrays.scale_multiplier)))
+    sample, texels_per_unit = working_sample(sample, texels_per_unit, density / finest, settings.round_resolution,
                                              2 * settings.patch_size)
     stage("context")
     if target.kind == "IMAGE":

@@ -68,21 +68,15 @@ struct GridColours {
   GridColours(int32_t n_, int C_) : n(n_), C(C_) {}
   int32_t n = 0;
   int C = 0;
-  std::vector<float> colour, weight, box_colour, box_weight;
-  std::vector<uint8_t> hit;
+  std::vector<float> colour, weight;
   void splat(const PatchCoverage& cov, int32_t p, const std::vector<float>& colours, const std::vector<uint8_t>& settled) {
     colour.assign(size_t(n) * n * C, 0.f);
     weight.assign(size_t(n) * n, 0.f);
-    hit.assign(size_t(n) * n, 0);
-    int64_t entries = 0, cells = 0;
     for (int64_t e = cov.patch_start[p]; e < cov.patch_start[size_t(p) + 1]; ++e) {
       const float u = cov.patch_uv[2 * e], v = cov.patch_uv[2 * e + 1];
-      const int32_t i = std::min(int32_t(u), n - 2), j = std::min(int32_t(v), n - 2);
-      ++entries;
-      uint8_t& h = hit[size_t(j) * n + size_t(i)];
-      cells += !h, h = 1;
       const int32_t s = cov.patch_sample[e];
       if (!settled[s]) continue;
+      const int32_t i = std::min(int32_t(u), n - 2), j = std::min(int32_t(v), n - 2);
       const float au = u - float(i), av = v - float(j);
       for (int k = 0; k < 4; ++k) {
         const float w = ((k & 1) ? au : 1 - au) * ((k >> 1) ? av : 1 - av);
@@ -91,41 +85,12 @@ struct GridColours {
         for (int c = 0; c < C; ++c) colour[g * C + c] += w * colours[size_t(s) * C + c];
       }
     }
-    // Samples sparser than the grid (a density above 1, a coarse target): a point between samples gets
-    // the weighted mean of the settled ones within the samples' own spacing, R grid steps.
-    const double per_cell = cells > 0 ? double(entries) / double(cells) : 1.0;
-    if (per_cell < 0.7) fill_between_samples(int32_t(std::ceil(std::sqrt(1.0 / per_cell))));
     for (size_t g = 0; g < weight.size(); ++g)
       if (weight[g] >= kKnownWeight)
         for (int c = 0; c < C; ++c) colour[g * C + c] /= weight[g];
   }
   bool known(int32_t i, int32_t j) const { return weight[size_t(j) * n + size_t(i)] >= kKnownWeight; }
   const float* at(int32_t i, int32_t j) const { return &colour[(size_t(j) * n + size_t(i)) * C]; }
-
- private:
-  void fill_between_samples(int32_t radius) {
-    box_colour = colour;
-    box_weight = weight;
-    for (int32_t j = 0; j < n; ++j)
-      for (int32_t i = 0; i < n; ++i) {
-        const size_t g = size_t(j) * n + size_t(i);
-        if (weight[g] >= kKnownWeight) continue;
-        float w = 0;
-        for (int32_t b = std::max(0, j - radius); b <= std::min(n - 1, j + radius); ++b)
-          for (int32_t a = std::max(0, i - radius); a <= std::min(n - 1, i + radius); ++a) w += weight[size_t(b) * n + a];
-        if (w < kKnownWeight) continue;
-        box_weight[g] = w;
-        for (int c = 0; c < C; ++c) {
-          float sum = 0;
-          for (int32_t b = std::max(0, j - radius); b <= std::min(n - 1, j + radius); ++b)
-            for (int32_t a = std::max(0, i - radius); a <= std::min(n - 1, i + radius); ++a)
-              sum += colour[(size_t(b) * n + a) * C + c];
-          box_colour[g * C + c] = sum;
-        }
-      }
-    colour.swap(box_colour);
-    weight.swap(box_weight);
-  }
 };
 
 // The query of one patch for `index`: raw appearance per cell and a known mask.
