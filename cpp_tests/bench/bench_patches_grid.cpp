@@ -3,7 +3,8 @@
 // on an 81,920-face noise-displaced icosphere of area ~4π, one grid step per sample spacing
 // (h = sqrt(area / 1M)), patch centres on a jittered lattice at w/2 (patch sampling) and w/4
 // (optimisation) for w = 32. A rotation field about a tilted axis (two singularities). Reports
-// grid points/s, patches/s, invalid fraction and bytes per surface sample, at 1 and 2 threads.
+// grid points/s, patches/s, invalid fraction and bytes per surface sample, at 1 and 2 threads, with
+// sub-steps of half a grid step (the default) against a quarter (the first row, same run).
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
@@ -22,7 +23,7 @@ constexpr int32_t kPatch = 32;
 struct Scene {
   ring_fixtures::TriMesh mesh;
   std::vector<float> dirs;
-  texsynth::PatchField field;
+  texsynth::PatchField field, quarter_step;  // sub-steps of half and of a quarter grid step
   double h = 0, area = 0;
 };
 
@@ -49,6 +50,8 @@ const Scene& scene() {
     texsynth::PatchFieldParams p;
     p.spacing = sc.h;
     sc.field = texsynth::build_patch_field(in, p);
+    p.substep = 0.25;
+    sc.quarter_step = texsynth::build_patch_field(in, p);
     return sc;
   }();
   return s;
@@ -78,11 +81,12 @@ std::vector<texsynth::FacePoint> centres(const Scene& sc, double spacing) {
 void BM_TraceGridPatches(benchmark::State& state) {
   const Scene& sc = scene();
   const double spacing = kPatch / double(state.range(0));  // w/2 or w/4
+  const texsynth::PatchField& field = state.range(2) == 4 ? sc.quarter_step : sc.field;
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(state.range(1)));
   const std::vector<texsynth::FacePoint> c = centres(sc, spacing);
   texsynth::GridPatches g;
   for (auto _ : state) {
-    g = texsynth::trace_grid_patches(sc.field, c.data(), int32_t(c.size()), kPatch);
+    g = texsynth::trace_grid_patches(field, c.data(), int32_t(c.size()), kPatch);
     benchmark::DoNotOptimize(g.points.data());
   }
   const double points = double(c.size()) * kPatch * kPatch;
@@ -96,10 +100,11 @@ void BM_TraceGridPatches(benchmark::State& state) {
 }  // namespace
 
 BENCHMARK(BM_TraceGridPatches)
-    ->ArgNames({"w_over", "threads"})
-    ->Args({2, 1})
-    ->Args({2, 2})
-    ->Args({4, 2})
+    ->ArgNames({"w_over", "threads", "substeps"})
+    ->Args({2, 2, 4})  // baseline: a quarter grid step
+    ->Args({2, 1, 2})
+    ->Args({2, 2, 2})
+    ->Args({4, 2, 2})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(1);

@@ -17,7 +17,6 @@
 namespace texsynth {
 namespace {
 
-constexpr double kSubStep = 0.25;           // sub-step, in grid steps
 constexpr double kMaxMidpointGap = 1.0;     // two traces of one point further apart (in steps): invalid
 constexpr double kMinCellArea = 0.1, kMaxCellArea = 4.0;  // in local h²
 constexpr double kBarycentricTolerance = 1e-4;
@@ -36,6 +35,7 @@ void validate(const PatchFieldInput& in, const PatchFieldParams& p) {
   if (m.num_triangles == 0) throw std::invalid_argument("patch field: the mesh has no triangles");
   if (!std::isfinite(p.spacing) || p.spacing <= 0) throw std::invalid_argument("patch field: spacing must be finite and > 0");
   if (p.max_crossings < 1) throw std::invalid_argument("patch field: max_crossings must be >= 1");
+  if (!(p.substep >= 0.05 && p.substep <= 1)) throw std::invalid_argument("patch field: substep must be in [0.05, 1]");
   if (!std::isfinite(p.singular_threshold) || p.singular_threshold < 0 || p.singular_threshold >= 1)
     throw std::invalid_argument("patch field: singular_threshold must be in [0, 1)");
   for (int64_t i = 0; i < int64_t(m.num_vertices) * 3; ++i)
@@ -137,7 +137,7 @@ class Tracer {
       V3 d0;
       if (!direction(w.t, w.beta, axis, d0)) return false;
       const double h_here = h0 * scale(w);
-      const double ds = std::min(remaining, kSubStep) * h_here;
+      const double ds = std::min(remaining, f_.substep) * h_here;
       // Midpoint rule inside the face (the field is smooth there); at the face's edge keep d0.
       double r0[3] = {0, dot(wt.grad1, d0), dot(wt.grad2, d0)};
       r0[0] = -(r0[1] + r0[2]);
@@ -318,6 +318,7 @@ PatchField build_patch_field(const PatchFieldInput& in, const PatchFieldParams& 
   f.spacing = p.spacing;
   f.max_crossings = p.max_crossings;
   f.singular_threshold = p.singular_threshold;
+  f.substep = p.substep;
   f.walk = build_walk_mesh(f.mesh(), p.cancel);
   const std::vector<float> dirs = fill_unset(m, in.directions, &f.unset_vertices);
   throw_if_cancelled(p.cancel);
