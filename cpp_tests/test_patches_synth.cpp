@@ -100,7 +100,6 @@ Exemplar noise_exemplar(int size, int patch, bool tileable, uint64_t seed = 9) {
   texsynth::ExemplarParams p;
   p.patch_size = patch;
   p.tileable = tileable;
-  p.band_index = true;
   p.seed = seed;
   e.index = texsynth::build_exemplar_index(e.view(), p);
   return e;
@@ -112,7 +111,6 @@ texsynth::SurfacePatchResult run(const PlaneScene& scene, const Exemplar& ex, te
   p.synth.mode = mode;
   p.synth.tolerance = tolerance;
   p.synth.seed = seed;
-  p.synth.exhaustive = true;
   p.synth.iterations = 4;
   p.centre_spacing = mode == texsynth::PatchMode::kSampling ? 0.5 : 0.25;
   return texsynth::synthesize_patches_on_surface(scene.field, scene.samples(), ex.index, ex.view(), p);
@@ -238,6 +236,8 @@ TEST(PatchesSynth, BadParametersAreRefusedClearly) {
   expect_refused([](auto& p) { p.synth.iterations = 0; }, "iterations");
   expect_refused([](auto& p) { p.synth.robust_exponent = 3; }, "robust_exponent");
   expect_refused([](auto& p) { p.centre_spacing = 0; }, "centre_spacing");
+  expect_refused([](auto& p) { p.synth.boundary_width = 0; }, "boundary width");
+  expect_refused([](auto& p) { p.synth.boundary_width = 9; }, "boundary width");  // patch 16: at most 8
   // A sample other than the analysed one.
   std::vector<float> other(size_t(40) * 40 * 4, 0.5f);
   texsynth::SurfacePatchParams p;

@@ -132,6 +132,8 @@ def test_exemplar_and_synthesis_round_trip_through_numpy_and_a_cache_file(tmp_pa
     assert whole.mean() > 0.5 and np.mean(np.all(np.abs(px - out["colour"][whole]) < 1e-5, axis=1)) > 0.6
     with pytest.raises(ValueError, match="mode"):
         tn.synthesize_patches(field, exemplar, sample, positions, None, tri, bary, mode="fast")
+    with pytest.raises(ValueError, match="boundary width"):  # patch 16: W_E at most 8
+        tn.synthesize_patches(field, exemplar, sample, positions, None, tri, bary, boundary_width=9)
     with pytest.raises(ValueError, match="barycentrics"):
         tn.synthesize_patches(field, exemplar, sample, positions, None, tri, bary[:-1])
     with pytest.raises(ValueError, match="sample"):

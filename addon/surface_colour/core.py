@@ -245,17 +245,17 @@ class ExemplarCache:
         self.lock = threading.Lock()
 
     @staticmethod
-    def key(sample, patch_size, boundary, tileable):
+    def key(sample, patch_size, tileable):
         digest = hashlib.blake2b(digest_size=16)
         digest.update(str(sample.shape).encode())
         digest.update(np.ascontiguousarray(sample).data)
-        digest.update(repr((int(patch_size), int(boundary), bool(tileable), 1)).encode())
+        digest.update(repr((int(patch_size), bool(tileable), 2)).encode())
         return digest.hexdigest()
 
-    def get(self, sample, patch_size, boundary, tileable, cache_dir="", cancel=None):
+    def get(self, sample, patch_size, tileable, cache_dir="", cancel=None):
         """(exemplar, how): how is 'memory', 'disk' or 'built'."""
         module = native.require()
-        key = self.key(sample, patch_size, boundary, tileable)
+        key = self.key(sample, patch_size, tileable)
         with self.lock:
             if self.entry is not None and self.entry[0] == key:
                 return self.entry[1], "memory"
@@ -268,7 +268,7 @@ class ExemplarCache:
                 exemplar = None  # stale or corrupt: rebuilt and overwritten below
         if exemplar is None:
             extra = {} if cancel is None else {"cancel": cancel}
-            exemplar = module.patch_exemplar(sample, patch_size=int(patch_size), band_width=int(boundary),
+            exemplar = module.patch_exemplar(sample, patch_size=int(patch_size),
                                              tileable=bool(tileable), **extra)
             if path:
                 os.makedirs(cache_dir, exist_ok=True)
@@ -360,14 +360,15 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
         raise pipeline.SettingsError(
             "%d surface samples in %s mode need about %d MB (limit %d MB): use a smaller image, sampling mode or "
             "larger patches" % (positions.shape[0], mode.lower(), needed, PATCH_MAX_MEGABYTES))
-    exemplar, exemplar_from = cache.get(sample, settings.patch_size, settings.patch_boundary, settings.tileable,
+    exemplar, exemplar_from = cache.get(sample, settings.patch_size, settings.tileable,
                                         cache_dir, cancel)
     field = module.patch_field(mesh_arrays.positions, triangles, up, spacing=1.0 / float(texels_per_unit),
                                density=mesh_arrays.scale_multiplier, **extra)
     stage("synthesis")
     native_result = module.synthesize_patches(
         field, exemplar, sample, positions, normals, tri, bary, mode=mode.lower(), seed=int(seed),
-        centre_spacing=PATCH_CENTRE_SPACING[mode], tolerance=float(settings.patch_tolerance),
+        centre_spacing=PATCH_CENTRE_SPACING[mode], boundary_width=int(settings.patch_boundary),
+        tolerance=float(settings.patch_tolerance),
         iterations=int(settings.patch_iterations), **extra)
     colour = native_result["colour"]
     channels = colour.shape[1]

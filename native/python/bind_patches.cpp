@@ -152,7 +152,7 @@ void bind_patches(py::module_& m) {
 
   m.def(
       "patch_exemplar",
-      [](py::object pixels, int patch_size, bool tileable, uint64_t seed, int band_width, double max_megabytes,
+      [](py::object pixels, int patch_size, bool tileable, uint64_t seed, double max_megabytes,
          py::object cancel) {
         FloatArray px = float_array(pixels, "sample");
         const texsynth::ExemplarSample sample = exemplar_sample(px);
@@ -160,9 +160,7 @@ void bind_patches(py::module_& m) {
         params.patch_size = texsynth::fit_patch_size(sample.width, sample.height, patch_size, tileable);
         params.tileable = tileable;
         params.seed = seed;
-        params.band_width = band_width;
         params.full_index = true;
-        params.band_index = true;
         params.max_megabytes = max_megabytes;
         params.cancel = cancel_flag(cancel);
         auto index = std::make_shared<texsynth::ExemplarIndex>();
@@ -173,10 +171,10 @@ void bind_patches(py::module_& m) {
         return index;
       },
       py::arg("sample"), py::kw_only(), py::arg("patch_size") = 32, py::arg("tileable") = false, py::arg("seed") = 0,
-      py::arg("band_width") = 4, py::arg("max_megabytes") = texsynth::kExemplarDefaultMaxMegabytes,
+      py::arg("max_megabytes") = texsynth::kExemplarDefaultMaxMegabytes,
       py::arg("cancel") = py::none(),
-      "Analyses a sample (H, W, 3|4) float, row 0 = bottom, for vector-field patches: both the full-patch and the "
-      "boundary-band index. A sample too small for patch_size gets the largest multiple of 4 that fits "
+      "Analyses a sample (H, W, 3|4) float, row 0 = bottom, for vector-field patches: appearance and the "
+      "full-patch index. A sample too small for patch_size gets the largest multiple of 4 that fits "
       "(PatchExemplar.patch_size says which). ValueError on bad input; cancel: a CancelToken.");
 
   m.def(
@@ -198,7 +196,7 @@ void bind_patches(py::module_& m) {
       "synthesize_patches",
       [](const texsynth::PatchField& field, const texsynth::ExemplarIndex& exemplar, py::object pixels,
          py::object positions, py::object normals, py::object triangles, py::object barycentrics,
-         const std::string& mode, uint64_t seed, double centre_spacing, double tolerance, int candidates,
+         const std::string& mode, uint64_t seed, double centre_spacing, int boundary_width, double tolerance, int candidates,
          int iterations, double robust_exponent, bool exhaustive, bool discrete, const std::string& vote,
          py::object cancel) {
         FloatArray px = float_array(pixels, "sample");
@@ -229,6 +227,7 @@ void bind_patches(py::module_& m) {
           throw std::invalid_argument("mode must be 'sampling' or 'optimisation', got '" + mode + "'");
         params.centre_spacing = centre_spacing;
         params.synth.seed = seed;
+        params.synth.boundary_width = boundary_width;
         params.synth.tolerance = tolerance;
         params.synth.candidates = candidates;
         params.synth.iterations = iterations;
@@ -273,7 +272,7 @@ void bind_patches(py::module_& m) {
       },
       py::arg("field"), py::arg("exemplar"), py::arg("sample"), py::arg("positions"), py::arg("normals"),
       py::arg("triangles"), py::arg("barycentrics"), py::kw_only(), py::arg("mode") = "sampling",
-      py::arg("seed") = 0, py::arg("centre_spacing") = 0.5, py::arg("tolerance") = 1.2, py::arg("candidates") = 16,
+      py::arg("seed") = 0, py::arg("centre_spacing") = 0.5, py::arg("boundary_width") = 4, py::arg("tolerance") = 1.2, py::arg("candidates") = 16,
       py::arg("iterations") = 6, py::arg("robust_exponent") = 0.8, py::arg("exhaustive") = true, py::arg("discrete") = false,
       py::arg("vote") = "mean",
       py::arg("cancel") = py::none(),

@@ -394,9 +394,10 @@ void validate(const GridPatches& g, const PatchCoverage& cov, int32_t num_sample
     throw std::invalid_argument("patch synthesis: coverage does not match the patches or samples");
   if (!s.pixels || s.width != ix.width || s.height != ix.height || s.channels != ix.channels)
     throw std::invalid_argument("patch synthesis: the sample is not the one the exemplar index was built from");
-  if (p.mode == PatchMode::kSampling && !ix.band) throw std::invalid_argument("patch synthesis: sampling needs the band index");
-  if (p.mode == PatchMode::kOptimisation && (!ix.band || !ix.full))
-    throw std::invalid_argument("patch synthesis: optimisation needs the band and full indices");
+  if (!ix.full) throw std::invalid_argument("patch synthesis: the exemplar has no full-patch index");
+  if (p.boundary_width < 1 || p.boundary_width > ix.patch_size / 2)
+    throw std::invalid_argument("patch synthesis: boundary width must be 1.." + std::to_string(ix.patch_size / 2) +
+                                ", got " + std::to_string(p.boundary_width));
   if (!(p.tolerance >= 1) || !std::isfinite(p.tolerance)) throw std::invalid_argument("patch synthesis: tolerance must be >= 1");
   if (p.candidates < 1 || p.candidates > 256) throw std::invalid_argument("patch synthesis: candidates must be 1..256");
   if (p.iterations < 1 || p.iterations > 50) throw std::invalid_argument("patch synthesis: iterations must be 1..50");
@@ -425,7 +426,7 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
     if (p.progress) p.progress->store(f, std::memory_order_relaxed);
   };
   const double inner_lo = kPatchGridMargin, inner_hi = kPatchGridMargin + w - 1;
-  const double band = std::max(1, ix.band ? ix.band->spec.band_width : 4);
+  const double band = p.boundary_width;
 
   // Patch sampling: each patch fills the samples still unsettled; it is matched on the settled cells
   // within the boundary zone of that frontier and cross-faded into them over W_E.

@@ -14,9 +14,10 @@
 //
 // Patch sampling (§5, note "Band vs overlap"):
 //  - patches in breadth-first order over patches that share samples, from a seeded start;
-//  - candidates: the band index's HNSW shortlist for the known band cells (cells touching the
-//    boundary zone of width W_E; unknown ones are masked), reranked by the exact appearance distance
-//    over the known band cells, then one drawn uniformly among those within tolerance × the best;
+//  - candidates: an exact masked search of the full index over the known cells within W_E of the
+//    frontier (unknown and farther cells are masked; a separate band index was measured no better and
+//    cost preprocessing), refined to the pixel, then one drawn uniformly among those within
+//    tolerance × the best;
 //    a patch with no known band cell takes a seeded random origin;
 //  - paste: the whole patch is written; samples that were already settled are cross-faded over the
 //    boundary zone (weight distance-from-border / W_E), so the seam lies where the band was matched.
@@ -56,7 +57,9 @@ struct PatchSynthParams {
   int iterations = 6;              // optimisation: 1..50 (the last is the discrete vote)
   double robust_exponent = 0.8;    // r in (0, 2]
   uint64_t seed = 0;
-  bool exhaustive = false;         // exact search over every origin instead of the HNSW shortlist
+  int boundary_width = 4;          // W_E: the zone matched and cross-faded, 1 .. patch_size / 2
+  bool exhaustive = true;          // sampling: exact masked search over every origin (false: the HNSW
+                                   // shortlist of the masked projection, which misses partial matches)
   bool discrete = false;           // optimisation: every E-step a discrete vote, not only the last
   PatchVote vote = PatchVote::kNearestMean;
   const std::atomic<bool>* cancel = nullptr;
@@ -81,7 +84,7 @@ struct PatchSynthResult {
 };
 
 // `patches` must be traced with size = index.patch_size + 2·kPatchGridMargin; `coverage` located on the
-// same samples. The index needs the band index (sampling) and the full index (optimisation). Throws
+// same samples. The index needs its full-patch index. Throws
 // std::invalid_argument for mismatched sizes or parameters out of range; texsynth::Cancelled.
 // Deterministic for a seed whatever the thread count.
 PatchSynthResult synthesize_patches(const GridPatches& patches, const PatchCoverage& coverage, int32_t num_samples,
