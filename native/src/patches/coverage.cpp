@@ -14,6 +14,7 @@
 
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/hash.hpp"
+#include "texsynth/mesh/spatial_cells.hpp"
 
 namespace texsynth {
 namespace {
@@ -22,20 +23,6 @@ constexpr double kCellSlack = 0.01;      // s, t tolerance at cell edges
 constexpr double kMaxPlaneDistance = 0.5;  // in local steps
 constexpr double kMinNormalDot = 0.5;
 constexpr int kMaxWalk = 12;
-constexpr int64_t kKeyOffset = int64_t(1) << 20;
-
-// Integer cell of a position; false when the cell index does not fit the key.
-bool cell_of(V3 p, double size, int64_t c[3]) {
-  const double q[3] = {p.x / size, p.y / size, p.z / size};
-  for (int k = 0; k < 3; ++k) {
-    if (!(std::fabs(q[k]) < double(kKeyOffset - 2))) return false;
-    c[k] = int64_t(std::floor(q[k]));
-  }
-  return true;
-}
-uint64_t key_of(int64_t x, int64_t y, int64_t z) {
-  return (uint64_t(x + kKeyOffset) << 42) | (uint64_t(y + kKeyOffset) << 21) | uint64_t(z + kKeyOffset);
-}
 
 void validate(const PatchField& field, const PatchSamples& s) {
   if (s.count < 0) throw std::invalid_argument("patch samples: negative count");
@@ -84,8 +71,8 @@ std::vector<FacePoint> choose_patch_centres(const PatchField& field, const Patch
   for (int32_t i = 0; i < n; ++i) {
     if (only && !only[i]) continue;
     int64_t c[3];
-    if (!cell_of(v3(samples.positions + 3 * size_t(i)), cell, c)) continue;
-    all.push_back({key_of(c[0], c[1], c[2]), hash_combine(seed, uint64_t(i)), i});
+    if (!spatial_cell(v3(samples.positions + 3 * size_t(i)), cell, c)) continue;
+    all.push_back({spatial_cell_key(c[0], c[1], c[2]), hash_combine(seed, uint64_t(i)), i});
   }
   tbb::parallel_sort(all.begin(), all.end(), [](const Candidate& a, const Candidate& b) {
     return a.key != b.key ? a.key < b.key : a.rank != b.rank ? a.rank < b.rank : a.sample < b.sample;
@@ -103,13 +90,13 @@ std::vector<FacePoint> choose_patch_centres(const PatchField& field, const Patch
     const V3 p = v3(samples.positions + 3 * size_t(cand.sample));
     const double r = radius[cand.sample];
     int64_t c[3] = {0, 0, 0};
-    cell_of(p, cell, c);  // succeeded when the candidate was made
+    spatial_cell(p, cell, c);  // succeeded when the candidate was made
     const int64_t reach = int64_t(std::ceil(r / cell));
     bool free = true;
     for (int64_t dx = -reach; dx <= reach && free; ++dx)
       for (int64_t dy = -reach; dy <= reach && free; ++dy)
         for (int64_t dz = -reach; dz <= reach && free; ++dz) {
-          auto it = accepted.find(key_of(c[0] + dx, c[1] + dy, c[2] + dz));
+          auto it = accepted.find(spatial_cell_key(c[0] + dx, c[1] + dy, c[2] + dz));
           if (it == accepted.end()) continue;
           for (int32_t q : it->second)
             if (norm(v3(samples.positions + 3 * size_t(q)) - p) < r) {
@@ -118,7 +105,7 @@ std::vector<FacePoint> choose_patch_centres(const PatchField& field, const Patch
             }
         }
     if (!free) continue;
-    accepted[key_of(c[0], c[1], c[2])].push_back(cand.sample);
+    accepted[spatial_cell_key(c[0], c[1], c[2])].push_back(cand.sample);
     out.push_back({samples.triangle[cand.sample], samples.barycentric[2 * size_t(cand.sample)],
                    samples.barycentric[2 * size_t(cand.sample) + 1]});
   }
@@ -180,12 +167,12 @@ PatchCoverage locate_samples(const PatchField& field, const GridPatches& g, cons
   for (int32_t p = 0; p < np; ++p) {
     const Frame& f = frames[p];
     int64_t lo[3], hi[3];
-    if (f.radius < 0 || !cell_of(f.centre - V3{f.radius, f.radius, f.radius}, cell, lo) ||
-        !cell_of(f.centre + V3{f.radius, f.radius, f.radius}, cell, hi))
+    if (f.radius < 0 || !spatial_cell(f.centre - V3{f.radius, f.radius, f.radius}, cell, lo) ||
+        !spatial_cell(f.centre + V3{f.radius, f.radius, f.radius}, cell, hi))
       continue;
     for (int64_t x = lo[0]; x <= hi[0]; ++x)
       for (int64_t y = lo[1]; y <= hi[1]; ++y)
-        for (int64_t z = lo[2]; z <= hi[2]; ++z) table.push_back({key_of(x, y, z), p});
+        for (int64_t z = lo[2]; z <= hi[2]; ++z) table.push_back({spatial_cell_key(x, y, z), p});
   }
   tbb::parallel_sort(table.begin(), table.end());
   throw_if_cancelled(cancel);
@@ -206,8 +193,8 @@ PatchCoverage locate_samples(const PatchField& field, const GridPatches& g, cons
         const V3 x = v3(samples.positions + 3 * size_t(s));
         const V3 normal = samples.normals ? v3(samples.normals + 3 * size_t(s)) : V3{};
         int64_t k[3];
-        if (!cell_of(x, cell, k)) continue;
-        const uint64_t key = key_of(k[0], k[1], k[2]);
+        if (!spatial_cell(x, cell, k)) continue;
+        const uint64_t key = spatial_cell_key(k[0], k[1], k[2]);
         auto it = std::lower_bound(table.begin(), table.end(), std::make_pair(key, int32_t(-1)));
         for (; it != table.end() && it->first == key; ++it) {
           const int32_t p = it->second;

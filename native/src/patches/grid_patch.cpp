@@ -13,6 +13,7 @@
 #include <string>
 
 #include "texsynth/common/errors.hpp"
+#include "texsynth/mesh/vertex_fill.hpp"
 
 namespace texsynth {
 namespace {
@@ -69,25 +70,16 @@ std::vector<float> fill_unset(const TriangleMeshInput& m, const float* dirs, int
     }
   std::vector<float> out(3 * size_t(nv), 0.f);
   std::vector<uint8_t> known(size_t(nv), 0);
-  std::vector<int32_t> queue;
+  int64_t set = 0;
   for (int32_t v = 0; v < nv; ++v)
     if (set_vector(dirs + 3 * size_t(v))) {
       std::copy_n(dirs + 3 * size_t(v), 3, &out[3 * size_t(v)]);
       known[v] = 1;
-      queue.push_back(v);
+      ++set;
     }
-  if (queue.empty()) throw std::invalid_argument("patch field: no vertex has a direction (all zero or NaN)");
-  *unset = nv - int64_t(queue.size());
-  for (size_t head = 0; head < queue.size(); ++head) {
-    const int32_t v = queue[head];
-    for (int32_t k = start[v]; k < start[v + 1]; ++k) {
-      const int32_t u = adj[size_t(k)];
-      if (known[u]) continue;
-      known[u] = 1;
-      std::copy_n(&out[3 * size_t(v)], 3, &out[3 * size_t(u)]);
-      queue.push_back(u);
-    }
-  }
+  if (set == 0) throw std::invalid_argument("patch field: no vertex has a direction (all zero or NaN)");
+  *unset = nv - set;
+  fill_from_known_vertices(start.data(), adj.data(), nv, known, out.data());
   return out;
 }
 

@@ -19,6 +19,7 @@
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/hash.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/mesh/spatial_cells.hpp"
 
 namespace texsynth {
 namespace {
@@ -321,17 +322,9 @@ int64_t fill_unreached(const PatchField& field, const PatchSamples& samples, con
   const int32_t count = samples.count;
   const double cell = 2 * field.spacing * kMinGridScale;
   std::vector<std::pair<uint64_t, int32_t>> table;
-  auto key = [&](int64_t x, int64_t y, int64_t z) {
-    return (uint64_t(x + (1 << 20)) << 42) | (uint64_t(y + (1 << 20)) << 21) | uint64_t(z + (1 << 20));
-  };
-  auto cell_of = [&](V3 p, int64_t c[3]) {
-    const double q[3] = {p.x / cell, p.y / cell, p.z / cell};
-    for (int k = 0; k < 3; ++k) {
-      if (!(std::fabs(q[k]) < double((1 << 20) - 80))) return false;
-      c[k] = int64_t(std::floor(q[k]));
-    }
-    return true;
-  };
+  // Rings reach 32 cells out: those neighbours must fit the key too.
+  auto cell_of = [&](V3 p, int64_t c[3]) { return spatial_cell(p, cell, c, 80); };
+  auto key = spatial_cell_key;
   std::vector<int32_t> missing;
   for (int32_t s = 0; s < count; ++s) {
     int64_t c[3];

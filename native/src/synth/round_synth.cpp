@@ -24,6 +24,7 @@
 #include "texsynth/common/rng.hpp"
 #include "texsynth/image/image.hpp"
 #include "texsynth/mesh/vec_math.hpp"
+#include "texsynth/mesh/vertex_fill.hpp"
 #include "texsynth/surface/dilate.hpp"
 #include "texsynth/synth/round_synth.hpp"
 
@@ -146,22 +147,11 @@ std::vector<float> fill_directions(const RoundSynthesisContext& ctx, const float
   const int32_t nv = ctx.num_vertices;
   std::vector<float> out(dirs, dirs + 3 * size_t(nv));
   std::vector<uint8_t> known(size_t(nv), 0);
-  std::vector<int32_t> queue;
-  queue.reserve(size_t(nv));
   for (int32_t v = 0; v < nv; ++v) {
     const float* d = dirs + 3 * size_t(v);
-    if (d[0] != 0.f || d[1] != 0.f || d[2] != 0.f) known[v] = 1, queue.push_back(v);
+    known[v] = d[0] != 0.f || d[1] != 0.f || d[2] != 0.f;
   }
-  for (size_t head = 0; head < queue.size(); ++head) {
-    const int32_t v = queue[head];
-    for (int32_t k = ctx.vertex_adjacency_start[v]; k < ctx.vertex_adjacency_start[v + 1]; ++k) {
-      const int32_t u = ctx.vertex_adjacency[k];
-      if (known[u]) continue;
-      known[u] = 1;
-      std::memcpy(&out[3 * size_t(u)], &out[3 * size_t(v)], 3 * sizeof(float));
-      queue.push_back(u);
-    }
-  }
+  fill_from_known_vertices(ctx.vertex_adjacency_start.data(), ctx.vertex_adjacency.data(), nv, known, out.data());
   return out;
 }
 
