@@ -171,6 +171,40 @@ TEST(PatchesCoverage, SamplesAreLocatedAtTheirExactGridCoordinates) {
     }
 }
 
+TEST(PatchesCoverage, PatchesAddedLaterGiveTheSameGridsAndCoverageAsAllAtOnce) {
+  // The surface pass traces and locates its extra round of patches alone, then appends and merges.
+  const PlaneScene scene(64);
+  const auto first = texsynth::choose_patch_centres(scene.field, scene.samples(), 6, 3);
+  const auto more = texsynth::choose_patch_centres(scene.field, scene.samples(), 9, 4);
+  ASSERT_GT(first.size(), 10u);
+  ASSERT_GT(more.size(), 10u);
+  std::vector<texsynth::FacePoint> all = first;
+  all.insert(all.end(), more.begin(), more.end());
+  const int n = 20;
+  const auto whole = texsynth::trace_grid_patches(scene.field, all.data(), int32_t(all.size()), n);
+  const auto whole_cov = texsynth::locate_samples(scene.field, whole, scene.samples());
+  auto parts = texsynth::trace_grid_patches(scene.field, first.data(), int32_t(first.size()), n);
+  const auto first_cov = texsynth::locate_samples(scene.field, parts, scene.samples());
+  texsynth::append_grid_patches(parts, texsynth::trace_grid_patches(scene.field, more.data(), int32_t(more.size()), n));
+  const auto more_cov = texsynth::locate_samples(scene.field, parts, scene.samples(), nullptr, int32_t(first.size()));
+  EXPECT_EQ(more_cov.patch_start[first.size()], 0);  // the first patches were not located again
+  const auto merged = texsynth::merge_coverage(first_cov, more_cov);
+  EXPECT_EQ(parts.count, whole.count);
+  EXPECT_EQ(parts.positions, whole.positions);
+  EXPECT_EQ(parts.cell_valid, whole.cell_valid);
+  EXPECT_EQ(parts.invalid_points, whole.invalid_points);
+  EXPECT_EQ(merged.sample_start, whole_cov.sample_start);
+  EXPECT_EQ(merged.sample_patch, whole_cov.sample_patch);
+  EXPECT_EQ(merged.sample_uv, whole_cov.sample_uv);
+  EXPECT_EQ(merged.patch_start, whole_cov.patch_start);
+  EXPECT_EQ(merged.patch_sample, whole_cov.patch_sample);
+  EXPECT_EQ(merged.patch_uv, whole_cov.patch_uv);
+  EXPECT_EQ(merged.uncovered, whole_cov.uncovered);
+  GTEST_ASSERT_GT(merged.sample_patch.size(), first_cov.sample_patch.size());
+  EXPECT_THROW(texsynth::append_grid_patches(parts, texsynth::trace_grid_patches(scene.field, more.data(), 1, n + 2)),
+               std::invalid_argument);
+}
+
 TEST(PatchesSynth, SamplingContinuesATileableExemplarWithoutASeam) {
   // Every patch has an exact continuation (distance 0) in a tileable exemplar: with tolerance 1 the
   // whole plane becomes one coherent copy, so neighbouring samples read neighbouring exemplar pixels.

@@ -122,14 +122,17 @@ def test_exemplar_and_synthesis_round_trip_through_numpy_and_a_cache_file(tmp_pa
     pos, tris = plane(n=4, spacing=0.25, jitter=0.0)
     positions, tri, bary = lattice_samples(pos, tris, 32)
     field = tn.patch_field(pos, tris, np.tile([0.0, 1.0, 0.0], (len(pos), 1)), spacing=1.0 / 32)
-    out = tn.synthesize_patches(field, exemplar, sample, positions, None, tri, bary, seed=2)
+    # W_E 2: thin cross-fade zones, so most samples show one patch alone.
+    out = tn.synthesize_patches(field, exemplar, sample, positions, None, tri, bary, seed=2, boundary_width=2)
     assert out["colour"].shape == (32 * 32, 3) and out["source"].shape == (32 * 32, 2)
     assert np.all(out["source"] >= 0), "every sample is pasted or continued"
     # Each colour is the sample read (bilinearly) at its source coordinate, away from cross-faded zones.
     sx, sy = out["source"][:, 0] - 0.5, out["source"][:, 1] - 0.5
     whole = (np.abs(sx - np.round(sx)) < 1e-3) & (np.abs(sy - np.round(sy)) < 1e-3)
     px = sample[np.clip(np.round(sy[whole]).astype(int), 0, 39), np.clip(np.round(sx[whole]).astype(int), 0, 39)]
-    assert whole.mean() > 0.5 and np.mean(np.all(np.abs(px - out["colour"][whole]) < 1e-5, axis=1)) > 0.6
+    exact = np.mean(np.all(np.abs(px - out["colour"][whole]) < 1e-5, axis=1))
+    print("whole-pixel sources %.3f, exact colours among them %.3f" % (whole.mean(), exact))
+    assert whole.mean() > 0.5 and exact > 0.6
     with pytest.raises(ValueError, match="mode"):
         tn.synthesize_patches(field, exemplar, sample, positions, None, tri, bary, mode="fast")
     with pytest.raises(ValueError, match="boundary width"):  # patch 16: W_E at most 8

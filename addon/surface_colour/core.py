@@ -18,9 +18,11 @@ from ..core import pipeline
 
 COLOUR_ATTRIBUTE_NAME = "TexSynth_Colour"  # VERTICES target: FLOAT_COLOR point attribute
 IMAGE_PREFIXES = {"ROUND": "TexSynth Round: ", "PATCHES": "TexSynth Patches: "}  # default IMAGE target names
-# Vector-field patches: patch centres spaced at this fraction of the patch size (note 001, "Coverage"):
-# half a patch for sampling, a quarter for optimisation (each sample then sees ~16 patches).
-PATCH_CENTRE_SPACING = {"SAMPLING": 0.5, "OPTIMISATION": 0.25}
+# Vector-field patches: the Poisson-disk radius of patch centres as a fraction of the patch size (note
+# 001, "Coverage"): half a patch for sampling; 0.3 for optimisation, which packs about as many patches
+# as the note's quarter did with sparser candidates (7 per sample at 256²) and measured more detail
+# (moss 0.84 vs 0.75 of the sample's gradient) in half the time (README, Vector-field patches).
+PATCH_CENTRE_SPACING = {"SAMPLING": 0.5, "OPTIMISATION": 0.3}
 PATCH_MAX_MEGABYTES = 2500.0
 MAX_OVERLAP_FRACTION = 0.01  # as round_synth.hpp: a few folded texels are accepted, overlapping islands not
 

@@ -50,14 +50,16 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.dirname(HERE))  # python_tests: addon_package
 sys.path.insert(0, os.environ.get("TEXSYNTH_MODULE_DIR", os.path.join(ROOT, "addon")))
 import texsynth_native as tn  # noqa: E402
 
+import addon_package  # noqa: E402
 import blend_metrics  # noqa: E402
 from bench_round_quality import (angle_error_degrees, blur, error_picture, grain_orientation,  # noqa: E402
                                  load_sample, luminance, nearest_patch, write_png)
 
-SPACING = {"sampling": 0.5, "optimisation": 0.25}
+SPACING = {"sampling": 0.5, "optimisation": 0.3}
 MODES = ("sampling", "optimisation")
 PATCH_SIZE = 32
 PERF_CELLS = 224  # 2 * 224^2 = 100,352 triangles
@@ -235,11 +237,13 @@ class Bench:
                                                   + (time.perf_counter() - start,)), flush=True)
         return self.exemplars[name]
 
-    def run(self, name, field, mode, res=None, density=None, magnitude=None, tag=None, **kw):
-        """density / magnitude: (left, right) values on x < 0.5 / x > 0.5 (vertex sides). Returns dict image
-        (res, res, 3), source (res, res, 2), stats, seconds."""
+    def run(self, name, field, mode, res=None, density=None, magnitude=None, tag=None, spacing=None, **kw):
+        """density / magnitude: (left, right) values on x < 0.5 / x > 0.5 (vertex sides); spacing: surface
+        units per sample pixel at density 1 (default one sample's). Returns dict image (res, res, 3), source
+        (res, res, 2), stats, seconds."""
         res = res or self.args.size
-        key = (name, field, mode, res, density, magnitude, tuple(sorted(kw.items())))
+        spacing = spacing or 1.0 / res
+        key = (name, field, mode, res, density, magnitude, spacing, tuple(sorted(kw.items())))
         if key in self.results:
             return self.results[key]
         pos, tris = plane_mesh(self.cells)
@@ -248,7 +252,7 @@ class Bench:
         if magnitude is not None:
             dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True) * np.where(right, magnitude[1], magnitude[0])[:, None]
         dens = None if density is None else np.where(right, density[1], density[0]).astype(np.float32)
-        field_obj = tn.patch_field(pos, tris, dirs.astype(np.float32), spacing=1.0 / res, density=dens,
+        field_obj = tn.patch_field(pos, tris, dirs.astype(np.float32), spacing=spacing, density=dens,
                                    magnitude_scale=magnitude is not None)
         P, tri, bary = lattice(res, self.cells)
         normals = np.tile(np.float32([0, 0, 1]), (len(P), 1))
@@ -343,12 +347,21 @@ def part_progressive(bench):
           "(x <= 0.4) vs right half (x >= 0.6); %s, %d^2 ==" % (name, res))
     print("sample's own period %.2f px; goal: left / right = 2 +- 10 %% (1.80..2.20)" % own)
     print("%-30s %-13s %8s %8s %8s %6s" % ("scale", "mode", "left px", "right px", "ratio", "goal"))
-    cases = (("density 1 | 2", dict(density=(1.0, 2.0))), ("|v| 1 | 0.5 (magnitude_scale)", dict(magnitude=(1.0, 0.5))),
-             ("none (control)", {}))
-    for label, kw in cases:
+    # The add-on's law (surface_colour.core.synthesize_patches): the sample is reduced by the largest
+    # multiplier first, so the densest region shows one reduced-sample pixel per surface sample and the
+    # rest is magnified; unreduced, density 2 asks each sample to show two pixels and bricks fall apart.
+    core = addon_package.load("surface_colour.core")
+    reduced, texels_per_unit = core.working_sample(sample, float(res), res / 2.0)
+    bench.samples[name + "/2"] = reduced
+    cases = (("density 1 | 2, add-on law", name + "/2", dict(density=(1.0, 2.0), spacing=1.0 / texels_per_unit)),
+             ("density 1 | 2, unreduced", name, dict(density=(1.0, 2.0))),
+             ("|v| 1 | 0.5 (magnitude_scale)", name, dict(magnitude=(1.0, 0.5))),
+             ("none (control)", name, {}))
+    for label, sample_name, kw in cases:
         for mode in MODES:
-            tag = "progressive_%s_%s" % ("density" if "density" in kw else "magnitude" if kw else "none", mode)
-            out = bench.run(name, "const", mode, tag=tag, **kw)
+            kind = "density" if "density" in kw else "magnitude" if kw else "none"
+            tag = "progressive_%s%s_%s" % (kind, "_reduced" if sample_name != name else "", mode)
+            out = bench.run(sample_name, "const", mode, tag=tag, **kw)
             lum = luminance(out["image"])
             pl, pr = dominant_period(lum[:, left], 0), dominant_period(lum[:, right], 0)
             ratio = pl / pr

@@ -23,6 +23,7 @@ constexpr double kCellSlack = 0.01;      // s, t tolerance at cell edges
 constexpr double kMaxPlaneDistance = 0.5;  // in local steps
 constexpr double kMinNormalDot = 0.5;
 constexpr int kMaxWalk = 12;
+constexpr double kCandidateCell = 0.5;  // candidate cell / smallest centre spacing
 
 void validate(const PatchField& field, const PatchSamples& s) {
   if (s.count < 0) throw std::invalid_argument("patch samples: negative count");
@@ -60,26 +61,31 @@ std::vector<FacePoint> choose_patch_centres(const PatchField& field, const Patch
   }
   std::vector<FacePoint> out;
   if (!std::isfinite(cell)) return out;
+  // Cells of half the smallest radius: with one candidate per cell of the whole radius, samples of a
+  // rejected cell could be up to 2r from every centre, and at 1024² the extra round then needed 1057
+  // patches on top of 1734 (README, Vector-field patches).
+  cell *= kCandidateCell;
   throw_if_cancelled(cancel);
   // One candidate per occupied cell: the sample with the smallest seeded hash.
   struct Candidate {
     uint64_t key, rank;
     int32_t sample;
   };
-  std::vector<Candidate> all;
-  all.reserve(size_t(n));
+  // The smallest rank per cell in one pass over the samples (sorting every sample by cell was 0.1-0.2 s
+  // at a million samples).
+  std::unordered_map<uint64_t, Candidate> best;
   for (int32_t i = 0; i < n; ++i) {
     if (only && !only[i]) continue;
     int64_t c[3];
     if (!spatial_cell(v3(samples.positions + 3 * size_t(i)), cell, c)) continue;
-    all.push_back({spatial_cell_key(c[0], c[1], c[2]), hash_combine(seed, uint64_t(i)), i});
+    const Candidate cand{spatial_cell_key(c[0], c[1], c[2]), hash_combine(seed, uint64_t(i)), i};
+    auto [it, inserted] = best.try_emplace(cand.key, cand);
+    if (!inserted && (cand.rank < it->second.rank || (cand.rank == it->second.rank && cand.sample < it->second.sample)))
+      it->second = cand;
   }
-  tbb::parallel_sort(all.begin(), all.end(), [](const Candidate& a, const Candidate& b) {
-    return a.key != b.key ? a.key < b.key : a.rank != b.rank ? a.rank < b.rank : a.sample < b.sample;
-  });
   std::vector<Candidate> picks;
-  for (size_t k = 0; k < all.size(); ++k)
-    if (k == 0 || all[k].key != all[k - 1].key) picks.push_back(all[k]);
+  picks.reserve(best.size());
+  for (const auto& entry : best) picks.push_back(entry.second);
   std::sort(picks.begin(), picks.end(), [](const Candidate& a, const Candidate& b) {
     return a.rank != b.rank ? a.rank < b.rank : a.sample < b.sample;
   });
@@ -112,12 +118,65 @@ std::vector<FacePoint> choose_patch_centres(const PatchField& field, const Patch
   return out;
 }
 
+namespace {
+
+// The patch-major side from the sample-major one (samples ascending within each patch).
+void fill_patch_side(PatchCoverage& out, int32_t np) {
+  const int32_t count = int32_t(out.sample_start.size()) - 1;
+  const size_t total = out.sample_patch.size();
+  out.patch_start.assign(size_t(np) + 1, 0);
+  for (int32_t p : out.sample_patch) out.patch_start[size_t(p) + 1]++;
+  for (int32_t p = 0; p < np; ++p) out.patch_start[size_t(p) + 1] += out.patch_start[p];
+  out.patch_sample.resize(total);
+  out.patch_uv.resize(2 * total);
+  std::vector<int64_t> fill(out.patch_start.begin(), out.patch_start.end() - 1);
+  for (int32_t s = 0; s < count; ++s)
+    for (int64_t e = out.sample_start[s]; e < out.sample_start[size_t(s) + 1]; ++e) {
+      const int64_t slot = fill[out.sample_patch[e]]++;
+      out.patch_sample[slot] = s;
+      out.patch_uv[2 * slot] = out.sample_uv[2 * e], out.patch_uv[2 * slot + 1] = out.sample_uv[2 * e + 1];
+    }
+}
+
+}  // namespace
+
+PatchCoverage merge_coverage(const PatchCoverage& a, const PatchCoverage& b) {
+  if (a.sample_start.size() != b.sample_start.size() || a.sample_start.empty())
+    throw std::invalid_argument("merge coverage: different sample counts");
+  const int32_t count = int32_t(a.sample_start.size()) - 1;
+  const int32_t np = int32_t(std::max(a.patch_start.size(), b.patch_start.size())) - 1;
+  PatchCoverage out;
+  out.sample_start.assign(size_t(count) + 1, 0);
+  for (int32_t s = 0; s < count; ++s)
+    out.sample_start[size_t(s) + 1] = out.sample_start[s] + (a.sample_start[size_t(s) + 1] - a.sample_start[s]) +
+                                      (b.sample_start[size_t(s) + 1] - b.sample_start[s]);
+  out.sample_patch.resize(size_t(out.sample_start[count]));
+  out.sample_uv.resize(2 * size_t(out.sample_start[count]));
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, count, 4096), [&](const tbb::blocked_range<int32_t>& r) {
+    for (int32_t s = r.begin(); s < r.end(); ++s) {
+      int64_t i = a.sample_start[s], j = b.sample_start[s], at = out.sample_start[s];
+      const int64_t ie = a.sample_start[size_t(s) + 1], je = b.sample_start[size_t(s) + 1];
+      for (; i < ie || j < je; ++at) {  // both ascending by patch: merged ascending
+        const bool from_a = j == je || (i < ie && a.sample_patch[i] <= b.sample_patch[j]);
+        const PatchCoverage& src = from_a ? a : b;
+        const int64_t e = from_a ? i++ : j++;
+        out.sample_patch[at] = src.sample_patch[e];
+        out.sample_uv[2 * at] = src.sample_uv[2 * e], out.sample_uv[2 * at + 1] = src.sample_uv[2 * e + 1];
+      }
+    }
+  });
+  for (int32_t s = 0; s < count; ++s) out.uncovered += out.sample_start[size_t(s) + 1] == out.sample_start[s];
+  fill_patch_side(out, np);
+  return out;
+}
+
 PatchCoverage locate_samples(const PatchField& field, const GridPatches& g, const PatchSamples& samples,
-                             const std::atomic<bool>* cancel) {
+                             const std::atomic<bool>* cancel, int32_t first_patch) {
   validate(field, samples);
   const int32_t n = g.size, np = g.count, c = n / 2;
   if (n < 2 || g.points.size() != size_t(np) * size_t(n) * size_t(n))
     throw std::invalid_argument("locate samples: grid patches are inconsistent");
+  if (first_patch < 0 || first_patch > np) throw std::invalid_argument("locate samples: first patch out of range");
   auto point = [&](int32_t p, int32_t i, int32_t j) {
     return v3(&g.positions[3 * ((size_t(p) * n + size_t(j)) * n + size_t(i))]);
   };
@@ -133,7 +192,7 @@ PatchCoverage locate_samples(const PatchField& field, const GridPatches& g, cons
   tbb::parallel_for(tbb::blocked_range<int32_t>(0, np, 16), [&](const tbb::blocked_range<int32_t>& r) {
     for (int32_t p = r.begin(); p < r.end(); ++p) {
       Frame& f = frames[p];
-      if (n < 3 || !valid(p, c, c)) continue;
+      if (n < 3 || p < first_patch || !valid(p, c, c)) continue;
       f.centre = point(p, c, c);
       // One step along x and y from the centre, backwards where the forward point is lost (a boundary).
       if (valid(p, c + 1, c)) f.ex = point(p, c + 1, c) - f.centre;
@@ -189,14 +248,22 @@ PatchCoverage locate_samples(const PatchField& field, const GridPatches& g, cons
     for (int32_t chunk = r.begin(); chunk < r.end(); ++chunk) {
       throw_if_cancelled(cancel);
       std::vector<Entry>& list = found[chunk];
+      list.reserve(size_t(kChunk) * 4);  // about 3 patches per sample when sampling
+      // Neighbouring samples (texels of a row, vertices of a strip) mostly share a cell: its range of
+      // the table is looked up once for them.
+      uint64_t last_key = ~uint64_t(0);
+      auto first = table.end();
       for (int32_t s = chunk * kChunk; s < std::min(samples.count, (chunk + 1) * kChunk); ++s) {
         const V3 x = v3(samples.positions + 3 * size_t(s));
         const V3 normal = samples.normals ? v3(samples.normals + 3 * size_t(s)) : V3{};
         int64_t k[3];
         if (!spatial_cell(x, cell, k)) continue;
         const uint64_t key = spatial_cell_key(k[0], k[1], k[2]);
-        auto it = std::lower_bound(table.begin(), table.end(), std::make_pair(key, int32_t(-1)));
-        for (; it != table.end() && it->first == key; ++it) {
+        if (key != last_key) {
+          first = std::lower_bound(table.begin(), table.end(), std::make_pair(key, int32_t(-1)));
+          last_key = key;
+        }
+        for (auto it = first; it != table.end() && it->first == key; ++it) {
           const int32_t p = it->second;
           const Frame& f = frames[p];
           const V3 d = x - f.centre;
@@ -257,17 +324,7 @@ PatchCoverage locate_samples(const PatchField& field, const GridPatches& g, cons
     out.uncovered += out.sample_start[size_t(s) + 1] == 0;
     out.sample_start[size_t(s) + 1] += out.sample_start[s];
   }
-  for (int32_t p = 0; p < np; ++p) out.patch_start[size_t(p) + 1] += out.patch_start[p];
-  // Transpose: samples ascending within each patch.
-  out.patch_sample.resize(size_t(total));
-  out.patch_uv.resize(2 * size_t(total));
-  std::vector<int64_t> fill(out.patch_start.begin(), out.patch_start.end() - 1);
-  for (int32_t s = 0; s < samples.count; ++s)
-    for (int64_t e = out.sample_start[s]; e < out.sample_start[size_t(s) + 1]; ++e) {
-      const int64_t slot = fill[out.sample_patch[e]]++;
-      out.patch_sample[slot] = s;
-      out.patch_uv[2 * slot] = out.sample_uv[2 * e], out.patch_uv[2 * slot + 1] = out.sample_uv[2 * e + 1];
-    }
+  fill_patch_side(out, np);
   return out;
 }
 

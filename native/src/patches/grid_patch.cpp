@@ -447,4 +447,14 @@ CellCoordinates cell_coordinates(V3 p00, V3 p10, V3 p11, V3 p01, V3 point) {
   return out;
 }
 
+void append_grid_patches(GridPatches& into, const GridPatches& more) {
+  if (into.size != more.size) throw std::invalid_argument("append grid patches: different patch sizes");
+  into.count += more.count;
+  into.points.insert(into.points.end(), more.points.begin(), more.points.end());
+  into.positions.insert(into.positions.end(), more.positions.begin(), more.positions.end());
+  into.cell_valid.insert(into.cell_valid.end(), more.cell_valid.begin(), more.cell_valid.end());
+  into.invalid_points += more.invalid_points;
+  into.invalid_cells += more.invalid_cells;
+}
+
 }  // namespace texsynth

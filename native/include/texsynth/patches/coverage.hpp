@@ -51,7 +51,13 @@ struct PatchCoverage {
 
 // Throws std::invalid_argument for missing arrays, a patch count mismatch, samples outside the mesh;
 // texsynth::Cancelled when *cancel is raised. Same result for any thread count.
+// first_patch: only patches from this one on are located (the others cover nothing), to add patches
+// to a coverage with merge_coverage without locating the first ones again.
 PatchCoverage locate_samples(const PatchField& field, const GridPatches& patches, const PatchSamples& samples,
-                             const std::atomic<bool>* cancel = nullptr);
+                             const std::atomic<bool>* cancel = nullptr, int32_t first_patch = 0);
+
+// The union of two coverages of the same samples (entries of each ascending, as locate_samples gives
+// them; b may have more patches): the same as one locate_samples over all patches.
+PatchCoverage merge_coverage(const PatchCoverage& a, const PatchCoverage& b);
 
 }  // namespace texsynth

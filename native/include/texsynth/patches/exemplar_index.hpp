@@ -130,6 +130,10 @@ struct PatchIndex {
   std::vector<float> reduced;  // count() x dims, origin-major
   uint64_t graph_seed = 0;     // HNSW level generator and insertion order
   std::shared_ptr<const HnswGraph> graph;
+  // Every origin's raw feature by columns (feature i of origin id at columns[i·count() + id]) and each
+  // cell's squared norm (cell_norm[c·count() + id]): an exact masked search then reads only the known
+  // cells' columns (patch_synth.cpp). Built with the index and on load, never saved.
+  std::vector<float> columns, cell_norm;
 
   int32_t count() const { return origins_x * origins_y; }
   std::array<int32_t, 2> origin(int32_t id) const { return {id % origins_x, id / origins_x}; }
@@ -143,6 +147,7 @@ struct PatchIndex {
   void project(const float* raw, const uint8_t* valid, float* out) const;
   // The raw vector of origin id, read from the appearance it was built from.
   void raw_feature(const ExemplarAppearance& appearance, int32_t id, float* out) const;
+  void build_columns(const ExemplarAppearance& appearance);  // fills columns and cell_norm
 
   // k nearest origins by HNSW (approximate), nearest first; k is capped at count(). Thread-safe.
   std::vector<PatchMatch> search(const float* query, int k) const;

@@ -98,6 +98,10 @@ struct GridPatches {
 GridPatches trace_grid_patches(const PatchField& field, const FacePoint* centres, int32_t count, int32_t size,
                                const std::atomic<bool>* cancel = nullptr);
 
+// Appends `more` (same size) after the patches of `into`: each patch is traced on its own, so the
+// result equals tracing all centres at once. Throws std::invalid_argument for another size.
+void append_grid_patches(GridPatches& into, const GridPatches& more);
+
 // Where a point lies within a grid cell (corners p00, p10, p11, p01 counter-clockwise in the grid),
 // by inverse bilinear interpolation in the cell's mean plane. The paper's paste formula (§3.2) neither
 // sums to one nor reproduces corner values (note 001); bilinear weights (1-s)(1-t), s(1-t), st,

@@ -93,8 +93,8 @@ PatchSynthResult synthesize_patches(const GridPatches& patches, const PatchCover
 
 // The whole surface pass: patch centres (Poisson-disk, spacing = centre_spacing × patch size, in
 // local steps), grids traced with the margin, samples located, one more round of centres among the
-// samples still uncovered, then synthesize_patches(). centre_spacing: the note's w/2 for sampling
-// and w/4 for optimisation are 0.5 and 0.25.
+// samples still uncovered (traced and located alone, then merged), then synthesize_patches().
+// centre_spacing: the note's w/2 for sampling is 0.5; the add-on uses 0.3 for optimisation.
 struct SurfacePatchParams {
   PatchSynthParams synth;
   double centre_spacing = 0.5;  // (0, 1]
