@@ -252,6 +252,54 @@ TEST(PatchesSynth, OptimisationLowersTheEnergyAndEverySampleIsColoured) {
   for (float v : r.synth.colour) ASSERT_TRUE(std::isfinite(v));
 }
 
+TEST(PatchesSynth, AnExactCopyGivenAsTheStartIsKeptByTheOptimisation) {
+  // The finer levels of a multi-resolution optimisation start from given exemplar coordinates. A start
+  // that copies the exemplar pixel for pixel matches every patch at distance 0: it must come back as it
+  // went in, where the default start (patch sampling) gives another arrangement.
+  const PlaneScene scene(32);
+  const Exemplar ex = noise_exemplar(40, 16, false);
+  std::vector<float> start(scene.tri.size() * 2);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x) start[2 * size_t(y * 32 + x)] = x + 4.5f, start[2 * size_t(y * 32 + x) + 1] = y + 4.5f;
+  texsynth::SurfacePatchParams p;
+  p.synth.mode = texsynth::PatchMode::kOptimisation;
+  p.synth.iterations = 3;
+  p.levels = 1;
+  p.centre_spacing = 0.3;
+  p.synth.initial_source = start.data();
+  const auto kept = texsynth::synthesize_patches_on_surface(scene.field, scene.samples(), ex.index, ex.view(), p);
+  p.synth.initial_source = nullptr;
+  const auto sampled = texsynth::synthesize_patches_on_surface(scene.field, scene.samples(), ex.index, ex.view(), p);
+  int64_t same = 0, same_sampled = 0;
+  for (size_t s = 0; s < scene.tri.size(); ++s) {
+    same += std::fabs(kept.synth.source[2 * s] - start[2 * s]) < 1e-4 && std::fabs(kept.synth.source[2 * s + 1] - start[2 * s + 1]) < 1e-4;
+    same_sampled += std::fabs(sampled.synth.source[2 * s] - start[2 * s]) < 1e-4 &&
+                    std::fabs(sampled.synth.source[2 * s + 1] - start[2 * s + 1]) < 1e-4;
+  }
+  EXPECT_GT(same, int64_t(scene.tri.size() * 95 / 100));
+  EXPECT_LT(same_sampled, int64_t(scene.tri.size() / 2));
+}
+
+TEST(PatchesSynth, MultiResolutionRunsTheLevelsTheSampleAllows) {
+  const PlaneScene scene(48);
+  texsynth::SurfacePatchParams p;
+  p.synth.mode = texsynth::PatchMode::kOptimisation;
+  p.synth.iterations = 2;
+  p.centre_spacing = 0.3;
+  p.levels = 3;
+  // 48 px: levels at 48 and 24; 12 would be below the smallest exemplar a patch fits (16).
+  const Exemplar ex = noise_exemplar(48, 16, false);
+  const auto r = texsynth::synthesize_patches_on_surface(scene.field, scene.samples(), ex.index, ex.view(), p);
+  EXPECT_EQ(r.levels, 2);
+  EXPECT_GT(r.seconds_coarse, 0.0);
+  for (size_t s = 0; s < scene.tri.size(); ++s) ASSERT_GE(r.synth.source[2 * s], 0.f) << "sample " << s;
+  p.levels = 1;
+  EXPECT_EQ(texsynth::synthesize_patches_on_surface(scene.field, scene.samples(), ex.index, ex.view(), p).levels, 1);
+  p.synth.mode = texsynth::PatchMode::kSampling;  // sampling has one level whatever is asked
+  p.levels = 3;
+  EXPECT_EQ(texsynth::synthesize_patches_on_surface(scene.field, scene.samples(), ex.index, ex.view(), p).levels, 1);
+}
+
 TEST(PatchesSynth, BadParametersAreRefusedClearly) {
   const PlaneScene scene(32);
   const Exemplar ex = noise_exemplar(40, 16, false);
@@ -272,6 +320,8 @@ TEST(PatchesSynth, BadParametersAreRefusedClearly) {
   expect_refused([](auto& p) { p.centre_spacing = 0; }, "centre_spacing");
   expect_refused([](auto& p) { p.synth.boundary_width = 0; }, "boundary width");
   expect_refused([](auto& p) { p.synth.boundary_width = 9; }, "boundary width");  // patch 16: at most 8
+  expect_refused([](auto& p) { p.levels = 0; }, "levels");
+  expect_refused([](auto& p) { p.levels = texsynth::kMaxPatchLevels + 1; }, "levels");
   // A sample other than the analysed one.
   std::vector<float> other(size_t(40) * 40 * 4, 0.5f);
   texsynth::SurfacePatchParams p;

@@ -196,7 +196,7 @@ void bind_patches(py::module_& m) {
       "synthesize_patches",
       [](const texsynth::PatchField& field, const texsynth::ExemplarIndex& exemplar, py::object pixels,
          py::object positions, py::object normals, py::object triangles, py::object barycentrics,
-         const std::string& mode, uint64_t seed, double centre_spacing, int boundary_width, double tolerance, int candidates,
+         const std::string& mode, uint64_t seed, double centre_spacing, int levels, int boundary_width, double tolerance, int candidates,
          int iterations, double robust_exponent, bool exhaustive, bool discrete, const std::string& vote,
          py::object cancel) {
         FloatArray px = float_array(pixels, "sample");
@@ -226,6 +226,7 @@ void bind_patches(py::module_& m) {
         else
           throw std::invalid_argument("mode must be 'sampling' or 'optimisation', got '" + mode + "'");
         params.centre_spacing = centre_spacing;
+        params.levels = levels;
         params.synth.seed = seed;
         params.synth.boundary_width = boundary_width;
         params.synth.tolerance = tolerance;
@@ -261,6 +262,8 @@ void bind_patches(py::module_& m) {
         stats["seconds_locate"] = r.seconds_locate;
         stats["seconds_sampling"] = r.synth.stats.seconds_sampling;
         stats["seconds_optimisation"] = r.synth.stats.seconds_optimisation;
+        stats["seconds_coarse"] = r.seconds_coarse;
+        stats["levels"] = r.levels;
         stats["energy"] = r.synth.stats.energy;
         stats["changed"] = r.synth.stats.changed;
         py::dict out;
@@ -272,12 +275,12 @@ void bind_patches(py::module_& m) {
       },
       py::arg("field"), py::arg("exemplar"), py::arg("sample"), py::arg("positions"), py::arg("normals"),
       py::arg("triangles"), py::arg("barycentrics"), py::kw_only(), py::arg("mode") = "sampling",
-      py::arg("seed") = 0, py::arg("centre_spacing") = 0.5, py::arg("boundary_width") = 4, py::arg("tolerance") = 1.2, py::arg("candidates") = 16,
+      py::arg("seed") = 0, py::arg("centre_spacing") = 0.5, py::arg("levels") = 3, py::arg("boundary_width") = 4, py::arg("tolerance") = 1.2, py::arg("candidates") = 16,
       py::arg("iterations") = 6, py::arg("robust_exponent") = 0.8, py::arg("exhaustive") = true, py::arg("discrete") = false,
       py::arg("vote") = "mean",
       py::arg("cancel") = py::none(),
       "Vector-field patch synthesis onto N surface samples (positions (N, 3), normals (N, 3) or None, triangles "
       "(N,), barycentrics (N, 2) in the field's mesh): mode 'sampling' (§5) or 'optimisation' (§4.3, from the "
-      "sampling result). Returns dict: colour (N, C), source (N, 2) exemplar pixel coordinates (-1: uncovered), "
+      "sampling result; levels > 1: coarser levels first, each from a sample halved again). Returns dict: colour (N, C), source (N, 2) exemplar pixel coordinates (-1: uncovered), "
       "origin (patches, 2), stats. cancel: a CancelToken, whose progress the call updates.");
 }

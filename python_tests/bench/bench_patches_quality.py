@@ -3,7 +3,7 @@
 quality goals on a flat plane. Not a test: prints figures and leaves pictures. No Blender needed.
 
   PYTHONPATH=addon /usr/bin/python3.11 python_tests/bench/bench_patches_quality.py \\
-      [--parts structure,progressive,seams,exponent,perf] [--size 256] [--out out/patches_quality] [--seed 1]
+      [--parts structure,progressive,seams,exponent,levels,perf] [--size 256] [--out out/patches_quality] [--seed 1]
       [--perf-sizes 256,512,1024] [--perf-optimisation 256,512]
 
 Every synthesis is "render-equivalent": the 1 x 1 plane z = 0 (normal +z), a res x res lattice of samples at
@@ -34,6 +34,8 @@ Modes: sampling (centre_spacing 0.5) and optimisation (centre_spacing 0.25, robu
 5. perf: each size in a fresh process: a plane of 2 x 224^2 = 100,352 triangles, res^2 samples: seconds per
    stage, synthesis total (goal <= 0.3 s at 256^2, sampling), peak RSS (ru_maxrss) and its growth over the
    process before synthesis, per sample; exemplar preprocessing of bricks upscaled to 256^2 (goal <= 5 s).
+6. levels: optimisation with 1, 2 and 3 resolution levels on bricks, moss and bark: detail, seams, p11 and
+   (bricks) the median grain error, with the seconds the coarser levels took.
 
 Pictures (PNG, row 0 = top) go to --out: results, seam masks, orientation-error maps.
 """
@@ -424,6 +426,30 @@ def part_exponent(bench):
                                                            " ".join("%.3f" % v for v in out["stats"]["changed"])), flush=True)
 
 
+def part_levels(bench):
+    res = bench.args.size
+    print("\n== 6. multi-resolution optimisation: levels 1..3 (coarser levels: sample halved, step doubled); %d^2 ==" % res)
+    print("detail, seams, p11 as in 3-4; grain: median structure error (raw, deg) on bricks, constant field; the "
+          "sample's own p11 in brackets")
+    print("%-8s %-7s %8s %8s %10s %7s %8s %7s" % ("sample", "levels", "detail", "seams", "p11", "grain", "coarse s",
+                                                  "synth s"))
+    for name in ("bricks", "moss", "bark"):
+        sample = bench.sample(name)
+        own = nearest_patch(sample, sample, 11, 600, np.random.default_rng(bench.args.seed), leave_one_out=True)
+        for levels in (1, 2, 3):
+            out = bench.run(name, "const", "optimisation", tag="levels_%s_%d" % (name, levels), levels=levels)
+            p11 = nearest_patch(out["image"], sample, 11, 600, np.random.default_rng(bench.args.seed))
+            grain_err = "-"
+            if name == "bricks":  # the constant field points along +y: grain at pi/2 + the sample's offset
+                g, c = grain(sample)
+                offset = dominant_grain(g, c, margin_mask(g.shape, 8)) - np.pi / 2
+                err = angle_error_degrees(grain_orientation(out["image"])[0], np.pi / 2 + offset)
+                grain_err = "%.1f" % np.median(err[margin_mask((res, res), 8)])
+            print("%-8s %-7d %8.3f %8.3f %10.5f %7s %8.2f %7.2f   (%.5f)" % (
+                name, levels, detail(out["image"], sample), seam_figure(out["image"], out["source"])[0], p11, grain_err,
+                out["stats"].get("seconds_coarse", 0.0), out["seconds"], own), flush=True)
+
+
 def peak_rss_mb():
     """VmHWM (peak resident set, MB); ru_maxrss where /proc is missing."""
     try:
@@ -534,6 +560,7 @@ def part_perf(args):
                 ("locate s", lambda r: "%.3f" % r["stats"]["seconds_locate"]),
                 ("sampling s", lambda r: "%.3f" % r["stats"]["seconds_sampling"]),
                 ("optimisation s", lambda r: "%.3f" % r["stats"]["seconds_optimisation"]),
+                ("coarser levels s (all stages)", lambda r: "%.3f" % r["stats"]["seconds_coarse"]),
                 ("synthesis total s (wall)", lambda r: "%.2f" % r["synth_s"]),
                 ("us per sample", lambda r: "%.2f" % (1e6 * r["synth_s"] / r["samples"])),
                 ("peak RSS MB before (exemplar etc.)", lambda r: "%.0f" % r["exemplar_peak_mb"]),
@@ -560,7 +587,7 @@ def part_perf(args):
 
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(prog="bench_patches_quality")
-    parser.add_argument("--parts", default="structure,progressive,seams,exponent,perf")
+    parser.add_argument("--parts", default="structure,progressive,seams,exponent,levels,perf")
     parser.add_argument("--size", type=int, default=256, help="lattice res of parts 1-4")
     parser.add_argument("--perf-sizes", default="256,512,1024", help="part 5, sampling mode")
     parser.add_argument("--perf-optimisation", default="256,512", help="part 5, optimisation mode")
@@ -583,7 +610,7 @@ def main():
     for name in ("bricks", "moss", "bark"):
         write_png(os.path.join(args.out, "sample_%s.png" % name), bench.sample(name))
     for part, function in (("structure", part_structure), ("progressive", part_progressive), ("seams", part_seams),
-                           ("exponent", part_exponent)):
+                           ("exponent", part_exponent), ("levels", part_levels)):
         if part in parts:
             function(bench)
     if "perf" in parts:

@@ -19,6 +19,7 @@
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/hash.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/image/reduce.hpp"
 #include "texsynth/mesh/spatial_cells.hpp"
 
 namespace texsynth {
@@ -445,7 +446,18 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
   // Patch sampling: each patch fills the samples still unsettled; it is matched on the settled cells
   // within the boundary zone of that frontier and cross-faded into them over W_E.
   const PatchIndex& match_index = *ix.full;
-  const std::vector<int32_t> order = patch_order(g, cov, num_samples, p.seed);
+  const bool from_initial = p.mode == PatchMode::kOptimisation && p.initial_source;
+  if (from_initial) {
+    std::fill(out.origin.begin(), out.origin.end(), -1);  // matched in the first M-step
+    for (int32_t s = 0; s < num_samples; ++s) {
+      const float sx = p.initial_source[2 * size_t(s)], sy = p.initial_source[2 * size_t(s) + 1];
+      if (!(sx >= 0 && sy >= 0) || !std::isfinite(sx) || !std::isfinite(sy)) continue;
+      reader.read(sx, sy, &out.colour[size_t(s) * C]);
+      out.source[2 * size_t(s)] = sx, out.source[2 * size_t(s) + 1] = sy;
+      settled[s] = 1;
+    }
+  }
+  const std::vector<int32_t> order = from_initial ? std::vector<int32_t>() : patch_order(g, cov, num_samples, p.seed);
   Rng rng(p.seed, 7);
   GridColours grid(n, C);
   std::vector<float> raw, window, reduced, feature, colour(static_cast<size_t>(C)), frontier;
@@ -622,8 +634,38 @@ SurfacePatchResult synthesize_patches_on_surface(const PatchField& field, const 
                                                  const SurfacePatchParams& params) {
   if (!(params.centre_spacing > 0 && params.centre_spacing <= 1))
     throw std::invalid_argument("patch synthesis: centre_spacing must be in (0, 1]");
+  if (params.levels < 1 || params.levels > kMaxPatchLevels)
+    throw std::invalid_argument("patch synthesis: levels must be 1.." + std::to_string(kMaxPatchLevels));
   const std::atomic<bool>* cancel = params.synth.cancel;
   SurfacePatchResult out;
+  std::vector<float> initial;
+  SurfacePatchParams fine = params;
+  if (params.levels > 1 && params.synth.mode == PatchMode::kOptimisation &&
+      std::min(sample.width, sample.height) / 2 >= 16) {  // fit_patch_size's smallest exemplar
+    // The level below: half the sample, twice the step; its exemplar is analysed here (a quarter of
+    // the pixels: a fraction of the full analysis) and not cached.
+    const auto t = std::chrono::steady_clock::now();
+    std::vector<float> half;
+    halve_image(sample.pixels, sample.width, sample.height, sample.channels, half);
+    const ExemplarSample coarse_sample{half.data(), sample.width / 2, sample.height / 2, sample.channels};
+    ExemplarParams ep;
+    ep.patch_size = fit_patch_size(coarse_sample.width, coarse_sample.height, index.patch_size, index.tileable);
+    ep.tileable = index.tileable;
+    ep.seed = index.seed;
+    ep.cancel = cancel;
+    const ExemplarIndex coarse_index = build_exemplar_index(coarse_sample, ep);
+    PatchField coarse_field = field;
+    coarse_field.spacing *= 2;
+    SurfacePatchParams coarse = params;
+    coarse.levels = params.levels - 1;
+    coarse.synth.progress = nullptr;  // the fine level reports (a bar that went back would mislead)
+    const SurfacePatchResult below = synthesize_patches_on_surface(coarse_field, samples, coarse_index, coarse_sample, coarse);
+    initial.resize(below.synth.source.size());
+    for (size_t k = 0; k < initial.size(); ++k) initial[k] = below.synth.source[k] >= 0 ? 2 * below.synth.source[k] : -1.f;
+    fine.synth.initial_source = initial.data();
+    out.levels = below.levels + 1;
+    out.seconds_coarse = seconds_since(t);
+  }
   const int32_t size = index.patch_size + 2 * kPatchGridMargin;
   const double spacing = params.centre_spacing * index.patch_size;
   auto t = std::chrono::steady_clock::now();
@@ -659,7 +701,7 @@ SurfacePatchResult synthesize_patches_on_surface(const PatchField& field, const 
   out.patches = grids.count;
   out.invalid_grid_points = grids.invalid_points;
   out.coverage_entries = int64_t(cov.sample_patch.size());
-  out.synth = synthesize_patches(grids, cov, samples.count, index, sample, params.synth);
+  out.synth = synthesize_patches(grids, cov, samples.count, index, sample, fine.synth);
   const ExemplarReader reader(sample, index.tileable);
   out.extrapolated_samples = fill_unreached(field, samples, reader, out.synth, cancel);
   return out;

@@ -23,6 +23,7 @@
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/image/image.hpp"
+#include "texsynth/image/reduce.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 #include "texsynth/mesh/vertex_fill.hpp"
 #include "texsynth/surface/dilate.hpp"
@@ -96,14 +97,7 @@ std::vector<SampleLevel> build_pyramid(const RoundSample& s, const std::vector<i
     const SampleLevel& f = pyr[l - 1];
     SampleLevel& g = pyr[l];
     g.w = f.w / 2, g.h = f.h / 2, g.c = C;
-    g.px.resize(size_t(g.w) * g.h * C);
-    for (int32_t y = 0; y < g.h; ++y)
-      for (int32_t x = 0; x < g.w; ++x)
-        for (int32_t k = 0; k < C; ++k) {
-          const auto at = [&](int32_t xx, int32_t yy) { return f.px[(size_t(yy) * f.w + xx) * C + k]; };
-          g.px[(size_t(y) * g.w + x) * C + k] =
-              0.25f * ((at(2 * x, 2 * y) + at(2 * x + 1, 2 * y)) + (at(2 * x, 2 * y + 1) + at(2 * x + 1, 2 * y + 1)));
-        }
+    halve_image(f.px.data(), f.w, f.h, C, g.px);
   }
   for (int l = 0; l < levels; ++l) {
     SampleLevel& g = pyr[l];

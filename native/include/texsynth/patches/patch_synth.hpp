@@ -4,9 +4,10 @@
 // onto surface samples through grid patches traced along the field (grid_patch.hpp), located with
 // coverage.hpp, matched with the exemplar index (exemplar_index.hpp).
 //
-// Grids are traced with a margin of 2 points on every side (size w + 4), so the 5x5 appearance
-// windows of the representative pixels are on the surface too: grid point (i, j) shows exemplar pixel
-// origin + (i - 2, j - 2), and a patch pastes onto the samples with u, v in [2, w + 1].
+// Grids are traced with a margin of 1 point on every side (size w + 2): the 5x5 appearance windows of
+// the representative pixels (patch pixels 2, 6, ..., w - 2) reach patch pixels 0..w, so they are on the
+// surface too (a margin of 2 traced and located 17 % more points for nothing). Grid point (i, j) shows
+// exemplar pixel origin + (i - 1, j - 1), and a patch pastes onto the samples with u, v in [1, w].
 //
 // Surface -> grid: the colours of the settled samples a patch covers are splatted onto its grid
 // points with bilinear weights (the paper's barycentric read needs a colour per mesh vertex; this works
@@ -37,7 +38,7 @@
 
 namespace texsynth {
 
-constexpr int kPatchGridMargin = 2;
+constexpr int kPatchGridMargin = 1;
 
 enum class PatchMode { kSampling, kOptimisation };
 
@@ -62,6 +63,9 @@ struct PatchSynthParams {
                                    // shortlist of the masked projection, which misses partial matches)
   bool discrete = false;           // optimisation: every E-step a discrete vote, not only the last
   PatchVote vote = PatchVote::kNearestMean;
+  // Optimisation: start from these exemplar coordinates (samples × 2, pixel x covers [x, x + 1); < 0:
+  // none) instead of a patch-sampling pass: the previous level of a multi-resolution optimisation.
+  const float* initial_source = nullptr;
   const std::atomic<bool>* cancel = nullptr;
   std::atomic<float>* progress = nullptr;
 };
@@ -95,15 +99,23 @@ PatchSynthResult synthesize_patches(const GridPatches& patches, const PatchCover
 // local steps), grids traced with the margin, samples located, one more round of centres among the
 // samples still uncovered (traced and located alone, then merged), then synthesize_patches().
 // centre_spacing: the note's w/2 for sampling is 0.5; the add-on uses 0.3 for optimisation.
+// Multi-resolution optimisation (levels > 1, note 001 "Multi-level"): the sample is halved (2×2 box)
+// per coarser level and the grid step doubled, so the same patch size in pixels spans twice the surface;
+// the coarsest level is patch sampling then optimisation, each finer level starts from the exemplar
+// coordinates of the one below, ×2 (coordinates up-sampled, not colours: no blur carried up).
+constexpr int kMaxPatchLevels = 3;
 struct SurfacePatchParams {
   PatchSynthParams synth;
   double centre_spacing = 0.5;  // (0, 1]
+  int levels = 3;               // optimisation: 1..kMaxPatchLevels (sampling: 1); README, Vector-field patches
 };
 struct SurfacePatchResult {
   PatchSynthResult synth;
   int32_t patches = 0, extra_patches = 0;
   int64_t invalid_grid_points = 0;
   double seconds_centres = 0, seconds_trace = 0, seconds_locate = 0;
+  double seconds_coarse = 0;     // the coarser levels of a multi-resolution optimisation, all stages
+  int32_t levels = 1;            // levels run (coarse samples too small for a patch end the pyramid early)
   int64_t coverage_entries = 0;  // (sample, patch) pairs
   // Samples no patch pasted onto (stats.uncovered_samples), continued from the nearest pasted sample:
   // its exemplar coordinate plus their offset in its frame.
