@@ -57,6 +57,25 @@ def test_density_halves_the_step():
     np.testing.assert_allclose(np.diff(out["positions"][0, :, 4, 1]), 0.01, atol=1e-6)
 
 
+def test_a_field_on_the_same_mesh_reuses_its_walk_mesh_and_traces_the_same():
+    # The live preview rebuilds the field after each comb stroke on an unchanged mesh.
+    pos, tris = cylinder()
+    around = np.stack([-pos[:, 1], pos[:, 0], np.zeros(len(pos))], axis=1)
+    first = tn.patch_field(pos, tris, around, spacing=0.04)
+    along = np.tile([0.0, 0.0, 1.0], (len(pos), 1))
+    fresh = tn.patch_field(pos, tris, along, spacing=0.04)
+    reused = tn.patch_field(pos, tris, along, spacing=0.04, reuse=first)
+    assert not fresh.reused_mesh and reused.reused_mesh
+    centres, bary = np.array([5, 700, 2000], np.int32), np.full((3, 2), 0.25, np.float32)
+    a = tn.trace_grid_patches(fresh, centres, bary, size=16)
+    b = tn.trace_grid_patches(reused, centres, bary, size=16)
+    for name in ("triangle", "barycentrics", "positions", "cell_valid"):
+        np.testing.assert_array_equal(a[name], b[name])
+    moved = pos.copy()
+    moved[0, 2] += 1e-3  # another mesh: built afresh
+    assert not tn.patch_field(moved, tris, along, spacing=0.04, reuse=first).reused_mesh
+
+
 def test_shapes_and_values_are_checked_at_the_boundary():
     pos, tris = plane(n=4)
     dirs = np.tile([0.0, 1.0, 0.0], (len(pos), 1))

@@ -321,8 +321,46 @@ def estimate_patch_megabytes(samples, mode, patch_size):
     return entries * 49.0 / 1e6
 
 
+class PatchTargetCache:
+    """What a patch synthesis reads from the mesh and target alone, kept for the last mesh so a live
+    preview after a comb stroke redoes only the field: the surface samples (texels through the UV map)
+    and their density, and the last field, whose walk mesh the native side copies when the geometry is
+    the same (these were 0.45 s of a 0.54 s preview on a 100k-face torus)."""
+
+    def __init__(self):
+        self.entry = None  # (key, density, samples)
+        self.field = None
+        self.lock = threading.Lock()
+
+    @staticmethod
+    def key(mesh_arrays, triangles, corner_uvs, target):
+        digest = hashlib.blake2b(digest_size=16)
+        for array in (mesh_arrays.positions, triangles, corner_uvs if target.kind == "IMAGE" else None):
+            if array is not None:
+                array = np.ascontiguousarray(array)
+                digest.update(str((array.dtype, array.shape)).encode())
+                digest.update(array.data)
+        digest.update(repr((target.kind, int(target.width), int(target.height), int(target.margin))).encode())
+        return digest.hexdigest()
+
+    def get(self, key):
+        with self.lock:
+            return self.entry[1:] if self.entry is not None and self.entry[0] == key else None
+
+    def put(self, key, density, samples):
+        with self.lock:
+            self.entry = (key, density, samples)
+
+    def clear(self):
+        with self.lock:
+            self.entry, self.field = None, None
+
+
+patch_targets = PatchTargetCache()
+
+
 def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, seed, texels_per_unit, target,
-                       cancel=None, stage=None, cache_dir="", cache=exemplars):
+                       cancel=None, stage=None, cache_dir="", cache=exemplars, targets=patch_targets):
     """Vector-field patch synthesis on one mesh (same contract as synthesize_round): IMAGE target ->
     'image' (H, W, C) with the bake margin filled and 'mask' (1 covered, 2 margin); VERTICES -> 'vertex_colour'
     (V, C). ValueError on bad input (overlapping UV islands, a target above the memory limit, ...)."""
@@ -332,7 +370,9 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
     stage = stage or (lambda name: None)
     extra = {} if cancel is None else {"cancel": cancel}
     up = directions(mesh_arrays, settings)
-    density = target_density(mesh_arrays.positions, triangles, corner_uvs, target)
+    target_key = targets.key(mesh_arrays, triangles, corner_uvs, target)
+    cached = targets.get(target_key)
+    density = cached[0] if cached else target_density(mesh_arrays.positions, triangles, corner_uvs, target)
     full_width = sample.shape[1]
     # A scale field above 1 asks for features finer than the samples there: the sample is reduced by the
     # largest multiplier too, so no patch reads an exemplar finer than the surface samples can hold
@@ -344,8 +384,9 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
                                              2 * settings.patch_size)
     stage("context")
     if target.kind == "IMAGE":
-        texels = module.sample_texels(mesh_arrays.positions, triangles, corner_uvs, int(target.width),
-                                      int(target.height), margin=int(target.margin), **extra)
+        texels = cached[1] if cached else module.sample_texels(
+            mesh_arrays.positions, triangles, corner_uvs, int(target.width), int(target.height),
+            margin=int(target.margin), **extra)
         covered = int(texels["texel"].size)
         if covered == 0:
             raise pipeline.SettingsError("the UV map covers no texel of a %dx%d image" % (target.width, target.height))
@@ -357,8 +398,11 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
         positions, normals = texels["position"], texels["normal"]
         tri, bary = texels["triangle"], texels["barycentric"]
     else:
-        vertex_ids, positions, normals, tri, bary = vertex_samples(mesh_arrays.positions, triangles)
+        texels = cached[1] if cached else vertex_samples(mesh_arrays.positions, triangles)
+        vertex_ids, positions, normals, tri, bary = texels
         overlapping = 0
+    if not cached:
+        targets.put(target_key, density, texels)
     mode = settings.patch_mode
     needed = estimate_patch_megabytes(positions.shape[0], mode, settings.patch_size)
     if needed > PATCH_MAX_MEGABYTES:
@@ -368,7 +412,8 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
     exemplar, exemplar_from = cache.get(sample, settings.patch_size, settings.tileable,
                                         cache_dir, cancel)
     field = module.patch_field(mesh_arrays.positions, triangles, up, spacing=1.0 / float(texels_per_unit),
-                               density=mesh_arrays.scale_multiplier, **extra)
+                               density=mesh_arrays.scale_multiplier, reuse=targets.field, **extra)
+    targets.field = field
     stage("synthesis")
     native_result = module.synthesize_patches(
         field, exemplar, sample, positions, normals, tri, bary, mode=mode.lower(), seed=int(seed),

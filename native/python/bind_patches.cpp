@@ -38,6 +38,7 @@ void bind_patches(py::module_& m) {
       .def_property_readonly("num_triangles", [](const texsynth::PatchField& f) { return f.triangles.size() / 3; })
       .def_property_readonly("spacing", [](const texsynth::PatchField& f) { return f.spacing; })
       .def_property_readonly("unset_vertices", [](const texsynth::PatchField& f) { return f.unset_vertices; })
+      .def_property_readonly("reused_mesh", [](const texsynth::PatchField& f) { return f.reused_mesh; })
       .def_property_readonly("scale", [](const texsynth::PatchField& f) {
         return to_numpy(std::vector<float>(f.scale), {py::ssize_t(f.scale.size())});
       });
@@ -45,7 +46,8 @@ void bind_patches(py::module_& m) {
   m.def(
       "patch_field",
       [](py::object positions, py::object triangles, py::object directions, double spacing, py::object density,
-         bool magnitude_scale, int32_t max_crossings, double singular_threshold, py::object cancel) {
+         bool magnitude_scale, int32_t max_crossings, double singular_threshold, py::object reuse,
+         py::object cancel) {
         FloatArray pos = float_array(positions, "positions");
         IntArray tris = int_array(triangles, "triangles");
         FloatArray dirs = float_array(directions, "directions");
@@ -69,6 +71,7 @@ void bind_patches(py::module_& m) {
         params.spacing = spacing;
         params.max_crossings = max_crossings;
         params.singular_threshold = singular_threshold;
+        if (!reuse.is_none()) params.reuse_mesh = &reuse.cast<const texsynth::PatchField&>();
         params.cancel = cancel_flag(cancel);
         auto field = std::make_shared<texsynth::PatchField>();
         {
@@ -79,12 +82,13 @@ void bind_patches(py::module_& m) {
       },
       py::arg("positions"), py::arg("triangles"), py::arg("directions"), py::kw_only(), py::arg("spacing"),
       py::arg("density") = py::none(), py::arg("magnitude_scale") = false, py::arg("max_crossings") = 64,
-      py::arg("singular_threshold") = 1e-3, py::arg("cancel") = py::none(),
+      py::arg("singular_threshold") = 1e-3, py::arg("reuse") = py::none(), py::arg("cancel") = py::none(),
       "Prepares a direction field for tracing grid patches: positions (V, 3), triangles (T, 3) (Blender loop "
       "triangles), directions (V, 3) (the texture's up; zero or NaN rows are unset and take the nearest set "
       "vertex's), spacing (world distance of one grid step at scale 1), density (V,) optional scale field "
-      "(2 = features half as large), magnitude_scale (the directions' lengths set the step instead). "
-      "ValueError on bad input; cancel: a CancelToken.");
+      "(2 = features half as large), magnitude_scale (the directions' lengths set the step instead), reuse "
+      "(a PatchField of the same mesh: its walk mesh is copied, not rebuilt). ValueError on bad input; cancel: a "
+      "CancelToken.");
 
   m.def(
       "trace_grid_patches",

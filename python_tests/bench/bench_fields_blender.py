@@ -3,7 +3,10 @@
 field, relax (native), write the attributes, re-synthesize (bpy read + native + bpy write).
 
   blender -b --factory-startup --python-exit-code 1 --python python_tests/bench/bench_fields_blender.py \\
-      [-- --segments 448 --rings 224 --repeat 5]      (default: 448 x 224 = 100,352 quads)
+      [-- --segments 448 --rings 224 --repeat 5 --method JUMP|PATCHES]      (default: 448 x 224 = 100,352 quads)
+
+--method PATCHES: the vector-field patch preview (patch sampling into a 256² image through the UV map;
+goal <= 0.3 s, issue 14).
 """
 import argparse
 import os
@@ -25,6 +28,7 @@ def main():
     parser.add_argument("--segments", type=int, default=448)
     parser.add_argument("--rings", type=int, default=224)
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--method", default="JUMP", choices=("JUMP", "PATCHES"))
     args = parser.parse_args(harness.script_args())
     texsynth = harness.load_addon()
     texsynth.register()
@@ -38,6 +42,8 @@ def main():
     props.sample_source, props.sample_path = "FILE", os.path.join(harness.SAMPLES_DIR, "bricks.png")
     props.scale, props.blend, props.material_mode, props.allow_oversized = 0.5, True, "NONE", True
     props.orientation, props.direction_attribute = "FIELD", authoring.DIRECTION_NAME
+    if args.method == "PATCHES":
+        props.method, props.scale = "PATCHES", 4.0
     print("mesh: %d faces, %d vertices" % (len(obj.data.polygons), len(obj.data.vertices)))
     state = tools.field_state(bpy.context, obj)
     tools.commit_edit(bpy.context, obj, state)

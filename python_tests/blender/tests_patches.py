@@ -189,10 +189,19 @@ def test_live_preview_after_a_field_edit_writes_a_small_image():
     state = tools.field_state(bpy.context, obj)  # what a comb stroke leaves: a painted field on the mesh
     authoring.preset_axis(state, (0.0, 1.0, 0.0))
     mesh_io.write_field_state(obj, state)
+    core.patch_targets.clear()
     tools.live_update(bpy.context, obj)
     image = bpy.data.images[IMAGE]
     assert tuple(image.size) == (tools.PATCH_PREVIEW_SIZE,) * 2, tuple(image.size)
     assert tools.last_timings["live_update"] > 0.0
+    assert not core.patch_targets.field.reused_mesh
+    first = np.array(image.pixels[:])
+    # The next stroke redoes the field only: same surface samples, the walk mesh copied.
+    authoring.preset_axis(state, (1.0, 0.0, 0.0))
+    mesh_io.write_field_state(obj, state)
+    tools.live_update(bpy.context, obj)
+    assert core.patch_targets.field.reused_mesh
+    assert not np.array_equal(first, np.array(bpy.data.images[IMAGE].pixels[:])), "the new field shows"
 
 
 def test_settings_persist_in_the_blend_file():

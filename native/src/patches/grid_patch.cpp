@@ -311,7 +311,13 @@ PatchField build_patch_field(const PatchFieldInput& in, const PatchFieldParams& 
   f.max_crossings = p.max_crossings;
   f.singular_threshold = p.singular_threshold;
   f.substep = p.substep;
-  f.walk = build_walk_mesh(f.mesh(), p.cancel);
+  const PatchField* base = p.reuse_mesh;
+  if (base && base->positions == f.positions && base->triangles == f.triangles) {
+    f.walk = base->walk;
+    f.reused_mesh = true;
+  } else {
+    f.walk = build_walk_mesh(f.mesh(), p.cancel);
+  }
   const std::vector<float> dirs = fill_unset(m, in.directions, &f.unset_vertices);
   throw_if_cancelled(p.cancel);
 

@@ -55,6 +55,9 @@ struct PatchFieldParams {
   // exactly as a quarter (centre row and column within 0.005 steps of the exact curves) in half the time
   // (bench_patches_grid).
   double substep = 0.5;
+  // A field built before on the same mesh (positions and triangles compared exactly): its walk mesh is
+  // copied instead of rebuilt, which was half of a live preview after a comb stroke. Ignored otherwise.
+  const struct PatchField* reuse_mesh = nullptr;
   const std::atomic<bool>* cancel = nullptr;
 };
 
@@ -73,6 +76,7 @@ struct PatchField {
   double singular_threshold = 1e-3;
   double substep = 0.5;
   int64_t unset_vertices = 0;            // vertices whose direction was filled from a neighbour
+  bool reused_mesh = false;              // the walk mesh was copied from PatchFieldParams::reuse_mesh
 };
 
 // Throws std::invalid_argument for: counts or indices out of range, NaN/inf positions, a density that
