@@ -560,7 +560,7 @@ def part_perf(args):
                 ("locate s", lambda r: "%.3f" % r["stats"]["seconds_locate"]),
                 ("sampling s", lambda r: "%.3f" % r["stats"]["seconds_sampling"]),
                 ("optimisation s", lambda r: "%.3f" % r["stats"]["seconds_optimisation"]),
-                ("coarser levels s (all stages)", lambda r: "%.3f" % r["stats"]["seconds_coarse"]),
+                ("coarser levels s (all stages)", lambda r: "%.3f" % r["stats"].get("seconds_coarse", 0.0)),
                 ("synthesis total s (wall)", lambda r: "%.2f" % r["synth_s"]),
                 ("us per sample", lambda r: "%.2f" % (1e6 * r["synth_s"] / r["samples"])),
                 ("peak RSS MB before (exemplar etc.)", lambda r: "%.0f" % r["exemplar_peak_mb"]),
