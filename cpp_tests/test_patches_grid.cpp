@@ -204,6 +204,35 @@ SphereGridErrors sphere_latitude_grid(const TriMesh& m, double h, double latitud
   return e;
 }
 
+TEST(PatchesGrid, APatchWiderThanAThinPartIsCutBeforeItMeetsItself) {
+  // Note 001, "Thin parts": a cylinder 10 steps round, a circumferential field and 32-step patches:
+  // untruncated, each row would go round three times and paste onto itself.
+  const int segments = 48;
+  const double h = 0.02, r = 10 * h / (2 * kPi);
+  const TriMesh m = cylinder(segments, 60, r, 0.01);
+  std::vector<float> dirs;
+  for (int32_t v = 0; v < m.num_vertices(); ++v) {
+    auto p = m.vertex(v);
+    dirs.insert(dirs.end(), {float(-p[1]), float(p[0]), 0.f});
+  }
+  const PatchField f = field_for(m, dirs, h);
+  const std::vector<FacePoint> centres{{2 * segments * 30 + 5, 0.3f, 0.2f}};
+  const int n = 34;
+  const GridPatches g = texsynth::trace_grid_patches(f, centres.data(), 1, n);
+  EXPECT_GT(g.invalid_points, 0);
+  int64_t close_pairs = 0;
+  for (int a = 0; a < n * n; ++a)
+    for (int b = a + 1; b < n * n; ++b) {
+      if (g.points[size_t(a)].triangle < 0 || g.points[size_t(b)].triangle < 0) continue;
+      if (std::max(std::abs(a % n - b % n), std::abs(a / n - b / n)) <= 2) continue;
+      close_pairs += texsynth::norm(grid_point(g, 0, a % n, a / n) - grid_point(g, 0, b % n, b / n)) < 0.5 * h;
+    }
+  EXPECT_EQ(close_pairs, 0) << "valid points of two turns round the part";
+  for (int j = n / 2 - 2; j <= n / 2 + 2; ++j)
+    for (int i = n / 2 - 2; i <= n / 2 + 2; ++i)
+      EXPECT_GE(g.points[size_t(j) * n + i].triangle, 0) << "centre point " << i << "," << j;
+}
+
 TEST(PatchesGrid, SphereWithLatitudeFieldFollowsTheExactCurves) {
   const TriMesh m = ring_fixtures::icosphere(6, 1.0);  // 82k faces, edges ~0.03
   for (double latitude : {10.0, 25.0, 40.0, 55.0}) {

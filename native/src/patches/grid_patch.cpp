@@ -236,6 +236,37 @@ class Tracer {
 FacePoint face_point(const Walker& w) { return {w.t, float(w.beta[1]), float(w.beta[2])}; }
 
 // One patch into its slots of `out` (points, positions, cells).
+// Thin parts (note 001): a patch wider than the part it lies on (a leg, a branch, a thin cylinder)
+// wraps round it and meets itself, pasting two patch regions onto one spot. On a sub-grid of every
+// kThinStride-th point, two points far apart in the grid (> 2 strides) but within kThinDistance steps in
+// 3D (the sub-grid of a sheet lying on itself is never farther apart than 2√2 steps) mean the patch has
+// come round: every point at or beyond that ring (Chebyshev distance from the centre), less a stride of
+// slack, is made invalid. The samples there are covered by other patches, an extra round or continued.
+constexpr int kThinStride = 4;
+constexpr double kThinDistance = 3.0;  // steps
+void truncate_thin_part(std::vector<Walker>& grid, const std::vector<V3>& p, int32_t n, double h) {
+  const int32_t c = n / 2;
+  std::vector<int32_t> sub;
+  for (int32_t j = c % kThinStride; j < n; j += kThinStride)
+    for (int32_t i = c % kThinStride; i < n; i += kThinStride)
+      if (grid[size_t(j) * n + i].t >= 0) sub.push_back(j * n + i);
+  auto ring = [&](int32_t k) { return std::max(std::abs(k % n - c), std::abs(k / n - c)); };
+  const double limit2 = (kThinDistance * h) * (kThinDistance * h);
+  int32_t cut = n;  // the first ring that meets another part of the patch
+  for (size_t a = 0; a < sub.size(); ++a)
+    for (size_t b = a + 1; b < sub.size(); ++b) {
+      const int32_t ka = sub[a], kb = sub[b];
+      const int32_t grid_apart = std::max(std::abs(ka % n - kb % n), std::abs(ka / n - kb / n));
+      if (grid_apart <= 2 * kThinStride) continue;
+      const V3 d = p[size_t(ka)] - p[size_t(kb)];
+      if (dot(d, d) < limit2) cut = std::min(cut, std::max(ring(ka), ring(kb)));
+    }
+  if (cut >= n) return;
+  const int32_t keep = std::max(1, cut - kThinStride);  // rings < keep stay
+  for (int32_t k = 0; k < n * n; ++k)
+    if (ring(k) >= keep) grid[size_t(k)].t = -1;
+}
+
 void trace_patch(const Tracer& tr, const FacePoint& centre, int32_t n, FacePoint* pts, float* pos, uint8_t* cells,
                  int64_t& invalid_points, int64_t& invalid_cells) {
   std::vector<Walker> grid(size_t(n) * size_t(n), Walker{-1, {0, 0, 0}});
@@ -273,9 +304,11 @@ void trace_patch(const Tracer& tr, const FacePoint& centre, int32_t n, FacePoint
           out = tr.snap((pa + pb) * 0.5, a.t, b.t);
         }
   std::vector<V3> p(grid.size());
+  for (size_t k = 0; k < grid.size(); ++k) p[k] = grid[k].t >= 0 ? tr.position(grid[k]) : V3{};
+  truncate_thin_part(grid, p, n, tr.spacing() * tr.scale(at(c, c)));
   for (size_t k = 0; k < grid.size(); ++k) {
     pts[k] = grid[k].t >= 0 ? face_point(grid[k]) : FacePoint{};
-    p[k] = grid[k].t >= 0 ? tr.position(grid[k]) : V3{};
+    if (grid[k].t < 0) p[k] = V3{};
     store(pos + 3 * k, p[k]);
     invalid_points += grid[k].t < 0;
   }
