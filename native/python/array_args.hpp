@@ -131,4 +131,13 @@ inline FloatArray optional_scale_multiplier(py::handle obj, int32_t num_vertices
   return a;
 }
 
+// A borrowed view of an (H, W, C) sample array (row 0 = bottom) as any core struct
+// {pixels, width, height, channels}; the caller keeps `px` alive.
+template <class View>
+View sample_view(const FloatArray& px) {
+  if (px.ndim() != 3) throw std::invalid_argument("sample must have shape (height, width, channels)");
+  return {px.data(), checked_count(px.shape(1), "sample width"), checked_count(px.shape(0), "sample height"),
+          checked_count(px.shape(2), "sample channels")};
+}
+
 }  // namespace texsynth_py

@@ -18,17 +18,6 @@
 namespace py = pybind11;
 using namespace texsynth_py;
 
-namespace {
-
-// A borrowed view of an (H, W, C) sample array (row 0 = bottom); the caller keeps `px` alive.
-texsynth::ExemplarSample exemplar_sample(const FloatArray& px) {
-  if (px.ndim() != 3) throw std::invalid_argument("sample must have shape (height, width, channels)");
-  return {px.data(), checked_count(px.shape(1), "sample width"), checked_count(px.shape(0), "sample height"),
-          checked_count(px.shape(2), "sample channels")};
-}
-
-}  // namespace
-
 void bind_patches(py::module_& m) {
   py::class_<texsynth::PatchField, std::shared_ptr<texsynth::PatchField>>(
       m, "PatchField",
@@ -159,7 +148,7 @@ void bind_patches(py::module_& m) {
       [](py::object pixels, int patch_size, bool tileable, uint64_t seed, double max_megabytes,
          py::object cancel) {
         FloatArray px = float_array(pixels, "sample");
-        const texsynth::ExemplarSample sample = exemplar_sample(px);
+        const texsynth::ExemplarSample sample = sample_view<texsynth::ExemplarSample>(px);
         texsynth::ExemplarParams params;
         params.patch_size = texsynth::fit_patch_size(sample.width, sample.height, patch_size, tileable);
         params.tileable = tileable;
@@ -204,7 +193,7 @@ void bind_patches(py::module_& m) {
          int iterations, double robust_exponent, bool exhaustive, bool discrete, const std::string& vote,
          py::object cancel) {
         FloatArray px = float_array(pixels, "sample");
-        const texsynth::ExemplarSample sample = exemplar_sample(px);
+        const texsynth::ExemplarSample sample = sample_view<texsynth::ExemplarSample>(px);
         FloatArray pos = float_array(positions, "positions");
         require_shape(pos, {-1, 3}, "positions");
         FloatArray nrm;

@@ -1,0 +1,179 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+#pragma once
+// Texture particles, analysis half (Dischler et al. 2002, §2.1-2.2; note 002 "Analysis" and
+// "Co-occurrences"): segmentation into classes, particles (8-connected components), their boxes and
+// completeness, co-occurrence lists, per-class tables, the filled background and soft sprites.
+//
+// Conventions.
+//  - Sample: height x width x channels floats (3 or 4), interleaved, row y = 0 at the BOTTOM. Pixel
+//    (x, y) covers [x, x + 1) x [y, y + 1); its centre is (x + 0.5, y + 0.5). Not necessarily square.
+//  - Segmentation: Gaussian blur (sigma px, borders clamp, or wrap when tileable), then k-means++ on
+//    the blurred colours (all channels, stored values) fitted on a seeded subsample of <= 65,536
+//    pixels, 20 Lloyd iterations, every pixel then assigned once. Classes are numbered by decreasing
+//    pixel count. Or an artist's label image (class >= 0 per pixel) replaces blur and k-means.
+//  - Background class: the class with the most pixels unless given. Its pixels are no particles.
+//  - Particles: 8-connected components of the other classes (wrapping around when tileable).
+//    Components below min_area, and beyond max_components (the smallest first), are merged into the
+//    background class (their pixels' labels change). Ids follow the first pixel in row-major order.
+//  - Coordinates of a particle (centroid, bbox, box) are unwrapped: on tileable samples a component
+//    that crosses an edge keeps contiguous coordinates that may leave [0, W) x [0, H) (the pixel is
+//    then (x mod W, y mod H)); its centroid is always inside the sample.
+//  - Box: PCA of the pixel centres; oriented along the principal axis when the eigenvalue ratio is
+//    >= 1.5, else axis-aligned (angle 0). Extents hold every pixel square. Angle in (-pi/2, pi/2].
+//  - Complete: at most 10 % of the boundary pixels (mask pixels with a 4-neighbour outside the mask or
+//    outside the image) lie on the image border. Tileable samples: always complete.
+//  - Co-occurrences, for each complete particle P of a non-background class: same-class neighbours
+//    (complete or not) by least Chebyshev distance between the masks (= the step at which repeated
+//    3x3 dilation of P first touches them), within min(1.5 x max(box width, height), min(W, H) / 4)
+//    steps. In P's box frame (x along its axis) the neighbour's quadrant comes from the signs of the
+//    box-centre offset (|offset| < 0.5 px counts as +): 0 = (+,+), 1 = (-,+), 2 = (-,-), 3 = (+,-).
+//    Per quadrant, the neighbours at its least distance are kept, at most 2 (nearest centres first,
+//    then lower id). Entry (dx, dy) = signed gaps between P's and the neighbour's extents along P's
+//    x and y axes on the quadrant's side (negative = overlap along that axis): the neighbour's near
+//    edges lie at P's far edges + (dx, dy). angle = neighbour box angle - P's, in (-pi/2, pi/2].
+//  - Empty quadrants (note "Mirroring"): the opposite quadrant's entries (point reflection: same dx,
+//    dy, angle); when it is empty too, the class-wide median of the measured entries of that quadrant;
+//    else the x-flipped adjacent quadrant (q ^ 1), else the y-flipped one (3 - q) (angle negated).
+//  - Classes with 1-3 particles are "random": density = particles / (W x H), min distance = 0.7 x the
+//    mean nearest-neighbour centre distance (one particle: 0.7 x min(W, H)); both are filled in for
+//    every class. Overlap tolerance = 95th percentile of the observed box overlaps (intersection /
+//    smaller box area, over co-occurring pairs that overlap) + 0.05, 0.1 if none, capped at 0.5.
+//  - Background fill: the sample with every particle dilated by 2 px (3x3 twice) filled by onion
+//    peeling: each unknown pixel with known 8-neighbours copies one of them, chosen by a seeded hash.
+//
+// Results are identical for a seed at any thread count: parallel passes write per-row or
+// per-particle results only, and every sum runs in a fixed order.
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+namespace texsynth {
+
+constexpr int kParticleMinClasses = 2;
+constexpr int kParticleMaxClasses = 12;
+constexpr int kParticleMaxLabelClasses = 256;   // artist label images
+constexpr int kParticleMinSide = 8;
+constexpr int64_t kParticleMaxPixels = int64_t(1) << 28;
+constexpr int kParticleKMeansIterations = 20;
+constexpr int kParticleKMeansSubsample = 65536;
+constexpr int32_t kParticleMaxComponents = 20000;
+constexpr double kParticleIncompleteFraction = 0.10;
+constexpr double kParticleOrientedRatio = 1.5;
+constexpr double kParticleDilationFactor = 1.5;
+constexpr int kParticleMaxPerQuadrant = 2;
+constexpr int kParticleHalo = 2;  // background-fill dilation and sprite alpha ramp, px
+
+// Borrowed sample pixels (see conventions).
+struct ParticleSample {
+  const float* pixels = nullptr;
+  int32_t width = 0, height = 0, channels = 0;
+};
+
+struct ParticleAnalysisParams {
+  int classes = 4;             // k-means k, 2..12 (ignored with labels)
+  double blur_sigma = 1.0;     // px, 0..32; 0 = no blur (ignored with labels)
+  int32_t min_area = 0;        // px; 0 = max(16, 0.02 % of the sample); >= 1 otherwise
+  std::vector<int32_t> labels; // empty = k-means; else width*height classes >= 0 (< 256), row 0 bottom
+  int32_t background = -1;     // background class; -1 = the class with the most pixels
+  bool tileable = false;
+  uint64_t seed = 0;
+  int32_t max_components = kParticleMaxComponents;  // >= 1
+  const std::atomic<bool>* cancel = nullptr;
+  std::atomic<float>* progress = nullptr;  // 0..1 while the call runs (optional)
+};
+
+struct ParticleBox {
+  float cx = 0, cy = 0;          // centre
+  float angle = 0;               // radians, axis = (cos, sin), in (-pi/2, pi/2]
+  float half_x = 0, half_y = 0;  // half extents along the axis and its perpendicular
+};
+
+struct Particle {
+  int32_t id = 0, class_id = 0, area = 0;
+  float centroid_x = 0, centroid_y = 0;  // mean of the pixel centres
+  int32_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;  // inclusive pixel bounding box (unwrapped)
+  ParticleBox box;
+  int32_t boundary_pixels = 0, border_pixels = 0;
+  bool complete = false;
+};
+
+enum class EntrySource : uint8_t { kMeasured = 0, kOpposite = 1, kClassMedian = 2, kAdjacent = 3 };
+
+struct CoOccurrence {
+  int32_t quadrant = 0;
+  float dx = 0, dy = 0, angle = 0;
+  int32_t neighbour = -1;  // particle id; -1 for class-median entries
+  EntrySource source = EntrySource::kMeasured;
+};
+
+struct ParticleClass {
+  int32_t pixels = 0, particles = 0, complete = 0;
+  std::array<float, 4> colour{};  // mean sample colour of its pixels (channels used)
+  bool background = false;
+  bool has_complete = false;      // false for a class with particles but no complete one
+  bool random = false;            // 1-3 particles
+  double density = 0;             // particles / (W x H)
+  double min_distance = 0;        // 0.7 x mean nearest-neighbour centre distance (see conventions)
+  double tolerance = 0.1;         // overlap tolerance
+};
+
+struct ParticleAnalysisStats {
+  double seconds_blur = 0, seconds_kmeans = 0, seconds_components = 0, seconds_geometry = 0,
+         seconds_cooccurrence = 0, seconds_background = 0, seconds_total = 0;
+};
+
+struct ParticleAnalysis {
+  int32_t width = 0, height = 0, channels = 0;
+  bool tileable = false;
+  int32_t num_classes = 0, background = 0, min_area = 0;
+  std::vector<float> centres;        // k-means centres, num_classes x channels (empty with labels)
+  std::vector<int32_t> labels;       // class per pixel, after merges
+  std::vector<int32_t> components;   // particle id per pixel, -1 = background
+  std::vector<int32_t> unwrapped;    // tileable only: 2 per pixel, its particle's (x, y)
+  std::vector<Particle> particles;
+  std::vector<int64_t> pixel_start;  // CSR over particles: pixel_xy[2 * pixel_start[i] ...]
+  std::vector<int32_t> pixel_xy;     // unwrapped (x, y) of each particle's pixels
+  std::vector<int32_t> cooc_start;   // CSR over particles (n + 1); incomplete/background: empty
+  std::vector<CoOccurrence> cooc;
+  std::vector<ParticleClass> classes;
+  std::vector<float> background_fill;  // height x width x channels
+  int32_t merged_small = 0, merged_over_cap = 0;
+  int32_t classes_without_complete = 0;  // classes with particles, none complete
+  ParticleAnalysisStats stats;
+
+  int32_t merged_components() const { return merged_small + merged_over_cap; }
+};
+
+// Throws std::invalid_argument (naming the problem) for: null pixels, channels not 3 or 4, a side
+// below 8 px or more than 2^28 pixels, NaN/inf pixels, classes outside 2..12, blur outside 0..32,
+// negative min_area, max_components < 1, labels of the wrong size or outside 0..255, a background
+// class out of range; texsynth::Cancelled when *cancel is raised.
+ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleAnalysisParams& params);
+
+// One kept neighbour of a particle (conventions, "Co-occurrences").
+struct NeighbourHit {
+  int32_t neighbour = -1, quadrant = 0, step = 0;
+  int32_t shift_x = 0, shift_y = 0;  // tileable: the neighbour copy hit is its unwrapped place + shift
+};
+
+// The kept neighbours of particle `id`, by quadrant then rank. literal_dilation = true grows the mask
+// by 3x3 dilation step by step (the paper's procedure; the baseline) instead of one chessboard
+// distance transform; both give the same hits. Empty for background ids; std::invalid_argument for an
+// id out of range.
+std::vector<NeighbourHit> particle_neighbours(const ParticleAnalysis& analysis, int32_t id,
+                                              bool literal_dilation = false);
+
+// Soft sprite (note "⊗ and halo"): the particle's bounding box + 2 px, straight RGBA. Colour from the
+// sample (wrapped when tileable, clamped at the edges otherwise); alpha 1 on the mask, else
+// max(0, 1 - d / 3) with d the distance to the nearest mask pixel centre (2/3 and 1/3 on the two
+// rings, 0 beyond 2 px). Alpha of a 4-channel sample is not used.
+struct ParticleSprite {
+  int32_t x0 = 0, y0 = 0;           // unwrapped sample position of the sprite's pixel (0, 0)
+  int32_t width = 0, height = 0;
+  std::vector<float> rgba;          // height x width x 4, row 0 at the bottom
+};
+// std::invalid_argument for an id out of range or a sample of another size/channel count.
+ParticleSprite particle_sprite(const ParticleAnalysis& analysis, const ParticleSample& sample, int32_t id);
+
+}  // namespace texsynth
