@@ -60,6 +60,24 @@ inline TriMesh plane(int nx, int ny, double spacing, double jitter, uint64_t see
   return m;
 }
 
+// Open cylinder of radius r around z, `segments` around and `rows` rows of height `dz`, outward-facing.
+inline TriMesh cylinder(int segments, int rows, double r, double dz) {
+  constexpr double kTwoPi = 6.28318530717958647692;
+  TriMesh m;
+  for (int j = 0; j <= rows; ++j)
+    for (int i = 0; i < segments; ++i) {
+      const double a = kTwoPi * i / segments;
+      m.add_vertex(r * std::cos(a), r * std::sin(a), j * dz);
+    }
+  auto id = [&](int i, int j) { return int32_t(j * segments + (i % segments)); };
+  for (int j = 0; j < rows; ++j)
+    for (int i = 0; i < segments; ++i) {
+      m.add_triangle(id(i, j), id(i + 1, j), id(i + 1, j + 1));
+      m.add_triangle(id(i, j), id(i + 1, j + 1), id(i, j + 1));
+    }
+  return m;
+}
+
 // Subdivided icosahedron projected onto the sphere of radius `radius`, outward-facing.
 inline TriMesh icosphere(int subdivisions, double radius) {
   std::vector<std::array<double, 3>> v;

@@ -27,22 +27,7 @@ using texsynth::V3;
 
 constexpr double kPi = 3.14159265358979323846;
 
-// Open cylinder of radius r around z, `segments` around and `rows` rows of height `dz`, outward-facing.
-TriMesh cylinder(int segments, int rows, double r, double dz) {
-  TriMesh m;
-  for (int j = 0; j <= rows; ++j)
-    for (int i = 0; i < segments; ++i) {
-      const double a = 2 * kPi * i / segments;
-      m.add_vertex(r * std::cos(a), r * std::sin(a), j * dz);
-    }
-  auto id = [&](int i, int j) { return int32_t(j * segments + (i % segments)); };
-  for (int j = 0; j < rows; ++j)
-    for (int i = 0; i < segments; ++i) {
-      m.add_triangle(id(i, j), id(i + 1, j), id(i + 1, j + 1));
-      m.add_triangle(id(i, j), id(i + 1, j + 1), id(i, j + 1));
-    }
-  return m;
-}
+using ring_fixtures::cylinder;
 
 PatchField field_for(const TriMesh& m, const std::vector<float>& dirs, double spacing,
                      const std::vector<float>* density = nullptr, bool magnitude = false) {
