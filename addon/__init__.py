@@ -24,8 +24,8 @@ from . import compat  # noqa: E402
 UNSUPPORTED = compat.unsupported_version_message(bpy.app.version) or compat.missing_requirement_message()
 if not UNSUPPORTED:
     from .fields import overlay, tools  # noqa: E402
-    from .ui import operators, panels, properties  # noqa: E402
-    classes = properties.classes + operators.classes + tools.classes + panels.classes
+    from .ui import operators, panels, particle_operators, properties  # noqa: E402
+    classes = properties.classes + operators.classes + particle_operators.classes + tools.classes + panels.classes
 else:
     class TEXSYNTH_PT_unavailable(bpy.types.Panel):
         bl_label = "TexSynth"

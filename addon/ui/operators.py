@@ -52,7 +52,7 @@ class TEXSYNTH_OT_preprocess(bpy.types.Operator):
 
     def execute(self, context):
         props = context.scene.texsynth
-        if props.method in pipeline.SURFACE_METHODS:
+        if props.method in pipeline.SURFACE_METHODS + ("PARTICLES",):
             self.report({"INFO"}, "TexSynth: %s works on the sample directly; nothing to preprocess"
                         % props.bl_rna.properties["method"].enum_items[props.method].name)
             return {"FINISHED"}
@@ -106,6 +106,12 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
         props = context.scene.texsynth
         objects = sorted(context.selected_objects, key=lambda obj: obj.name)
         settings = props.to_settings()
+        if settings.method == "PARTICLES":
+            from ..particles import synthesis as particle_synthesis
+            from .particle_operators import label_pixels
+            return particle_synthesis.Job(objects, sample_from_settings(props), settings,
+                                          properties.cache_dir(context), label_pixels(props),
+                                          material_mode=props.material_mode, scene_=context.scene)
         if settings.method in pipeline.SURFACE_METHODS:
             from ..surface_colour import synthesis as surface_synthesis
             return surface_synthesis.Job(objects, sample_from_settings(props), settings, props.to_bake_request(),
@@ -222,7 +228,7 @@ class ModalSynthesis:
 
 
 class TEXSYNTH_OT_clear(bpy.types.Operator):
-    """Remove every UV map and attribute TexSynth wrote from the selected mesh objects"""
+    """Remove every UV map and attribute TexSynth wrote from the selected mesh objects, and their particle decals and instances"""
     bl_idname = "texsynth.clear"
     bl_label = "Clear"
     bl_options = {"REGISTER", "UNDO"}
@@ -232,7 +238,8 @@ class TEXSYNTH_OT_clear(bpy.types.Operator):
         return context.mode == "OBJECT"
 
     def execute(self, context):
-        changed, removed = synthesis.clear(context.selected_objects)
+        from ..particles import synthesis as particle_synthesis
+        changed, removed = particle_synthesis.clear(context.selected_objects)
         self.report({"INFO"}, "TexSynth: removed %d layer(s) from %d object(s)" % (removed, changed))
         return {"FINISHED"}
 
