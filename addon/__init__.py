@@ -69,6 +69,7 @@ def register():
     bpy.types.Scene.texsynth = bpy.props.PointerProperty(type=properties.TexSynthSettings)
     overlay.register()
     tools.register_tool()
+    particle_operators.register_header()
 
 
 def unregister():
@@ -76,6 +77,7 @@ def unregister():
         if getattr(classes[0], "is_registered", False):
             bpy.utils.unregister_class(classes[0])
         return
+    particle_operators.unregister_header()
     tools.unregister_tool()
     overlay.unregister()
     if hasattr(bpy.types.Scene, "texsynth"):

@@ -117,6 +117,22 @@ def test_analysis_is_cached_in_memory_by_sample_and_parameters():
     assert core.analyse(changed, settings(), cache=cache)[1] == "built"
 
 
+@pytest.mark.skipif(not hasattr(native, "save_particle_analysis"), reason="no save/load_particle_analysis yet")
+def test_analysis_is_cached_on_disk_and_a_corrupt_file_is_rebuilt(tmp_path):
+    sample = pebbles()
+    first, source = core.analyse(sample, settings(), cache_dir=str(tmp_path), cache=core.AnalysisCache())
+    assert source == "built"
+    files = list(tmp_path.iterdir())
+    assert len(files) == 1 and files[0].name.startswith(core.ANALYSIS_CACHE_PREFIX)
+    loaded, source = core.analyse(sample, settings(), cache_dir=str(tmp_path), cache=core.AnalysisCache())
+    assert source == "disk" and np.array_equal(loaded.labels, first.labels)
+    data = bytearray(files[0].read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    files[0].write_bytes(bytes(data))
+    _, source = core.analyse(sample, settings(), cache_dir=str(tmp_path), cache=core.AnalysisCache())
+    assert source == "built"
+
+
 def test_class_rows_count_the_drawn_particles():
     analysis, _ = core.analyse(pebbles(), settings(), cache=core.AnalysisCache())
     rows = core.class_rows(analysis)

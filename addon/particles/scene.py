@@ -206,10 +206,12 @@ class ClassOutput:
 
 
 def write_outputs(target, outputs, atlas_pixels=None, atlas_size=None, collection=None, float_atlas=False,
-                  creation=None):
+                  creation=None, keep_atlas=False):
     """Creates every class's objects for `target` (atomically: on an error, everything created is removed
     and older outputs are untouched), then replaces the older outputs of the same classes. Returns the
-    names of the objects made."""
+    names of the objects made. keep_atlas: reuse the target's atlas and material when they exist at this
+    size (a one-class re-run packs the same atlas: rewriting and re-packing a 4096² image costs more than
+    the class's geometry)."""
     creation = creation or Creation()
     scene_collection = target.users_collection[0] if target.users_collection else bpy.context.scene.collection
     made = []
@@ -218,9 +220,15 @@ def write_outputs(target, outputs, atlas_pixels=None, atlas_size=None, collectio
         if any(out.decals is not None for out in outputs):
             atlas_name = ATLAS_PREFIX + target.name
             old_atlas = bpy.data.images.get(atlas_name)
-            atlas = creation.add("images", _image(_TEMP + atlas_name, atlas_size[0], atlas_size[1], atlas_pixels,
-                                                  float_atlas))
-            material = creation.add("materials", decal_material(_TEMP + MATERIAL_PREFIX + target.name, atlas))
+            material = bpy.data.materials.get(MATERIAL_PREFIX + target.name)
+            reuse = keep_atlas and old_atlas is not None and material is not None and \
+                tuple(old_atlas.size) == tuple(atlas_size)
+            if reuse:
+                atlas = old_atlas
+            else:
+                atlas = creation.add("images", _image(_TEMP + atlas_name, atlas_size[0], atlas_size[1], atlas_pixels,
+                                                      float_atlas))
+                material = creation.add("materials", decal_material(_TEMP + MATERIAL_PREFIX + target.name, atlas))
         group = instance_group(collection) if collection is not None and any(
             out.points is not None for out in outputs) else None
         if group is not None and group.users == 0 and not group.use_fake_user:
@@ -256,11 +264,15 @@ def write_outputs(target, outputs, atlas_pixels=None, atlas_size=None, collectio
         creation.undo()
         raise
     # Everything exists: the older outputs of these classes go, the new ones take their names.
-    kinds = {obj[KIND_TAG] for obj, _ in made}
-    for out in outputs:
-        for old in owned_objects(target.name, kinds, out.class_id):
-            if old not in [obj for obj, _ in made]:
-                remove_object(old)
+    new_objects = [obj for obj, _ in made]
+    if keep_atlas:  # one class: only its outputs of the kinds made
+        kinds = {obj[KIND_TAG] for obj in new_objects}
+        old_objects = [old for out in outputs for old in owned_objects(target.name, kinds, out.class_id)]
+    else:  # a full run replaces everything an earlier run made for this target
+        old_objects = owned_objects(target.name)
+    for old in old_objects:
+        if old not in new_objects:
+            remove_object(old)
     if material is not None:
         old_material = bpy.data.materials.get(MATERIAL_PREFIX + target.name)
         if old_material is not None and old_material != material:

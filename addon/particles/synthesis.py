@@ -133,7 +133,7 @@ class Job:
     def _prepare_background(self, objects):
         """The analysis' filled background as a file in the cache folder, synthesized by the UV method."""
         key = core.analysis_key(self.sample_array, self.settings)
-        path = os.path.join(self.cache_dir, "particles-background-%s.png" % key)
+        path = os.path.join(self.cache_dir, "particles-background-%s.png" % key[:16])
         os.makedirs(self.cache_dir, exist_ok=True)
         if not os.path.isfile(path):
             scene.save_background(self.analysis.background, path)
@@ -275,7 +275,7 @@ class Job:
                     made = scene.write_outputs(
                         item.obj, item.outputs, item.atlas_pixels,
                         (item.atlas.width, item.atlas.height) if item.atlas is not None else None,
-                        self.collection, float_atlas, creation)
+                        self.collection, float_atlas, creation, keep_atlas=self.only_class is not None)
                 item.made = made
                 self.report.add_object(name, item.arrays, item.stats)
                 counts = ", ".join("class %d: %d" % (out.class_id, out.count) for out in item.outputs)

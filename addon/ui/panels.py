@@ -233,7 +233,6 @@ class TEXSYNTH_PT_particles(_SubPanel, bpy.types.Panel):
         props = context.scene.texsynth
         if props.particle_preview is not None:
             layout.template_icon(icon_value=layout.icon(props.particle_preview), scale=8.0)
-            layout.label(text="Image: " + props.particle_preview.name[len("TexSynth "):])
         if not props.particle_rows:
             layout.label(text="Analyse the sample first", icon="INFO")
         for item in props.particle_rows:

@@ -83,8 +83,10 @@ class TEXSYNTH_OT_particle_pick_class(bpy.types.Operator):
 
     def invoke(self, context, event):
         space = context.space_data
-        if space is not None and space.type == "IMAGE_EDITOR" and space.image is not None and context.region:
-            u, v = context.region.view2d.region_to_view(event.mouse_region_x, event.mouse_region_y)
+        region = context.region
+        if space is not None and space.type == "IMAGE_EDITOR" and space.image is not None and region is not None \
+                and region.type == "WINDOW":  # a click in the image (from a header button: the 2D cursor)
+            u, v = region.view2d.region_to_view(event.mouse_region_x, event.mouse_region_y)
             self.x, self.y = int(u * space.image.size[0]), int(v * space.image.size[1])
         return self.execute(context)
 
@@ -195,3 +197,22 @@ class TEXSYNTH_OT_particle_resynthesize(bpy.types.Operator):
 
 classes = (TEXSYNTH_OT_particle_analyse, TEXSYNTH_OT_particle_pick_class, TEXSYNTH_OT_particle_merge,
            TEXSYNTH_OT_particle_set_background, TEXSYNTH_OT_particle_resynthesize)
+
+
+def _image_editor_button(self, context):
+    """Pick Class in the Image Editor's header while it shows a segmentation image (uses the 2D cursor)."""
+    space = context.space_data
+    if space is not None and space.image is not None and space.image.name.startswith("TexSynth Segmentation: "):
+        self.layout.operator(TEXSYNTH_OT_particle_pick_class.bl_idname, icon="EYEDROPPER")
+
+
+def register_header():
+    unregister_header()
+    bpy.types.IMAGE_HT_header.append(_image_editor_button)
+
+
+def unregister_header():
+    try:
+        bpy.types.IMAGE_HT_header.remove(_image_editor_button)
+    except (ValueError, AttributeError):
+        pass

@@ -130,6 +130,23 @@ def test_pick_class_selects_the_class_of_a_pixel():
     assert bpy.context.scene.texsynth.particle_active_class == leaf
 
 
+def test_pick_class_reads_the_image_editor_cursor():
+    from types import SimpleNamespace
+    clean()
+    configure()
+    bpy.ops.texsynth.particle_analyse()
+    image = bpy.context.scene.texsynth.particle_preview
+    # The 2D cursor in image coordinates (0..1): (12.5 / 96, 12.5 / 64) is inside the first stone.
+    space = SimpleNamespace(type="IMAGE_EDITOR", image=image, cursor_location=(12.5 / 96, 12.5 / 64))
+    picker = texsynth.ui.particle_operators.TEXSYNTH_OT_particle_pick_class
+    assert picker._cursor(SimpleNamespace(space_data=space)) == (12, 12)
+    try:
+        picker._cursor(SimpleNamespace(space_data=None))
+        raise AssertionError("picked a class without an Image Editor")
+    except pipeline.SettingsError as error:
+        assert "Image Editor" in str(error)
+
+
 def test_merge_and_background_edit_the_analysis():
     clean()
     props = configure()
@@ -311,13 +328,19 @@ def test_rewriting_one_class_replaces_only_its_objects():
     hand_outputs(target, classes=(1, 2))
     other = bpy.data.objects[scene.decal_name("Plane", 2)]
     other_mesh = other.data.name
+    atlas = bpy.data.images["TexSynth Atlas: Plane"]
     out = scene.ClassOutput(1, 0, 2)
     out.decals = square_decals([(0.0, 0.0), (0.5, 0.5)], 0.1, (0, 0, 1, 1))
-    scene.write_outputs(target, [out], red_atlas(), (64, 64))
+    scene.write_outputs(target, [out], red_atlas(), (64, 64), keep_atlas=True)
     assert len(bpy.data.objects[scene.decal_name("Plane", 1)].data.polygons) == 2
     assert bpy.data.objects[scene.decal_name("Plane", 2)] == other and other.data.name == other_mesh
     assert len([o for o in bpy.data.objects if o.get(scene.TAG) == "Plane"]) == 2
     assert bpy.data.materials["TexSynth Particles: Plane"].users >= 2
+    assert bpy.data.images["TexSynth Atlas: Plane"] == atlas, "the same atlas is kept, not packed again"
+    # A full run (no keep_atlas) replaces every earlier output of the target: class 2 placed nothing now.
+    scene.write_outputs(target, [out], red_atlas(), (64, 64))
+    assert [o.name for o in bpy.data.objects if o.get(scene.TAG) == "Plane"] == [scene.decal_name("Plane", 1)]
+    assert len([image for image in bpy.data.images if image.name.startswith("TexSynth Atlas")]) == 1
 
 
 def test_eevee_render_shows_the_decal_sprites():
@@ -451,9 +474,27 @@ def test_undo_removes_what_synthesize_made():
     assert names() == before
 
 
+def test_cancel_leaves_nothing_behind():
+    clean()
+    target = plane(size=4.0, cuts=20)
+    configure(scale=1.5)
+    before = names()
+    hashed = harness.mesh_hash(target.data)
+    props = bpy.context.scene.texsynth
+    job = synthesis.Job([target], Sample(path=props.sample_path), props.to_settings()).prepare()
+    job.cancel()
+    try:
+        job.compute()
+        raise AssertionError("compute() did not raise after cancel()")
+    except texsynth.uv_methods.synthesis.Cancelled:
+        pass
+    job.discard()
+    assert names() == before and harness.mesh_hash(target.data) == hashed
+
+
 FULL_RUN_TESTS = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_placed_count",
                   "test_resynthesizing_one_class_gives_the_same_rows_and_leaves_the_others",
-                  "test_undo_removes_what_synthesize_made")
+                  "test_undo_removes_what_synthesize_made", "test_cancel_leaves_nothing_behind")
 
 
 if __name__ == "__main__":
