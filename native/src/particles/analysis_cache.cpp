@@ -71,7 +71,8 @@ void validate(const ByteReader& r, const ParticleAnalysis& a) {
   for (int32_t i = 0; i < n; ++i) {
     const Particle& p = a.particles[size_t(i)];
     if (p.id != i || p.class_id < 0 || p.class_id >= a.num_classes || p.area < 1) fail("particle header out of range");
-    if (a.pixel_start[size_t(i) + 1] - a.pixel_start[size_t(i)] != p.area) fail("particle pixel count");
+    // Offsets checked one by one from 0 (a subtraction of two forged ones could overflow).
+    if (a.pixel_start[size_t(i) + 1] != a.pixel_start[size_t(i)] + p.area) fail("particle pixel count");
     if (a.cooc_start[size_t(i) + 1] < a.cooc_start[size_t(i)]) fail("co-occurrence offsets decrease");
     // Unwrapped boxes stay within a period of the sample (their centroid lies inside it).
     const int64_t lo_x = a.tileable ? -W : 0, hi_x = a.tileable ? 2 * W : W;
