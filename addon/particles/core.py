@@ -9,12 +9,12 @@ Frames: sample x right, y up, row 0 at the bottom (Blender's pixel order); a pix
 """
 import hashlib
 import os
-import threading
 
 import numpy as np
 
 from .. import native
 from ..core import pipeline
+from ..surface_colour import core as surface_core
 
 ATLAS_MAX_SIDE = 4096
 ATLAS_PADDING = 2            # transparent pixels around every sprite (no bleeding under mipmaps or Linear)
@@ -29,7 +29,6 @@ ANALYSIS_CACHE_PREFIX = "particles-"
 def sample_for_analysis(pixels_top_first):
     """The add-on's H x W x C (row 0 = top) pixels as the analysis wants them: float32 RGB(A), row 0 = bottom
     (the surface-colour methods' convention)."""
-    from ..surface_colour import core as surface_core
     return surface_core.synthesis_sample(pixels_top_first)
 
 
@@ -97,30 +96,12 @@ def merge_labels(labels, merges):
     return np.ascontiguousarray(mapping[labels]), mapping
 
 
-class AnalysisCache:
-    """The last few analyses in memory, keyed by sample + parameters, and on disk through the native
-    save/load_particle_analysis when the module has them (key checked: a stale file is rebuilt)."""
+class AnalysisCache(surface_core.ContextCache):
+    """The last few analyses in memory (most recent last), keyed by analysis_key; the disk copy goes
+    through the native save/load_particle_analysis when the module has them (see analyse)."""
 
     def __init__(self, capacity=4):
-        self.capacity = capacity
-        self.entries = []  # [(key, analysis)], most recent last
-        self.lock = threading.Lock()
-
-    def clear(self):
-        with self.lock:
-            self.entries = []
-
-    def get(self, key):
-        with self.lock:
-            for index, (stored, analysis) in enumerate(self.entries):
-                if stored == key:
-                    self.entries.append(self.entries.pop(index))
-                    return analysis
-        return None
-
-    def put(self, key, analysis):
-        with self.lock:
-            self.entries = [(k, a) for k, a in self.entries if k != key][-(self.capacity - 1):] + [(key, analysis)]
+        super().__init__(capacity)
 
 
 analyses = AnalysisCache()
@@ -144,9 +125,10 @@ def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=anal
         return found, "memory"
     path = os.path.join(cache_dir, ANALYSIS_CACHE_PREFIX + key + ".bin") if cache_dir else ""
     can_store = hasattr(module, "load_particle_analysis") and hasattr(module, "save_particle_analysis")
+    file_key = int(hashlib.blake2b(key.encode(), digest_size=8).hexdigest(), 16)  # the native cache's u64
     if path and can_store and os.path.isfile(path):
         try:
-            found = module.load_particle_analysis(path, key)
+            found = module.load_particle_analysis(path, file_key)
         except ValueError:
             found = None  # corrupt: rebuilt and overwritten below
         if found is not None:
@@ -175,7 +157,7 @@ def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=anal
     cache.put(key, analysis)
     if path and can_store:
         os.makedirs(cache_dir, exist_ok=True)
-        module.save_particle_analysis(analysis, path, key)
+        module.save_particle_analysis(analysis, path, file_key)
     return analysis, "built"
 
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from .. import compat
 from ..bridge import mesh_io
+from ..shading import surface_material
 from . import core
 
 TAG, CLASS_TAG, KIND_TAG = "texsynth_particles", "texsynth_class", "texsynth_kind"
@@ -73,28 +74,15 @@ def segmentation_image(sample_name, preview):
     return image
 
 
-def decal_material(name, atlas, interpolation="Linear"):
-    """Material: UV map 'TexSynth Atlas' -> Image Texture (Clip) -> Principled Base Color and Alpha,
-    alpha blended in Eevee (compat), the same nodes render in Cycles."""
-    material = bpy.data.materials.get(name) or bpy.data.materials.new(name)
-    material.use_nodes = True
-    nodes, links = material.node_tree.nodes, material.node_tree.links
-    nodes.clear()
-    output = nodes.new("ShaderNodeOutputMaterial")
-    output.location = (300, 0)
-    principled = nodes.new("ShaderNodeBsdfPrincipled")
-    texture = nodes.new("ShaderNodeTexImage")
-    texture.location = (-350, 0)
-    texture.image = atlas
+def decal_material(name, atlas):
+    """Material: UV map 'TexSynth Atlas' -> Image Texture (Extension Clip, Linear) -> Principled Base Color
+    and Alpha (surface_material's nodes), alpha blended in Eevee (compat); the same nodes render in Cycles."""
+    material = surface_material.new_material(name, image=atlas, uv_map=ATLAS_UV)
+    tree = material.node_tree
+    texture = next(node for node in tree.nodes if node.bl_idname == "ShaderNodeTexImage")
     texture.extension = "CLIP"
-    texture.interpolation = interpolation
-    uv = nodes.new("ShaderNodeUVMap")
-    uv.location = (-550, 0)
-    uv.uv_map = ATLAS_UV
-    links.new(uv.outputs["UV"], texture.inputs["Vector"])
-    links.new(texture.outputs["Color"], principled.inputs["Base Color"])
-    links.new(texture.outputs["Alpha"], principled.inputs["Alpha"])
-    links.new(principled.outputs["BSDF"], output.inputs["Surface"])
+    principled = next(node for node in tree.nodes if node.bl_idname == "ShaderNodeBsdfPrincipled")
+    tree.links.new(texture.outputs["Alpha"], principled.inputs["Alpha"])
     compat.use_alpha_blend(material)
     return material
 

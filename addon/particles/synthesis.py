@@ -214,6 +214,7 @@ class Job:
                 self._build_atlas(module, item)
         diagonal = core.bbox_diagonal(item.arrays.positions)
         item.outputs = []
+        item.stats["per_class"] = {int(c): int(np.count_nonzero(placed["class"] == c)) for c in classes}
         for c in classes:
             rows = np.flatnonzero(placed["class"] == c)
             out = scene.ClassOutput(c, rank[c], int(rows.size))

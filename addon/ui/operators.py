@@ -92,33 +92,16 @@ class TEXSYNTH_OT_check_cache(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class TEXSYNTH_OT_synthesize(bpy.types.Operator):
-    """Synthesize the sample texture on every selected mesh object (Esc cancels, changing nothing)"""
-    bl_idname = "texsynth.synthesize"
-    bl_label = "Synthesize"
-    bl_options = {"REGISTER", "UNDO"}
+class JobOperator:
+    """An operator running a Job (prepare / compute / apply): blocking from scripts, in a worker thread with
+    Esc from the UI. Subclasses give _job(context)."""
 
     @classmethod
     def poll(cls, context):
         return context.mode == "OBJECT"
 
     def _job(self, context):
-        props = context.scene.texsynth
-        objects = sorted(context.selected_objects, key=lambda obj: obj.name)
-        settings = props.to_settings()
-        if settings.method == "PARTICLES":
-            from ..particles import synthesis as particle_synthesis
-            from .particle_operators import label_pixels
-            return particle_synthesis.Job(objects, sample_from_settings(props), settings,
-                                          properties.cache_dir(context), label_pixels(props),
-                                          material_mode=props.material_mode, scene_=context.scene)
-        if settings.method in pipeline.SURFACE_METHODS:
-            from ..surface_colour import synthesis as surface_synthesis
-            return surface_synthesis.Job(objects, sample_from_settings(props), settings, props.to_bake_request(),
-                                         props.material_mode, context,
-                                         properties.cache_dir(context) or synthesis.default_cache_dir())
-        return synthesis.Job(objects, sample_from_settings(props), settings, properties.cache_dir(context),
-                             props.material_mode, context.scene)
+        raise NotImplementedError
 
     def _finish(self, job):
         cache_status_by_sample[job.sample.describe()] = "fresh"
@@ -185,6 +168,27 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
             return {"CANCELLED"}
         return self._finish(state.job)
 
+
+class TEXSYNTH_OT_synthesize(JobOperator, bpy.types.Operator):
+    """Synthesize the sample texture on every selected mesh object (Esc cancels, changing nothing)"""
+    bl_idname = "texsynth.synthesize"
+    bl_label = "Synthesize"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def _job(self, context):
+        props = context.scene.texsynth
+        objects = sorted(context.selected_objects, key=lambda obj: obj.name)
+        settings = props.to_settings()
+        if settings.method == "PARTICLES":
+            from .particle_operators import particle_job
+            return particle_job(context, objects)
+        if settings.method in pipeline.SURFACE_METHODS:
+            from ..surface_colour import synthesis as surface_synthesis
+            return surface_synthesis.Job(objects, sample_from_settings(props), settings, props.to_bake_request(),
+                                         props.material_mode, context,
+                                         properties.cache_dir(context) or synthesis.default_cache_dir())
+        return synthesis.Job(objects, sample_from_settings(props), settings, properties.cache_dir(context),
+                             props.material_mode, context.scene)
 
 class ModalSynthesis:
     """Runs Job.compute in a worker thread; the modal operator polls it (and the tests drive it)."""

@@ -7,7 +7,7 @@ import bpy
 
 from ..bridge import mesh_io
 from ..core import pipeline
-from . import properties
+from . import operators, properties
 
 
 def label_pixels(props):
@@ -22,13 +22,12 @@ def analyse(context):
     """Runs the analysis for the panel's settings; fills the class rows and the segmentation image.
     Returns (analysis, source, notes)."""
     from ..particles import core, scene, synthesis
-    from .operators import sample_from_settings
     props = context.scene.texsynth
     settings = props.to_settings()
     if settings.method != "PARTICLES":
         settings = pipeline.Settings(**{**settings.__dict__, "method": "PARTICLES",
                                         **properties.TexSynthSettings.particle_settings(_AsParticles(props))})
-    sample = sample_from_settings(props)
+    sample = operators.sample_from_settings(props)
     analysis, source, notes = synthesis.analyse(sample, settings, properties.cache_dir(context), label_pixels(props))
     rows = core.class_rows(analysis)
     props.particle_rows.clear()
@@ -115,6 +114,20 @@ class TEXSYNTH_OT_particle_pick_class(bpy.types.Operator):
         return int(u * space.image.size[0]), int(v * space.image.size[1])
 
 
+def _reanalyse(operator, context, name, value):
+    """Sets one analysis setting and analyses again; on an error the setting is put back and reported."""
+    props = context.scene.texsynth
+    old = getattr(props, name)
+    setattr(props, name, value)
+    try:
+        analyse(context)
+    except (ValueError, RuntimeError) as error:
+        setattr(props, name, old)
+        operator.report({"ERROR"}, str(error))
+        return {"CANCELLED"}
+    return {"FINISHED"}
+
+
 class TEXSYNTH_OT_particle_merge(bpy.types.Operator):
     """Merge the picked class into another class (recorded in Merges, re-analysed)"""
     bl_idname = "texsynth.particle_merge"
@@ -124,26 +137,18 @@ class TEXSYNTH_OT_particle_merge(bpy.types.Operator):
     def execute(self, context):
         from ..particles import core
         props = context.scene.texsynth
+        shown = len(props.particle_rows)
+        a, b = props.particle_active_class, props.particle_merge_into
         try:
             merges = core.parse_merges(props.particle_merges)
-            count = len(props.particle_rows) + len(merges)  # classes before the merges
-            a, b = props.particle_active_class, props.particle_merge_into
-            if a == b or not (0 <= a < len(props.particle_rows) and 0 <= b < len(props.particle_rows)):
-                raise pipeline.SettingsError("merge needs two different classes of the analysis (0..%d)"
-                                             % (len(props.particle_rows) - 1))
+            if a == b or not (0 <= a < shown and 0 <= b < shown):
+                raise pipeline.SettingsError("merge needs two different classes of the analysis (0..%d)" % (shown - 1))
+            count = shown + len(merges)  # classes before the merges
             pair = (core.original_id(a, count, merges), core.original_id(b, count, merges))
-            old = props.particle_merges
-            props.particle_merges = core.format_merges(merges + (pair,))
-            try:
-                analyse(context)
-            except (ValueError, RuntimeError):
-                props.particle_merges = old
-                raise
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
-        self.report({"INFO"}, "TexSynth: class %d merged into %d" % (a, b))
-        return {"FINISHED"}
+        return _reanalyse(self, context, "particle_merges", core.format_merges(merges + (pair,)))
 
 
 class TEXSYNTH_OT_particle_set_background(bpy.types.Operator):
@@ -153,46 +158,27 @@ class TEXSYNTH_OT_particle_set_background(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
-        props = context.scene.texsynth
-        old = props.particle_background_class
-        props.particle_background_class = props.particle_active_class
-        try:
-            analyse(context)
-        except (ValueError, RuntimeError) as error:
-            props.particle_background_class = old
-            self.report({"ERROR"}, str(error))
-            return {"CANCELLED"}
-        return {"FINISHED"}
+        return _reanalyse(self, context, "particle_background_class", context.scene.texsynth.particle_active_class)
 
 
-class TEXSYNTH_OT_particle_resynthesize(bpy.types.Operator):
-    """Place the picked class again on the selected objects, replacing only its decals / instances"""
+def particle_job(context, objects, only_class=None):
+    """The Texture Particles Job for the panel's settings (Synthesize, Re-synthesize Class)."""
+    from ..particles import synthesis
+    props = context.scene.texsynth
+    return synthesis.Job(objects, operators.sample_from_settings(props), props.to_settings(),
+                         properties.cache_dir(context), label_pixels(props), only_class, props.material_mode,
+                         context.scene)
+
+
+class TEXSYNTH_OT_particle_resynthesize(operators.JobOperator, bpy.types.Operator):
+    """Place the picked class again on the selected objects, replacing only its decals / instances (Esc cancels)"""
     bl_idname = "texsynth.particle_resynthesize"
     bl_label = "Re-synthesize Class"
     bl_options = {"REGISTER", "UNDO"}
 
-    @classmethod
-    def poll(cls, context):
-        return context.mode == "OBJECT"
-
-    def execute(self, context):
-        from ..particles import synthesis
-        from .operators import sample_from_settings
-        props = context.scene.texsynth
-        try:
-            report = synthesis.synthesize(sorted(context.selected_objects, key=lambda o: o.name),
-                                          sample_from_settings(props), props.to_settings(),
-                                          properties.cache_dir(context), label_pixels(props),
-                                          only_class=props.particle_active_class, scene_=context.scene)
-        except (ValueError, RuntimeError) as error:
-            self.report({"ERROR"}, str(error))
-            return {"CANCELLED"}
-        self.last_report = report
-        if not report.objects:
-            self.report({"ERROR"}, report.summary())
-            return {"CANCELLED"}
-        self.report({"WARNING"} if report.failures or report.notes else {"INFO"}, report.summary())
-        return {"FINISHED"}
+    def _job(self, context):
+        return particle_job(context, sorted(context.selected_objects, key=lambda obj: obj.name),
+                            context.scene.texsynth.particle_active_class)
 
 
 classes = (TEXSYNTH_OT_particle_analyse, TEXSYNTH_OT_particle_pick_class, TEXSYNTH_OT_particle_merge,

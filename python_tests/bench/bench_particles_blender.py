@@ -37,12 +37,7 @@ def pebble_sample(path, size=256, seed=0):
         for gx in range(12, size - 12, 24):
             cx, cy, r = gx + rng.uniform(-3, 3), gy + rng.uniform(-3, 3), rng.uniform(5, 8)
             pixels[(xx - cx) ** 2 + (yy - cy) ** 2 < r * r, :3] = (0.8, 0.7, 0.3) if rng.random() < 0.6 else (0.6, 0.1, 0.1)
-    image = bpy.data.images.new("bench sample", size, size, alpha=True)
-    image.pixels.foreach_set(pixels.ravel())
-    image.filepath_raw, image.file_format = path, "PNG"
-    image.save()
-    bpy.data.images.remove(image)
-    return path
+    return harness.save_png(path, pixels)
 
 
 def fan_decals(count, rng, radius=0.01):

@@ -45,12 +45,7 @@ def pebbles_path(name="pebbles.png", kind="pebbles", size=(96, 64)):
             pixels[y0:y0 + 10, x0:x0 + 10, :3] = STONE
         for x0, y0 in [(55, 6), (82, 40)]:
             pixels[y0:y0 + 14, x0:x0 + 6, :3] = LEAF
-    image = bpy.data.images.new("tmp", width, height, alpha=True)
-    image.pixels.foreach_set(pixels.ravel())
-    image.filepath_raw, image.file_format = path, "PNG"
-    image.save()
-    bpy.data.images.remove(image)
-    return path
+    return harness.save_png(path, pixels)
 
 
 def clean():
@@ -353,23 +348,32 @@ def test_eevee_render_shows_the_decal_sprites():
     out = scene.ClassOutput(1, 0, 1)
     out.decals = square_decals([(0.0, 0.0)], 0.6, (0.0, 0.0, 1.0, 1.0))
     scene.write_outputs(target, [out], red_atlas(), (64, 64))
-    bpy.context.scene.world = bpy.data.worlds.new("W")
-    bpy.context.scene.world.color = (1.0, 1.0, 1.0)
+    top_camera(2.0)
+    pixels = render_pixels("decal.png")
+    centre, corner = pixels[28:36, 28:36].mean(axis=(0, 1)), pixels[:6, :6].mean(axis=(0, 1))
+    assert centre[0] > corner[0] + 0.1 and centre[1] < corner[1] - 0.1, (centre, corner)
+    assert abs(corner[0] - corner[1]) < 0.05, corner
+
+
+def top_camera(ortho_scale):
     camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     camera.data.type = "ORTHO"
-    camera.data.ortho_scale = 2.0
+    camera.data.ortho_scale = ortho_scale
     camera.location = (0.0, 0.0, 3.0)
     bpy.context.scene.collection.objects.link(camera)
     bpy.context.scene.camera = camera
-    scene_ = harness.flat_render_settings(bpy.context.scene, 64, samples=4)
-    path = os.path.join(FOLDER, "decal.png")
-    scene_.render.filepath = path
+    bpy.context.scene.world = bpy.data.worlds.new("W")
+    bpy.context.scene.world.color = (1.0, 1.0, 1.0)
+
+
+def render_pixels(name, pixels=64):
+    scene_ = harness.flat_render_settings(bpy.context.scene, pixels, samples=4)
+    scene_.render.filepath = os.path.join(FOLDER, name)
     bpy.ops.render.render(write_still=True)
-    image = bpy.data.images.load(path)
-    pixels = np.array(image.pixels[:], np.float32).reshape(64, 64, 4)
-    centre, corner = pixels[28:36, 28:36, :3].mean(axis=(0, 1)), pixels[:6, :6, :3].mean(axis=(0, 1))
-    assert centre[0] > corner[0] + 0.1 and centre[1] < corner[1] - 0.1, (centre, corner)
-    assert abs(corner[0] - corner[1]) < 0.05, corner
+    image = bpy.data.images.load(scene_.render.filepath)
+    values = np.array(image.pixels[:], np.float32).reshape(pixels, pixels, 4)[..., :3]
+    bpy.data.images.remove(image)
+    return values
 
 
 def _rgb(nodes, colour):
@@ -437,16 +441,26 @@ def full_run(target, **values):
 def test_synthesize_makes_decals_per_class_with_ids_matching_the_placed_count():
     clean()
     target = plane(size=4.0, cuts=40)
-    assert full_run(target, scale=1.5) == {"FINISHED"}
+    collection = particle_instances.make_collection()
+    props = configure(scale=1.5, particle_output="BOTH", particle_collection=collection)
+    report = synthesis.synthesize([target], Sample(path=props.sample_path), props.to_settings(), FOLDER)
+    per_class = report.native_stats["Plane"]["per_class"]
+    assert sum(per_class.values()) == report.native_stats["Plane"]["placed"] > 0, report.summary()
     decals = scene.owned_objects("Plane", ("DECALS",))
-    assert decals, "no decal object"
+    assert sorted(o[scene.CLASS_TAG] for o in decals) == sorted(c for c, n in per_class.items() if n)
     for obj in decals:
         ids = texsynth.bridge.mesh_io.read_face_ints(obj.data, core.PARTICLE_ID_NAME)
-        assert ids.min() == 0 and np.array_equal(np.unique(ids), np.arange(ids.max() + 1)), obj.name
+        # every placed particle of the class has faces, numbered 0..n-1
+        assert np.array_equal(np.unique(ids), np.arange(per_class[obj[scene.CLASS_TAG]])), obj.name
         uv = np.empty(len(obj.data.loops) * 2, np.float32)
         obj.data.uv_layers[scene.ATLAS_UV].data.foreach_get("uv", uv)
         assert uv.min() >= 0.0 and uv.max() <= 1.0
     assert "TexSynth" in target.data.uv_layers, "the background went through the jump map"
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for points in scene.owned_objects("Plane", ("POINTS",)):
+        count = sum(1 for i in depsgraph.object_instances if i.is_instance and i.parent is not None
+                    and i.parent.original == points)
+        assert count == per_class[points[scene.CLASS_TAG]] == len(points.data.vertices), points.name
 
 
 def test_resynthesizing_one_class_gives_the_same_rows_and_leaves_the_others():
@@ -474,6 +488,23 @@ def test_undo_removes_what_synthesize_made():
     assert names() == before
 
 
+def test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour():
+    # The same view with the decals hidden and shown: the stones' red raises the red share of the image.
+    clean()
+    target = plane(size=4.0, cuts=40)
+    assert full_run(target, scale=1.5) == {"FINISHED"}
+    top_camera(4.0)
+    decals = scene.owned_objects("Plane", ("DECALS",))
+    for obj in decals:
+        obj.hide_render = True
+    without = render_pixels("without.png").mean(axis=(0, 1))
+    for obj in decals:
+        obj.hide_render = False
+    with_decals = render_pixels("with.png").mean(axis=(0, 1))
+    share = lambda rgb: rgb[0] / max(rgb.sum(), 1e-6)  # noqa: E731
+    assert share(with_decals) > share(without) + 0.02, (with_decals, without)
+
+
 def test_cancel_leaves_nothing_behind():
     clean()
     target = plane(size=4.0, cuts=20)
@@ -494,7 +525,8 @@ def test_cancel_leaves_nothing_behind():
 
 FULL_RUN_TESTS = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_placed_count",
                   "test_resynthesizing_one_class_gives_the_same_rows_and_leaves_the_others",
-                  "test_undo_removes_what_synthesize_made", "test_cancel_leaves_nothing_behind")
+                  "test_undo_removes_what_synthesize_made", "test_cancel_leaves_nothing_behind",
+                  "test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour")
 
 
 if __name__ == "__main__":
