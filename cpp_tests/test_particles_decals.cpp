@@ -308,6 +308,40 @@ TEST(ParticlesDecal, FoldedSheetDoesNotGetTheBackFaces) {
   for (size_t f = 0; f < d.loop_starts.size(); ++f) EXPECT_GT(newell(d, f).z, 0);
 }
 
+// Two turns of a spiral ramp (r 0.5..1, rising 0.05 a turn): every normal within a few degrees of +z.
+TriMesh spiral_ramp(int around, int across) {
+  TriMesh m;
+  const int steps = 2 * around;
+  for (int i = 0; i <= steps; ++i)
+    for (int j = 0; j <= across; ++j) {
+      const double a = 2 * kPi * i / around, r = 0.5 + 0.5 * j / across;
+      m.add_vertex(r * std::cos(a), r * std::sin(a), 0.05 * a / (2 * kPi));
+    }
+  auto id = [&](int i, int j) { return int32_t(i * (across + 1) + j); };
+  for (int i = 0; i < steps; ++i)
+    for (int j = 0; j < across; ++j) {
+      m.add_triangle(id(i, j), id(i, j + 1), id(i + 1, j + 1));
+      m.add_triangle(id(i, j), id(i + 1, j + 1), id(i + 1, j));
+    }
+  return m;
+}
+
+TEST(ParticlesDecal, SurfaceWindingOverItselfIsCountedAsOverlapping) {
+  const Scene sc(spiral_ramp(64, 4));
+  const SurfacePoint at = locate(sc.mesh, {-0.75, 0.01, 0.025});  // half way round the first turn
+  ASSERT_GE(at.triangle, 0);
+  ASSERT_GT(std::fabs(sc.s.walk.tris[size_t(at.triangle)].normal.z), 0.98);
+  const V3 axis{1, 0, 0};
+  // Around the whole annulus: the fill climbs onto the second turn, which lies over the first.
+  const DecalMesh whole = decals(sc, {particle(at, axis, {-0.3, -1.05, 1.8, 1.05})});
+  EXPECT_EQ(whole.stats.overlapping, 1);
+  EXPECT_GT(whole.stats.mean_coverage, 0.5);
+  // A particle smaller than a turn covers its rectangle once.
+  const DecalMesh small = decals(sc, {particle(at, axis, {-0.2, -0.2, 0.2, 0.2})});
+  EXPECT_EQ(small.stats.overlapping, 0);
+  EXPECT_NEAR(small.stats.min_coverage, 1.0, 1e-6);
+}
+
 std::vector<DecalParticle> random_particles(const TriMesh& m, int count, uint64_t seed) {
   texsynth::Rng rng(seed);
   std::vector<DecalParticle> ps;

@@ -11,13 +11,8 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
-  std::vector<uint8_t> body(data + 1, data + size);
-  if (data[0] & 1) {
-    const uint64_t checksum = texsynth::particle_cache_checksum(body.data(), body.size());
-    const size_t at = body.size();
-    body.resize(at + 8);
-    std::memcpy(body.data() + at, &checksum, 8);
-  }
+  const std::vector<uint8_t> body =
+      fuzz::cache_body(data, size, [](const void* d, size_t n) { return texsynth::particle_cache_checksum(d, n); });
   uint64_t key = 0;
   if (body.size() >= 20) std::memcpy(&key, body.data() + 12, 8);  // after magic and version
   std::optional<texsynth::ParticleAnalysis> loaded;

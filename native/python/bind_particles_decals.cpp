@@ -31,6 +31,7 @@ py::dict decal_stats(const texsynth::DecalStats& s) {
   d["curved"] = s.curved;
   d["faces_visited"] = s.faces_visited;
   d["faces_folded"] = s.faces_folded;
+  d["overlapping"] = s.overlapping;
   d["min_coverage"] = s.min_coverage;
   d["mean_coverage"] = s.mean_coverage;
   d["seconds"] = s.seconds;

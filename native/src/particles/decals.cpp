@@ -385,6 +385,7 @@ DecalMesh build_decal_mesh(const SurfaceWalkMesh& mesh, const DecalParticle* par
     s.empty += p.sizes.empty(), s.capped += p.capped, s.curved += p.curved;
     s.faces_visited += p.visited, s.faces_folded += p.folded;
     s.min_coverage = std::min(s.min_coverage, p.coverage);
+    s.overlapping += p.coverage > 1 + 1e-9;
     s.mean_coverage += p.coverage;
   }
   if (count) s.mean_coverage /= double(count);

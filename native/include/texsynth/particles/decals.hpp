@@ -10,7 +10,8 @@
 // the (u, v) plane overlaps the rectangle. Each face is clipped to the rectangle in that plane; clip
 // points are placed by barycentrics on the original face (exactly on the surface), then moved by
 // `offset` along the smooth normal. Faces beyond the angle (the far side of a fold, a thin part's
-// back) are left out, so no surface point is mapped twice through a fold.
+// back) are left out, so no surface point is mapped twice through a fold. A surface that winds over
+// itself with every normal within the angle (a spiral ramp) can still be mapped twice: counted, not cut.
 //
 // Vertices are shared within one particle's decal (smooth shading, continuous UVs): a mesh vertex by
 // its weld representative, a mesh edge × rectangle side by (edge, side), a rectangle corner by its
@@ -52,6 +53,8 @@ struct DecalStats {
   int64_t curved = 0;
   int64_t faces_visited = 0;   // faces tested by the flood fills
   int64_t faces_folded = 0;    // faces left out for their normal
+  int64_t overlapping = 0;     // particles whose decal covers part of its rectangle twice (coverage > 1):
+                               // a surface winding over itself within the normal angle (a spiral ramp)
   double min_coverage = 0;     // smallest (decal area in the (u, v) plane / rectangle area); < 1 at walls
   double mean_coverage = 0;
   double seconds = 0;
