@@ -89,13 +89,18 @@ def test_cli_particles_writes_decals_and_stats(tmp_path):
     stats_path, blend = tmp_path / "stats.json", tmp_path / "out.blend"
     process = blender_run.cli("--sample", pebbles_png(tmp_path / "pebbles.png"), "--mesh", str(mesh),
                               "--method", "particles", "--classes", "3", "--blur", "0", "--scale", "1.5",
+                              "--particle-output", "both", "--instances", "example",
                               "--stats", str(stats_path), "--save", str(blend),
                               "--cache-dir", str(tmp_path / "cache"))
     assert process.returncode == 0, process.stdout[-3000:] + process.stderr[-3000:]
     stats = json.loads(stats_path.read_text())
     name = stats["objects"][0]
-    assert stats["native"][name]["placed"] > 0
-    assert any("particles" in line for line in stats["outputs"]), stats["outputs"]
+    per_class = stats["native"][name]["per_class"]
+    assert sum(per_class.values()) == stats["native"][name]["placed"] > 0
+    classes = sum(1 for count in per_class.values() if count)
+    # a decal object and a points object per class that got particles
+    assert any(line.endswith("in %d object(s)" % (2 * classes)) for line in stats["outputs"]), stats["outputs"]
+    assert blend.is_file() and any(f.startswith("particles-") for f in os.listdir(tmp_path / "cache"))
 
 
 @pytest.mark.parametrize("extra, code, fragment", [

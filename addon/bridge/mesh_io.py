@@ -477,19 +477,32 @@ def read_face_values(obj, name, triangles, triangle_polygons):
     return values
 
 
+def check_polygons(num_vertices, loop_starts, loop_totals, corner_verts):
+    """Blender-layout polygons that Blender can take as they are (mesh.validate costs seconds on decal meshes
+    of 100k faces): contiguous corners, at least 3 per polygon, vertex indices in range."""
+    starts, totals = np.asarray(loop_starts, np.int64), np.asarray(loop_totals, np.int64)
+    corners = np.asarray(corner_verts, np.int64)
+    if starts.shape != totals.shape or (totals.size and totals.min() < 3) or \
+            not np.array_equal(starts, np.concatenate([[0], np.cumsum(totals)[:-1]])[:starts.size]) or \
+            int(totals.sum()) != corners.size or (corners.size and (corners.min() < 0 or corners.max() >= num_vertices)):
+        raise pipeline.SettingsError("decal geometry is inconsistent (polygon offsets, sizes or vertex indices)")
+
+
 def new_polygon_mesh(name, positions, loop_starts, loop_totals, corner_verts, uv_name="", corner_uvs=None,
                      face_ints=None):
     """A new mesh from Blender-layout arrays (positions (P, 3) in the object's space), with an optional UV
     map and INT FACE attributes {name: (F,) int32}; removed again if anything fails."""
+    check_polygons(len(positions), loop_starts, loop_totals, corner_verts)
     mesh = bpy.data.meshes.new(name)
     try:
         mesh.vertices.add(len(positions))
         mesh.vertices.foreach_set("co", np.ascontiguousarray(positions, dtype=np.float32).ravel())
+        # Blender's own index type (uint32 before 3.6): foreach_set then copies in one block (checked >= 0 above).
         mesh.loops.add(len(corner_verts))
-        mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(corner_verts, dtype=np.int32))
+        mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(corner_verts, dtype=INDEX_READ_DTYPE))
         mesh.polygons.add(len(loop_starts))
-        mesh.polygons.foreach_set("loop_start", np.ascontiguousarray(loop_starts, dtype=np.int32))
-        mesh.polygons.foreach_set("loop_total", np.ascontiguousarray(loop_totals, dtype=np.int32))
+        mesh.polygons.foreach_set("loop_start", np.ascontiguousarray(loop_starts, dtype=INDEX_READ_DTYPE))
+        mesh.polygons.foreach_set("loop_total", np.ascontiguousarray(loop_totals, dtype=INDEX_READ_DTYPE))
         if uv_name:
             layer = mesh.uv_layers.new(name=uv_name, do_init=False)
             layer.data.foreach_set("uv", np.ascontiguousarray(corner_uvs, dtype=np.float32).ravel())
@@ -500,8 +513,6 @@ def new_polygon_mesh(name, positions, loop_starts, loop_totals, corner_verts, uv
         mesh.polygons.foreach_set("use_smooth", polygons_smooth)
         fail_point("decal_mesh")
         mesh.update(calc_edges=True)
-        if mesh.validate(verbose=False):
-            raise MeshWriteError("decal mesh %r had invalid geometry" % name)
     except Exception:
         bpy.data.meshes.remove(mesh)
         raise

@@ -14,6 +14,7 @@ Re-synthesizing one class (only_class=c) places that class alone (its rows are t
 replaces only its decal / points objects; the background is left as it is.
 """
 import os
+import time
 
 import bpy
 import numpy as np
@@ -199,9 +200,12 @@ class Job:
 
     def _compute_item(self, module, item):
         settings = self.settings
+        start = time.perf_counter()
         with self.timings.phase("synthesis"):
             walk_mesh, placed = self.place(module, item)
-        item.stats = {"placed": int(len(placed["class"])), "placement": dict(placed.get("stats") or {})}
+        item.stats = {"placed": int(len(placed["class"])), "placement": dict(placed.get("stats") or {}),
+                      "seconds_placement": time.perf_counter() - start, "seconds_atlas": 0.0,
+                      "seconds_decal_mesh": 0.0}
         if len(placed["class"]) == 0:
             raise pipeline.SettingsError("no particle could be placed (surface too small for the particles at "
                                          "this scale, or every face overridden to 0)")
@@ -210,8 +214,10 @@ class Job:
         decals = settings.particle_output in ("DECALS", "BOTH")
         points = settings.particle_output in ("INSTANCES", "BOTH")
         if decals:
+            start = time.perf_counter()
             with self.timings.phase("synthesis"):
                 self._build_atlas(module, item)
+            item.stats["seconds_atlas"] = time.perf_counter() - start
         diagonal = core.bbox_diagonal(item.arrays.positions)
         item.outputs = []
         item.stats["per_class"] = {int(c): int(np.count_nonzero(placed["class"] == c)) for c in classes}
@@ -223,12 +229,14 @@ class Job:
                 continue
             part = {key: np.asarray(placed[key])[rows] for key in PLACEMENT_KEYS}
             if decals:
+                start = time.perf_counter()
                 with self.timings.phase("synthesis"):
                     axes, rects, uv_rects, _ = core.decal_inputs(part, self.analysis, item.atlas, item.sprite_boxes)
                     out.decals = dict(module.decal_mesh(
                         walk_mesh, np.ascontiguousarray(part["triangle"], np.int32),
                         np.ascontiguousarray(part["barycentric"], np.float64), axes, rects, uv_rects,
                         offset=core.decal_offset(rank[c], diagonal), cancel=self.token))
+                item.stats["seconds_decal_mesh"] += time.perf_counter() - start
             if points:
                 rotation_axes = core.rotate_in_plane(
                     part["sprite_axis"], part["normal"],
