@@ -29,7 +29,9 @@ SUITE = os.path.join(blender_run.BLENDER_TESTS, "tests_particles.py")
 FULL_RUN = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_placed_count",
             "test_resynthesizing_one_class_gives_the_same_rows_and_leaves_the_others",
             "test_undo_removes_what_synthesize_made", "test_cancel_leaves_nothing_behind",
-            "test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour")
+            "test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour",
+            "test_density_override_of_zero_keeps_particles_off_those_faces",
+            "test_texton_background_writes_the_texton_layers")
 
 
 def run_suite(*names):

@@ -341,6 +341,14 @@ def test_rewriting_one_class_replaces_only_its_objects():
 def test_eevee_render_shows_the_decal_sprites():
     # A grey plane seen from above with one decal quad over its middle showing the red disc: the rendered
     # centre turns red, the corners keep the plane's grey.
+    decal_render_check("EEVEE")
+
+
+def test_cycles_render_shows_the_decal_sprites():
+    decal_render_check("CYCLES")
+
+
+def decal_render_check(engine):
     clean()
     target = plane(size=2.0, cuts=2)
     grey = harness.emission_material("Grey", lambda nodes, links: _rgb(nodes, (0.5, 0.5, 0.5)))
@@ -349,10 +357,11 @@ def test_eevee_render_shows_the_decal_sprites():
     out.decals = square_decals([(0.0, 0.0)], 0.6, (0.0, 0.0, 1.0, 1.0))
     scene.write_outputs(target, [out], red_atlas(), (64, 64))
     top_camera(2.0)
-    pixels = render_pixels("decal.png")
+    pixels = render_pixels("decal_%s.png" % engine.lower(), engine=engine)
     centre, corner = pixels[28:36, 28:36].mean(axis=(0, 1)), pixels[:6, :6].mean(axis=(0, 1))
-    assert centre[0] > corner[0] + 0.1 and centre[1] < corner[1] - 0.1, (centre, corner)
-    assert abs(corner[0] - corner[1]) < 0.05, corner
+    # Chromaticity, not brightness: the decal is lit (Principled), the plane emits its grey.
+    assert centre[0] / max(centre.sum(), 1e-6) > 0.6, (centre, corner)
+    assert abs(corner[0] - corner[1]) < 0.05 and corner[0] > 0.2, corner
 
 
 def top_camera(ortho_scale):
@@ -366,8 +375,13 @@ def top_camera(ortho_scale):
     bpy.context.scene.world.color = (1.0, 1.0, 1.0)
 
 
-def render_pixels(name, pixels=64):
+def render_pixels(name, pixels=64, engine="EEVEE"):
     scene_ = harness.flat_render_settings(bpy.context.scene, pixels, samples=4)
+    if engine == "CYCLES":
+        scene_.render.engine = "CYCLES"
+        scene_.cycles.samples = 4
+        scene_.cycles.device = "CPU"
+        scene_.cycles.use_denoising = False  # Debian's Blender has no OpenImageDenoise
     scene_.render.filepath = os.path.join(FOLDER, name)
     bpy.ops.render.render(write_still=True)
     image = bpy.data.images.load(scene_.render.filepath)
@@ -488,6 +502,36 @@ def test_undo_removes_what_synthesize_made():
     assert names() == before
 
 
+def test_density_override_of_zero_keeps_particles_off_those_faces():
+    # FLOAT face attribute 'Dens': 0 on the faces left of x = 0, 1 elsewhere: every placed particle's anchor
+    # (a point's position) lies on the right half.
+    clean()
+    target = plane(size=4.0, cuts=40)
+    centres = np.empty(len(target.data.polygons) * 3, np.float32)
+    target.data.polygons.foreach_get("center", centres)
+    dens = target.data.attributes.new("Dens", "FLOAT", "FACE")
+    dens.data.foreach_set("value", (centres.reshape(-1, 3)[:, 0] > 0).astype(np.float32))
+    collection = particle_instances.make_collection()
+    assert full_run(target, scale=1.5, particle_output="INSTANCES", particle_collection=collection,
+                    particle_density_source="Dens") == {"FINISHED"}
+    xs = np.concatenate([np.array([v.co.x for v in o.data.vertices]) for o in scene.owned_objects("Plane", ("POINTS",))])
+    assert xs.size > 10 and xs.min() >= -1e-5, (xs.size, xs.min())
+    configure(particle_density_source="NoSuchGroup")
+    try:
+        bpy.ops.texsynth.synthesize()
+        raise AssertionError("a missing override was accepted")
+    except RuntimeError as error:
+        assert "no face attribute or vertex group 'NoSuchGroup'" in str(error), error
+
+
+def test_texton_background_writes_the_texton_layers():
+    clean()
+    target = plane(size=4.0, cuts=20)
+    assert full_run(target, scale=1.5, particle_background="TEXTON") == {"FINISHED"}
+    assert "TexSynth" in target.data.uv_layers and pipeline.EDGE_BLENDED_NAME in target.data.attributes
+    assert scene.owned_objects("Plane", ("DECALS",))
+
+
 def test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour():
     # The same view with the decals hidden and shown: the stones' red raises the red share of the image.
     clean()
@@ -526,7 +570,9 @@ def test_cancel_leaves_nothing_behind():
 FULL_RUN_TESTS = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_placed_count",
                   "test_resynthesizing_one_class_gives_the_same_rows_and_leaves_the_others",
                   "test_undo_removes_what_synthesize_made", "test_cancel_leaves_nothing_behind",
-                  "test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour")
+                  "test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour",
+                  "test_density_override_of_zero_keeps_particles_off_those_faces",
+                  "test_texton_background_writes_the_texton_layers")
 
 
 if __name__ == "__main__":
