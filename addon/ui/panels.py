@@ -239,7 +239,7 @@ class TEXSYNTH_PT_particles(_SubPanel, bpy.types.Panel):
             row = layout.row(align=True)
             row.prop(item, "colour", text="")
             flags = "bg" if item.background else ("rnd" if item.random else "")
-            row.label(text="%d: %d px %d/%d %s" % (item.class_id, item.pixels, item.complete, item.particles, flags))
+            row.label(text="%d: %dpx %d/%d %s" % (item.class_id, item.pixels, item.complete, item.particles, flags))
         row = layout.row(align=True)
         row.prop(props, "particle_active_class")
         row.operator("texsynth.particle_pick_class", text="", icon="EYEDROPPER")
@@ -252,20 +252,22 @@ class TEXSYNTH_PT_particles(_SubPanel, bpy.types.Panel):
         layout.label(text="Class Order:")
         layout.prop(props, "particle_class_order", text="")
         layout.label(text="Output:")
-        layout.prop(props, "particle_output", expand=True)
+        layout.prop(props, "particle_output", text="")
         if props.particle_output != "DECALS":
             layout.label(text="Instance Collection:")
             layout.prop(props, "particle_collection", text="")
         layout.prop(props, "particle_size_jitter")
         layout.label(text="Background:")
         layout.prop(props, "particle_background", text="")
-        layout.label(text="Per-Face Overrides:")
         obj = context.active_object
-        for name in ("particle_density_source", "particle_probability_source", "particle_size_source"):
+        for name, label in (("particle_density_source", "Density Override:"),
+                            ("particle_probability_source", "Probability Override:"),
+                            ("particle_size_source", "Size Override:")):
+            layout.label(text=label)  # a face attribute or a vertex group (searched among the groups)
             if obj is not None and obj.type == "MESH":
-                layout.prop_search(props, name, obj, "vertex_groups")
+                layout.prop_search(props, name, obj, "vertex_groups", text="")
             else:
-                layout.prop(props, name)
+                layout.prop(props, name, text="")
         layout.operator("texsynth.particle_resynthesize", icon="FILE_REFRESH")
 
 
