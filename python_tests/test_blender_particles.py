@@ -31,7 +31,8 @@ FULL_RUN = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_placed
             "test_undo_removes_what_synthesize_made", "test_cancel_leaves_nothing_behind",
             "test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour",
             "test_density_override_of_zero_keeps_particles_off_those_faces",
-            "test_texton_background_writes_the_texton_layers")
+            "test_texton_background_writes_the_texton_layers",
+            "test_the_worker_thread_runs_the_job_as_the_modal_operator_does")
 
 
 def run_suite(*names):

@@ -233,6 +233,7 @@ class TEXSYNTH_PT_particles(_SubPanel, bpy.types.Panel):
         props = context.scene.texsynth
         if props.particle_preview is not None:
             layout.template_icon(icon_value=layout.icon(props.particle_preview), scale=8.0)
+            layout.operator("texsynth.particle_show_segmentation", icon="IMAGE_DATA")
         if not props.particle_rows:
             layout.label(text="Analyse the sample first", icon="INFO")
         for item in props.particle_rows:

@@ -114,6 +114,25 @@ class TEXSYNTH_OT_particle_pick_class(bpy.types.Operator):
         return int(u * space.image.size[0]), int(v * space.image.size[1])
 
 
+class TEXSYNTH_OT_particle_show_segmentation(bpy.types.Operator):
+    """Show the segmentation image in the Image Editors of this window (pick classes there)"""
+    bl_idname = "texsynth.particle_show_segmentation"
+    bl_label = "Show in Image Editor"
+    bl_options = {"REGISTER"}
+
+    def execute(self, context):
+        image = context.scene.texsynth.particle_preview
+        screen = getattr(context, "screen", None)
+        editors = [area.spaces.active for area in (screen.areas if screen else ()) if area.type == "IMAGE_EDITOR"]
+        if image is None or not editors:
+            self.report({"ERROR"}, "TexSynth: %s" % ("analyse the sample first" if image is None else
+                                                     "open an Image Editor in this window first"))
+            return {"CANCELLED"}
+        for space in editors:
+            space.image = image
+        return {"FINISHED"}
+
+
 def _reanalyse(operator, context, name, value):
     """Sets one analysis setting and analyses again; on an error the setting is put back and reported."""
     props = context.scene.texsynth
@@ -182,7 +201,8 @@ class TEXSYNTH_OT_particle_resynthesize(operators.JobOperator, bpy.types.Operato
 
 
 classes = (TEXSYNTH_OT_particle_analyse, TEXSYNTH_OT_particle_pick_class, TEXSYNTH_OT_particle_merge,
-           TEXSYNTH_OT_particle_set_background, TEXSYNTH_OT_particle_resynthesize)
+           TEXSYNTH_OT_particle_set_background, TEXSYNTH_OT_particle_resynthesize,
+           TEXSYNTH_OT_particle_show_segmentation)
 
 
 def _image_editor_button(self, context):

@@ -114,6 +114,49 @@ def test_the_view_and_the_sidebar_draw_the_particle_section():
     assert "PARTICLES" in bpy.context.scene.texsynth.bl_rna.properties["method"].enum_items.keys()
 
 
+def test_show_in_image_editor_puts_the_segmentation_there():
+    clean()
+    configure()
+    bpy.ops.texsynth.particle_analyse()
+    image = bpy.context.scene.texsynth.particle_preview
+    window = bpy.context.window_manager.windows[0] if bpy.context.window_manager.windows else None
+    if window is None:  # background mode without a window: nothing to show in, a clear refusal
+        try:
+            bpy.ops.texsynth.particle_show_segmentation()
+            raise AssertionError("showed an image without an Image Editor")
+        except RuntimeError as error:
+            assert "Image Editor" in str(error)
+        return
+    area = window.screen.areas[0]
+    area.type = "IMAGE_EDITOR"
+    with_area = {"window": window, "screen": window.screen, "area": area}
+    if hasattr(bpy.context, "temp_override"):
+        with bpy.context.temp_override(**with_area):
+            assert bpy.ops.texsynth.particle_show_segmentation() == {"FINISHED"}
+    else:
+        assert bpy.ops.texsynth.particle_show_segmentation(with_area) == {"FINISHED"}
+    assert area.spaces.active.image == image
+
+
+def test_settings_persist_in_the_blend_file():
+    clean()
+    props = configure(particle_classes=5, particle_blur=2.0, particle_merges="3>1", particle_class_order="1, 2",
+                      particle_output="BOTH", particle_size_jitter=0.3, particle_density_source="Dens",
+                      particle_background="TEXTON")
+    props.particle_collection = particle_instances.make_collection()
+    props.particle_collection.use_fake_user = True
+    path = os.path.join(FOLDER, "particles.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    s = bpy.context.scene.texsynth.to_settings().validate()
+    assert (s.method, s.particle_classes, s.particle_merges, s.particle_class_order, s.particle_output) == \
+        ("PARTICLES", 5, ((3, 1),), (1, 2), "BOTH")
+    assert (s.particle_collection, s.particle_density_source, s.particle_background) == \
+        (particle_instances.NAME, "Dens", "TEXTON")
+    assert abs(s.particle_blur - 2.0) < 1e-6 and abs(s.particle_size_jitter - 0.3) < 1e-6
+
+
 def test_pick_class_selects_the_class_of_a_pixel():
     clean()
     configure()
@@ -549,6 +592,20 @@ def test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour():
     assert share(with_decals) > share(without) + 0.02, (with_decals, without)
 
 
+def test_the_worker_thread_runs_the_job_as_the_modal_operator_does():
+    import time
+    clean()
+    target = plane(size=4.0, cuts=20)
+    props = configure(scale=1.5)
+    job = synthesis.Job([target], Sample(path=props.sample_path), props.to_settings()).prepare()
+    state = texsynth.ui.operators.ModalSynthesis(job).start()
+    while state.running():
+        time.sleep(0.02)
+        assert 0.0 <= state.live_fraction() <= 1.0
+    state.finish().apply()
+    assert scene.owned_objects("Plane", ("DECALS",)) and job.report.objects == ["Plane"]
+
+
 def test_cancel_leaves_nothing_behind():
     clean()
     target = plane(size=4.0, cuts=20)
@@ -572,7 +629,8 @@ FULL_RUN_TESTS = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_
                   "test_undo_removes_what_synthesize_made", "test_cancel_leaves_nothing_behind",
                   "test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour",
                   "test_density_override_of_zero_keeps_particles_off_those_faces",
-                  "test_texton_background_writes_the_texton_layers")
+                  "test_texton_background_writes_the_texton_layers",
+                  "test_the_worker_thread_runs_the_job_as_the_modal_operator_does")
 
 
 if __name__ == "__main__":
