@@ -32,7 +32,8 @@ FULL_RUN = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_placed
             "test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour",
             "test_density_override_of_zero_keeps_particles_off_those_faces",
             "test_texton_background_writes_the_texton_layers",
-            "test_the_worker_thread_runs_the_job_as_the_modal_operator_does")
+            "test_the_worker_thread_runs_the_job_as_the_modal_operator_does",
+            "test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_along_its_normal")
 
 
 def run_suite(*names):

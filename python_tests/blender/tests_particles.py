@@ -592,6 +592,30 @@ def test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour():
     assert share(with_decals) > share(without) + 0.02, (with_decals, without)
 
 
+def test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_along_its_normal():
+    # The plane turned 90 degrees about x (its normal becomes -y... in world: (0, -1, 0) or (0, 1, 0)) and
+    # scaled by 1.5: decal vertices lie within the class offsets of the plane y = 0, and every instance's
+    # local Z axis is the plane's world normal.
+    import math
+    clean()
+    target = plane(size=3.0, cuts=30)
+    target.rotation_euler = (math.pi / 2, 0.0, 0.0)
+    target.scale = (1.5, 1.5, 1.5)
+    bpy.context.view_layer.update()
+    normal = (target.matrix_world.to_3x3() @ target.data.polygons[0].normal).normalized()
+    collection = particle_instances.make_collection()
+    assert full_run(target, scale=1.5, particle_output="BOTH", particle_collection=collection,
+                    particle_background="NONE") == {"FINISHED"}
+    diagonal = 4.5 * math.sqrt(2.0)
+    for obj in scene.owned_objects("Plane", ("DECALS",)):
+        world = np.array([obj.matrix_world @ v.co for v in obj.data.vertices])
+        assert np.abs(world[:, 1]).max() <= 3 * core.DECAL_OFFSET_FACTOR * diagonal + 1e-5, np.abs(world[:, 1]).max()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    axes = [np.array(i.matrix_world.to_3x3().normalized().col[2]) for i in depsgraph.object_instances
+            if i.is_instance and i.parent is not None and i.parent.original.get(scene.TAG) == "Plane"]
+    assert axes and all(abs(float(np.dot(a, normal))) > 0.999 for a in axes), len(axes)
+
+
 def test_the_worker_thread_runs_the_job_as_the_modal_operator_does():
     import time
     clean()
@@ -630,7 +654,8 @@ FULL_RUN_TESTS = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_
                   "test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour",
                   "test_density_override_of_zero_keeps_particles_off_those_faces",
                   "test_texton_background_writes_the_texton_layers",
-                  "test_the_worker_thread_runs_the_job_as_the_modal_operator_does")
+                  "test_the_worker_thread_runs_the_job_as_the_modal_operator_does",
+                  "test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_along_its_normal")
 
 
 if __name__ == "__main__":
