@@ -411,6 +411,69 @@ TEST(ParticlesPlace, EveryComponentGetsParticlesAndGivenSeedsAreUsed) {
   EXPECT_GT(count_in(g, 0, 3, 0, 3), 50);
 }
 
+TEST(ParticlesPlace, ReseedingCoversWhatPropagationCannotReach) {
+  // A band of density 0 (x in [2.5, 3.5], wider than any child offset) splits the plane; the only
+  // seed is on the left, so the right half is reached by re-seeding alone.
+  const texsynth::ParticleAnalysis a = analyse(jittered_discs());
+  const Scene s = flat_plane(0.0);
+  PlacementParams p = params_for(s, a, 0.005);
+  p.face_density.assign(size_t(s.T()), 1.f);
+  for (int32_t t = 0; t < s.T(); ++t)
+    if (std::abs(s.centroid(t).x - 3) < 0.5) p.face_density[size_t(t)] = 0;
+  p.seeds = {{0, 0.3, 0.3}};  // the lower left corner
+  const PlacedParticles r = texsynth::place_particles(a, s.walk, p);
+  int64_t right = 0, reseeded_right = 0;
+  for (size_t i = 0; i < r.size(); ++i) {
+    const double x = position(r, i).x;
+    EXPECT_FALSE(x > 2.5 && x < 3.5) << "a particle in the empty band";
+    right += x > 3.5;
+    reseeded_right += x > 3.5 && r.origin[i] == 2;
+  }
+  // Compared with the left half, which propagation reached from the seed.
+  const int64_t left = count_in(r, 0, 2.5, 0, 6);
+  std::printf("reseeding: %lld left, %lld right (%lld reseeded there), %d rounds\n", static_cast<long long>(left),
+              static_cast<long long>(right), static_cast<long long>(reseeded_right), r.stats.classes[0].reseed_rounds);
+  EXPECT_GE(reseeded_right, 1);
+  EXPECT_NEAR(double(right) / double(left), 1.0, 0.1);
+}
+
+// The turn between each particle with a parent and its parent (the parent's axis carried into the
+// child's tangent plane), worst over particles with z above `z_min`, modulo a half turn (boxes).
+double worst_turn_from_parent(const PlacedParticles& r, double z_min, int& counted) {
+  double worst = 0;
+  counted = 0;
+  for (size_t i = 0; i < r.size(); ++i) {
+    if (r.parent[i] < 0 || position(r, i).z < z_min) continue;
+    ++counted;
+    const V3 n{r.normal[3 * i], r.normal[3 * i + 1], r.normal[3 * i + 2]};
+    const V3 carried = texsynth::normalized_or(texsynth::project_to_plane(axis(r, size_t(r.parent[i])), n), V3{});
+    worst = std::max(worst, std::acos(std::min(1.0, std::abs(texsynth::dot(carried, axis(r, i))))) * 180 / kPi);
+  }
+  return worst;
+}
+
+TEST(ParticlesPlace, WhereTheFieldVanishesParticlesTakeTheParentsDirection) {
+  // An unpainted cap (zero vectors within 0.45 rad of the north pole, +z projected elsewhere): inside
+  // it every particle takes its parent's direction (note: neighbour jump <= 15 degrees).
+  const Scene s(ring_fixtures::icosphere(5, 1.0));
+  const texsynth::ParticleAnalysis a = analyse(jittered_discs());
+  PlacementParams p;
+  p.directions.assign(size_t(3 * s.V()), 0.f);
+  for (int32_t v = 0; v < s.V(); ++v) p.directions[3 * size_t(v) + 2] = s.vertex(v).z > std::cos(0.45) ? 0.f : 1.f;
+  p.sample_world_width = 0.0025 * a.width;
+  int counted = 0;
+  const double cap = worst_turn_from_parent(texsynth::place_particles(a, s.walk, p), std::cos(0.35), counted);
+  // The same with +z everywhere: the field itself turns a full turn around the pole (a singularity,
+  // unavoidable on a sphere), and particles follow it there.
+  for (int32_t v = 0; v < s.V(); ++v) p.directions[3 * size_t(v) + 2] = 1.f;
+  int counted_pole = 0;
+  const double pole = worst_turn_from_parent(texsynth::place_particles(a, s.walk, p), std::cos(0.1), counted_pole);
+  std::printf("zero field cap: %d particles, worst turn from the parent %.2f deg; singular +z field within 0.1 rad "
+              "of the pole: %d particles, %.1f deg\n", counted, cap, counted_pole, pole);
+  EXPECT_GT(counted, 50);
+  EXPECT_LE(cap, 15.0);
+}
+
 TEST(ParticlesPlace, RandomClassFollowsTheSampleDensity) {
   // Two discs: a random class (density 2 / 256^2, min distance 0.7 x their distance).
   LabelSample smp = blank(256, 256);

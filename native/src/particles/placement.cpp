@@ -51,11 +51,12 @@ struct Placed {
   double theta = 0;         // box angle in the local frame, folded
   double half_x = 0, half_y = 0;  // world half extents
   double reach = 1;         // 1 / sqrt(density): conflicts use the box scaled like the offsets
+  double bound = 0;         // reach x half diagonal: no conflict beyond the sum of two bounds
   double unit = 0;          // world units per box pixel: pixel x size factor
   int32_t sprite = -1, parent = -1;
   uint8_t origin = 0;
   bool visible = true;
-  double radius() const { return reach * std::hypot(half_x, half_y); }
+  double radius() const { return bound; }
 };
 
 // 2D box: centre, unit x axis, half extents.
@@ -113,20 +114,21 @@ struct ClassGrid {
     int64_t c[3];
     if (key_of(p, c)) cells[spatial_cell_key(c[0], c[1], c[2])].push_back(index);
   }
-  // f(index) for candidates within `radius` of p (a superset); stops when f returns true.
+  // f(index) for candidates within `radius` of p (a superset): the cells the ball touches, or the whole
+  // list when that is shorter; stops when f returns true.
   template <class F>
   void near(V3 p, double radius, F&& f) const {
-    const double reach = std::ceil(radius / cell);
-    int64_t c[3];
-    if (!(reach < 64) || std::pow(2 * reach + 1, 3) > double(members.size()) || !key_of(p, c)) {
+    int64_t lo[3], hi[3];
+    const double span = std::ceil(2 * radius / cell) + 1;
+    if (!(span < 128) || span * span * span > double(members.size()) || !key_of(p - V3{radius, radius, radius}, lo) ||
+        !key_of(p + V3{radius, radius, radius}, hi)) {
       for (int32_t i : members)
         if (f(i)) return;
       return;
     }
-    const int64_t r = int64_t(reach);
-    for (int64_t x = c[0] - r; x <= c[0] + r; ++x)
-      for (int64_t y = c[1] - r; y <= c[1] + r; ++y)
-        for (int64_t z = c[2] - r; z <= c[2] + r; ++z) {
+    for (int64_t x = lo[0]; x <= hi[0]; ++x)
+      for (int64_t y = lo[1]; y <= hi[1]; ++y)
+        for (int64_t z = lo[2]; z <= hi[2]; ++z) {
           const auto it = cells.find(spatial_cell_key(x, y, z));
           if (it == cells.end()) continue;
           for (int32_t i : it->second)
@@ -148,11 +150,12 @@ struct ClassPlan {
 };
 
 struct Child {
-  int32_t parent = -1, sprite = -1, entry = -1, walk = -1;
+  int32_t parent = -1, sprite = -1, entry = -1;
   double jitter = 1;
   SurfacePoint at;
   Local l;
   bool reached = false;
+  bool refused = false;  // conflicts with a particle of an earlier generation
 };
 
 class Placer {
@@ -188,9 +191,16 @@ class Placer {
 
   Local local(const SurfacePoint& sp, V3 fallback_up) const;
   SurfacePoint random_point(const std::vector<int32_t>& tris, const std::vector<double>& cdf, Rng& rng) const;
-  bool conflicts(const ClassGrid& g, const Placed& c, double tolerance) const;
+  bool conflicts(const ClassGrid& g, const Placed& c, double tolerance, int32_t from = 0) const;
   bool any_within(const ClassGrid& g, V3 p, V3 n, double radius) const;
   Placed make(const SurfacePoint& at, const Local& l, int32_t sprite, double theta, double jitter) const;
+  Placed child_particle(const Child& ch) const {
+    Placed c = make(ch.at, ch.l, ch.sprite, placed_[size_t(ch.parent)].theta + a_.cooc[size_t(ch.entry)].angle,
+                    ch.jitter);
+    c.parent = ch.parent;
+    c.origin = uint8_t(PlacementOrigin::propagated);
+    return c;
+  }
 
   struct ClassRun {
     const ClassPlan& cp;
@@ -302,6 +312,7 @@ void Placer::prepare_mesh() {
     upper_ = {std::max(upper_.x, p.x), std::max(upper_.y, p.y), std::max(upper_.z, p.z)};
   }
   for (int32_t t = 0; t < T; ++t) {
+    if (t % 4096 == 0) throw_if_cancelled(p_.cancel);
     if (m_.walk.tris[size_t(t)].degenerate) continue;
     const int32_t* c = in_.triangles + 3 * size_t(t);
     const V3 p0 = mesh_position(in_, c[0]);
@@ -371,6 +382,7 @@ void Placer::prepare_mesh() {
     double best = std::numeric_limits<double>::infinity();
     SurfacePoint at;
     for (int32_t t : comp_tris_[c]) {
+      if (t % 4096 == 0) throw_if_cancelled(p_.cancel);
       const int32_t* k = in_.triangles + 3 * size_t(t);
       const V3 p0 = mesh_position(in_, k[0]), e1 = mesh_position(in_, k[1]) - p0, e2 = mesh_position(in_, k[2]) - p0;
       const V3 q = centroid - p0, n = cross(e1, e2);
@@ -454,6 +466,7 @@ ClassPlan Placer::plan_class(int32_t k) const {
 int64_t Placer::class_cap(const ClassPlan& cp) const {
   double expected = 0;
   for (int32_t t = 0; t < in_.num_triangles; ++t) {
+    if (t % 4096 == 0) throw_if_cancelled(p_.cancel);
     if (area_[size_t(t)] <= 0) continue;
     const Local l = local({t, 1.0 / 3, 1.0 / 3}, V3{0, 0, 1});
     if (l.empty()) continue;
@@ -512,14 +525,17 @@ Placed Placer::make(const SurfacePoint& at, const Local& l, int32_t sprite, doub
   const ParticleBox& box = a_.particles[size_t(sprite)].box;
   c.half_x = box.half_x * c.unit, c.half_y = box.half_y * c.unit;
   c.reach = 1 / std::sqrt(std::max(l.density, kPlacementMinOverride));
+  c.bound = c.reach * std::hypot(c.half_x, c.half_y);
   return c;
 }
 
-bool Placer::conflicts(const ClassGrid& g, const Placed& c, double tolerance) const {
+// Against the class's particles with index >= from.
+bool Placer::conflicts(const ClassGrid& g, const Placed& c, double tolerance, int32_t from) const {
   const V3 v = cross(c.l.normal, c.axis);
   const double r = c.radius(), cx = c.reach * c.half_x, cy = c.reach * c.half_y, own = 4 * cx * cy;
   bool hit = false;
   g.near(c.l.position, r + g.max_radius, [&](int32_t j) {
+    if (j < from) return false;
     const Placed& o = placed_[size_t(j)];
     if (dot(o.l.normal, c.l.normal) < 0) return false;  // two sides of a thin part
     const V3 d = o.l.position - c.l.position;
@@ -660,6 +676,16 @@ void Placer::propagate(ClassRun& run, std::vector<int32_t> frontier, int32_t cla
         again.push_back(k);
     }
     if (!again.empty()) walk_all(again, false);
+    // Conflicts with earlier generations do not depend on the order: tested in parallel (the grid is
+    // only read); those with this generation's particles one by one below.
+    const int32_t generation = int32_t(placed_.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, kids.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t k = r.begin(); k < r.end(); ++k) {
+        Child& ch = kids[k];
+        if (!ch.reached || ch.l.empty()) continue;
+        ch.refused = conflicts(run.grid, child_particle(ch), run.cp.tolerance);
+      }
+    });
     // Accept one by one, in order.
     next.clear();
     for (size_t k = 0; k < kids.size() && !run.stop; ++k) {
@@ -673,11 +699,8 @@ void Placer::propagate(ClassRun& run, std::vector<int32_t> frontier, int32_t cla
         run.st.excluded++;
         continue;
       }
-      const Placed& P = placed_[size_t(ch.parent)];
-      Placed c = make(ch.at, ch.l, ch.sprite, P.theta + a_.cooc[size_t(ch.entry)].angle, ch.jitter);
-      c.parent = ch.parent;
-      c.origin = uint8_t(PlacementOrigin::propagated);
-      if (conflicts(run.grid, c, run.cp.tolerance)) {
+      Placed c = child_particle(ch);
+      if (ch.refused || conflicts(run.grid, c, run.cp.tolerance, generation)) {
         run.st.rejected_overlap++;
         continue;
       }
@@ -694,6 +717,7 @@ void Placer::run_random(ClassRun& run) {
   std::vector<double> cdf;
   double acc = 0;
   for (int32_t t = 0; t < in_.num_triangles; ++t) {
+    if (t % 4096 == 0) throw_if_cancelled(p_.cancel);
     if (component_[size_t(t)] < 0) continue;
     const Local l = local({t, 1.0 / 3, 1.0 / 3}, V3{0, 0, 1});
     if (l.empty()) continue;
