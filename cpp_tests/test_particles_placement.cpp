@@ -215,6 +215,65 @@ TEST(ParticlesPlace, ScaleChangesTheCountPerAreaByItsSquare) {
   for (size_t i = 0; i < finer.size(); ++i) ASSERT_FLOAT_EQ(finer.pixel_size[i], 0.005f);
 }
 
+// Nearest-neighbour distances among 2D points; only for points inside [x0, x1] x [y0, y1] (all points
+// count as neighbours).
+std::vector<double> nearest_distances(const std::vector<std::pair<double, double>>& pts, double x0, double x1, double y0,
+                                      double y1) {
+  std::vector<double> out;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const auto [x, y] = pts[i];
+    if (x < x0 || x > x1 || y < y0 || y > y1) continue;
+    double best = 1e300;
+    for (size_t j = 0; j < pts.size(); ++j)
+      if (j != i) best = std::min(best, std::hypot(pts[j].first - x, pts[j].second - y));
+    out.push_back(best);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Two-sample Kolmogorov-Smirnov statistic of sorted samples.
+double ks_statistic(const std::vector<double>& a, const std::vector<double>& b) {
+  double d = 0;
+  size_t i = 0, j = 0;
+  while (i < a.size() && j < b.size()) {
+    const double v = std::min(a[i], b[j]);
+    while (i < a.size() && a[i] <= v) ++i;
+    while (j < b.size() && b[j] <= v) ++j;
+    d = std::max(d, std::abs(double(i) / a.size() - double(j) / b.size()));
+  }
+  return d;
+}
+
+TEST(ParticlesPlace, PlaneArrangementMatchesTheSampleWithinItsOwnNoise) {
+  // A larger irregular sample (1024^2 px, ~1000 discs) placed on the plane; distances in sample pixels.
+  const texsynth::ParticleAnalysis a = analyse(jittered_discs(1024, 21));
+  std::vector<std::pair<double, double>> sample;
+  for (const auto& P : a.particles) sample.push_back({P.box.cx, P.box.cy});
+  const double W = a.width, m = 64;  // interior margin, px
+  const auto whole = nearest_distances(sample, m, W - m, m, W - m);
+  const auto left = nearest_distances(sample, m, W / 2, m, W - m), right = nearest_distances(sample, W / 2, W - m, m, W - m);
+  const Scene s = flat_plane(0.3);
+  const double pixel = 0.004;  // 32 px spacing = 0.128 world units: ~2000 particles on the plane
+  const PlacedParticles r = texsynth::place_particles(a, s.walk, params_for(s, a, pixel));
+  std::vector<std::pair<double, double>> placed;
+  for (size_t i = 0; i < r.size(); ++i) placed.push_back({position(r, i).x / pixel, position(r, i).y / pixel});
+  const double M = 6 / pixel;
+  const auto got = nearest_distances(placed, m, M - m, m, M - m);
+  const double ks = ks_statistic(got, whole), ks_halves = ks_statistic(left, right);
+  const double density = double(got.size()) / ((M - 2 * m) * (M - 2 * m)),
+               sample_density = double(whole.size()) / ((W - 2 * m) * (W - 2 * m));
+  std::printf("arrangement: nearest distance median %.1f px placed vs %.1f sample; KS %.3f (sample halves %.3f); "
+              "density ratio %.3f\n", got[got.size() / 2], whole[whole.size() / 2], ks, ks_halves,
+              density / sample_density);
+  // Measured 0.18 against 0.11 between the sample's halves, 1.32 x the density (box overlap alone: KS
+  // 0.81, 2.49 x): the propagation keeps neighbours' gaps but not a jittered lattice's long-range order.
+  EXPECT_LE(ks, std::max(2 * ks_halves, 0.1));
+  EXPECT_NEAR(got[got.size() / 2] / whole[whole.size() / 2], 1.0, 0.05);
+  EXPECT_LT(density / sample_density, 1.4);
+  EXPECT_GT(density / sample_density, 0.9);
+}
+
 // Per-triangle override: `left` for faces with centroids at x < 3, else `right`.
 std::vector<float> halves(const Scene& s, float left, float right) {
   std::vector<float> v(size_t(s.T()));
@@ -460,7 +519,7 @@ TEST(ParticlesPlace, WhereTheFieldVanishesParticlesTakeTheParentsDirection) {
   PlacementParams p;
   p.directions.assign(size_t(3 * s.V()), 0.f);
   for (int32_t v = 0; v < s.V(); ++v) p.directions[3 * size_t(v) + 2] = s.vertex(v).z > std::cos(0.45) ? 0.f : 1.f;
-  p.sample_world_width = 0.0025 * a.width;
+  p.sample_world_width = 0.002 * a.width;
   int counted = 0;
   const double cap = worst_turn_from_parent(texsynth::place_particles(a, s.walk, p), std::cos(0.35), counted);
   // The same with +z everywhere: the field itself turns a full turn around the pole (a singularity,

@@ -38,8 +38,8 @@ const Scene& scene() {
   return sc;
 }
 
-// 32 px disc spacing at 0.00112 world units per pixel: ~20,000 discs on the torus.
-constexpr double kPixel = 0.00112;
+// 32 px disc spacing at 0.0008 world units per pixel: ~20,000 discs on the torus.
+constexpr double kPixel = 0.0008;
 
 void run(benchmark::State& state, const texsynth::ParticleAnalysis& a, std::vector<int32_t> classes) {
   const Scene& sc = scene();

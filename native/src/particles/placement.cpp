@@ -51,7 +51,8 @@ struct Placed {
   double theta = 0;         // box angle in the local frame, folded
   double half_x = 0, half_y = 0;  // world half extents
   double reach = 1;         // 1 / sqrt(density): conflicts use the box scaled like the offsets
-  double bound = 0;         // reach x half diagonal: no conflict beyond the sum of two bounds
+  double ex_x = 0, ex_y = 0;  // exclusion half extents: (box + half the class's least gap) x reach
+  double bound = 0;         // half diagonal of the exclusion box
   double unit = 0;          // world units per box pixel: pixel x size factor
   int32_t sprite = -1, parent = -1;
   uint8_t origin = 0;
@@ -146,6 +147,7 @@ struct ClassPlan {
   double spacing_px = 0;          // mean centre distance to measured neighbours
   double mean_box_px = 0;         // mean box area
   double max_radius_px = 0;       // largest half diagonal
+  double margin_px = 0;           // half the low percentile of nearest box gaps (>= 0)
   double density_px = 0, min_distance_px = 0;
 };
 
@@ -182,6 +184,7 @@ class Placer {
   std::vector<Placed> placed_;
   PlacementStats stats_;
   bool global_capped_ = false;
+  double margin_px_ = 0;  // the running class's
 
   void validate() const;
   void prepare_mesh();
@@ -193,10 +196,11 @@ class Placer {
   SurfacePoint random_point(const std::vector<int32_t>& tris, const std::vector<double>& cdf, Rng& rng) const;
   bool conflicts(const ClassGrid& g, const Placed& c, double tolerance, int32_t from = 0) const;
   bool any_within(const ClassGrid& g, V3 p, V3 n, double radius) const;
-  Placed make(const SurfacePoint& at, const Local& l, int32_t sprite, double theta, double jitter) const;
+  Placed make(const SurfacePoint& at, const Local& l, int32_t sprite, double theta, double jitter,
+             double margin) const;
   Placed child_particle(const Child& ch) const {
     Placed c = make(ch.at, ch.l, ch.sprite, placed_[size_t(ch.parent)].theta + a_.cooc[size_t(ch.entry)].angle,
-                    ch.jitter);
+                    ch.jitter, margin_px_);
     c.parent = ch.parent;
     c.origin = uint8_t(PlacementOrigin::propagated);
     return c;
@@ -437,6 +441,7 @@ ClassPlan Placer::plan_class(int32_t k) const {
   cp.density_px = cls.density;
   cp.min_distance_px = cls.min_distance;
   double box_sum = 0, spacing_sum = 0;
+  std::vector<float> gaps;  // box separation of each measured neighbour
   int64_t spacing_n = 0;
   for (const Particle& P : a_.particles) {
     if (P.class_id != k || !P.complete) continue;
@@ -453,12 +458,18 @@ ClassPlan Placer::plan_class(int32_t k) const {
       const double u = P.box.half_x + c.dx + q.half_x * cs + q.half_y * sn;
       const double v = P.box.half_y + c.dy + q.half_x * sn + q.half_y * cs;
       spacing_sum += std::hypot(u, v), ++spacing_n;
+      gaps.push_back(std::max(c.dx, c.dy));
     }
   }
   cp.mean_box_px = cp.complete.empty() ? 1.0 : std::max(box_sum / double(cp.complete.size()), 1e-6);
   cp.spacing_px = spacing_n > 0 ? spacing_sum / double(spacing_n)
                                 : std::sqrt(double(a_.width) * a_.height / std::max(1, cls.particles));
   cp.random = cls.random || cp.lists.empty();
+  if (!gaps.empty()) {
+    const size_t at = std::min(gaps.size() - 1, size_t(kPlacementGapPercentile * double(gaps.size())));
+    std::nth_element(gaps.begin(), gaps.begin() + ptrdiff_t(at), gaps.end());
+    cp.margin_px = std::max(0.0, 0.5 * double(gaps[at]));
+  }
   return cp;
 }
 
@@ -514,7 +525,8 @@ SurfacePoint Placer::random_point(const std::vector<int32_t>& tris, const std::v
   return {tris[i], b1, b2};
 }
 
-Placed Placer::make(const SurfacePoint& at, const Local& l, int32_t sprite, double theta, double jitter) const {
+Placed Placer::make(const SurfacePoint& at, const Local& l, int32_t sprite, double theta, double jitter,
+                    double margin) const {
   Placed c;
   c.at = at;
   c.l = l;
@@ -525,14 +537,15 @@ Placed Placer::make(const SurfacePoint& at, const Local& l, int32_t sprite, doub
   const ParticleBox& box = a_.particles[size_t(sprite)].box;
   c.half_x = box.half_x * c.unit, c.half_y = box.half_y * c.unit;
   c.reach = 1 / std::sqrt(std::max(l.density, kPlacementMinOverride));
-  c.bound = c.reach * std::hypot(c.half_x, c.half_y);
+  c.ex_x = c.reach * (c.half_x + margin * l.pixel), c.ex_y = c.reach * (c.half_y + margin * l.pixel);
+  c.bound = std::hypot(c.ex_x, c.ex_y);
   return c;
 }
 
 // Against the class's particles with index >= from.
 bool Placer::conflicts(const ClassGrid& g, const Placed& c, double tolerance, int32_t from) const {
   const V3 v = cross(c.l.normal, c.axis);
-  const double r = c.radius(), cx = c.reach * c.half_x, cy = c.reach * c.half_y, own = 4 * cx * cy;
+  const double r = c.radius(), cx = c.ex_x, cy = c.ex_y, own = 4 * cx * cy;
   bool hit = false;
   g.near(c.l.position, r + g.max_radius, [&](int32_t j) {
     if (j < from) return false;
@@ -542,12 +555,16 @@ bool Placer::conflicts(const ClassGrid& g, const Placed& c, double tolerance, in
     const double reach = r + o.radius();
     if (dot(d, d) >= reach * reach) return false;
     const double ox = dot(o.axis, c.axis), oy = dot(o.axis, v), len = std::hypot(ox, oy);
-    const double hx = o.reach * o.half_x, hy = o.reach * o.half_y;
-    const Box2 mine{0, 0, 1, 0, cx, cy};
-    const Box2 theirs{dot(d, c.axis), dot(d, v), len > 1e-9 ? ox / len : 1, len > 1e-9 ? oy / len : 0, hx, hy};
-    const double smaller = std::min(own, 4 * hx * hy);
-    if (smaller <= 0) return false;
-    hit = box_overlap_area(mine, theirs) > tolerance * smaller;
+    const double ux = len > 1e-9 ? ox / len : 1, uy = len > 1e-9 ? oy / len : 0, px = dot(d, c.axis), py = dot(d, v);
+    // The boxes (scaled like the offsets) may overlap up to the class's tolerance...
+    const double bx = c.reach * c.half_x, by = c.reach * c.half_y, qx = o.reach * o.half_x, qy = o.reach * o.half_y;
+    const double smaller = std::min(4 * bx * by, 4 * qx * qy);
+    if (smaller > 0 && box_overlap_area({0, 0, 1, 0, bx, by}, {px, py, ux, uy, qx, qy}) > tolerance * smaller)
+      return hit = true;
+    // ...and the boxes grown by half the class's least gap must stay apart.
+    if (cx == bx && cy == by) return false;
+    const double grown = std::min(own, 4 * o.ex_x * o.ex_y);
+    hit = box_overlap_area({0, 0, 1, 0, cx, cy}, {px, py, ux, uy, o.ex_x, o.ex_y}) > kPlacementGrownTolerance * grown;
     return hit;
   });
   return hit;
@@ -589,7 +606,7 @@ bool Placer::try_seed(ClassRun& run, const SurfacePoint& at, PlacementOrigin ori
     run.st.excluded++;
     return false;
   }
-  Placed c = make(at, l, sprite, a_.particles[size_t(sprite)].box.angle, jitter);
+  Placed c = make(at, l, sprite, a_.particles[size_t(sprite)].box.angle, jitter, run.cp.margin_px);
   c.origin = uint8_t(origin);
   if (conflicts(run.grid, c, run.cp.tolerance)) {
     run.st.rejected_overlap++;
@@ -754,9 +771,10 @@ PlacedParticles Placer::run() {
     st.random = cp.random;
     st.cap = class_cap(cp);
     ClassRun run{cp, st, Rng(hash_combine(p_.seed, kClassStreamSalt), uint64_t(cp.id) + 1), {}};
+    margin_px_ = cp.margin_px;
     // Cells as wide as the largest box at the median scale; never more than 2^19 across the mesh.
     const double unit = p_.sample_world_width / a_.width / median_scale_;
-    run.grid.cell = std::max(2 * cp.max_radius_px * unit, extent / double(int64_t(1) << 19));
+    run.grid.cell = std::max(2 * (cp.max_radius_px + cp.margin_px) * unit, extent / double(int64_t(1) << 19));
     run.grid.origin = lower_;
     report(ci, int32_t(order.size()), 0);
     if (cp.random) {
