@@ -244,6 +244,10 @@ void Placer::validate() const {
   }
   if (a.cooc_start.front() != 0 || size_t(a.cooc_start.back()) != a.cooc.size())
     refuse("the analysis is inconsistent (co-occurrence lists)");
+  for (const ParticleClass& c : a.classes)
+    if (!std::isfinite(c.density) || !std::isfinite(c.min_distance) || !std::isfinite(c.tolerance) || c.density < 0 ||
+        c.min_distance < 0 || c.tolerance < 0)
+      refuse("the analysis is inconsistent (a class table entry)");
   for (const CoOccurrence& e : a.cooc)
     if (e.quadrant < 0 || e.quadrant > 3 || !std::isfinite(e.dx) || !std::isfinite(e.dy) || !std::isfinite(e.angle))
       refuse("the analysis is inconsistent (a co-occurrence entry)");
@@ -324,6 +328,8 @@ void Placer::prepare_mesh() {
     total += area_[size_t(t)];
   }
   if (!(total > 0)) refuse("the mesh has no area");
+  if (!std::isfinite(total) || !std::isfinite(norm(upper_ - lower_)))
+    refuse("the mesh's area or extent overflows (coordinates too large)");
   // Components: faces joined across walkable edges, numbered by their lowest triangle.
   std::vector<int32_t> queue;
   for (int32_t t = 0; t < T; ++t) {
@@ -461,7 +467,8 @@ ClassPlan Placer::plan_class(int32_t k) const {
       gaps.push_back(std::max(c.dx, c.dy));
     }
   }
-  cp.mean_box_px = cp.complete.empty() ? 1.0 : std::max(box_sum / double(cp.complete.size()), 1e-6);
+  if (cp.complete.empty()) refuse("class " + std::to_string(k) + " has no complete particle (nothing to place)");
+  cp.mean_box_px = std::max(box_sum / double(cp.complete.size()), 1e-6);
   cp.spacing_px = spacing_n > 0 ? spacing_sum / double(spacing_n)
                                 : std::sqrt(double(a_.width) * a_.height / std::max(1, cls.particles));
   cp.random = cls.random || cp.lists.empty();
@@ -485,8 +492,8 @@ int64_t Placer::class_cap(const ClassPlan& cp) const {
     expected += area_[size_t(t)] * l.density / box;
   }
   const double cap = kPlacementCapFactor * expected + 16 + double(comp_tris_.size());
-  return cap >= double(std::numeric_limits<int64_t>::max() / 2) ? std::numeric_limits<int64_t>::max() / 2
-                                                                 : int64_t(std::ceil(cap));
+  return cap < double(std::numeric_limits<int64_t>::max() / 2) ? int64_t(std::ceil(cap))
+                                                                : std::numeric_limits<int64_t>::max() / 2;
 }
 
 // --------------------------------------------------------------------------------------- geometry
@@ -743,7 +750,8 @@ void Placer::run_random(ClassRun& run) {
   }
   if (tris.empty() || !(acc > 0)) return;
   const double expected = run.cp.density_px * acc;
-  const int64_t target = std::min<int64_t>(run.st.cap, int64_t(std::floor(expected + run.rng.uniform())));
+  const double draw = std::floor(expected + run.rng.uniform());
+  const int64_t target = draw < double(run.st.cap) ? int64_t(draw) : run.st.cap;
   const int64_t darts = 30 * target + 64;
   int64_t got = 0;
   for (int64_t i = 0; i < darts && got < target && !run.stop; ++i) {
