@@ -65,6 +65,19 @@ struct Box2 {
   double cx, cy, ux, uy, hx, hy;
 };
 
+// True when an axis of a or b separates them (then they do not intersect).
+bool boxes_apart(const Box2& a, const Box2& b) {
+  const double dx = b.cx - a.cx, dy = b.cy - a.cy;
+  const double axes[4][2] = {{a.ux, a.uy}, {-a.uy, a.ux}, {b.ux, b.uy}, {-b.uy, b.ux}};
+  for (int k = 0; k < 4; ++k) {
+    const double x = axes[k][0], y = axes[k][1];
+    const double ra = a.hx * std::abs(a.ux * x + a.uy * y) + a.hy * std::abs(-a.uy * x + a.ux * y);
+    const double rb = b.hx * std::abs(b.ux * x + b.uy * y) + b.hy * std::abs(-b.uy * x + b.ux * y);
+    if (std::abs(dx * x + dy * y) >= ra + rb) return true;
+  }
+  return false;
+}
+
 // Area of a ∩ b: a's corners clipped by b's four half-planes (at most 8 corners, no allocation).
 double box_overlap_area(const Box2& a, const Box2& b) {
   double px[8], py[8], qx[8], qy[8];
@@ -222,6 +235,14 @@ class Placer {
     if (p_.progress) p_.progress->store(float((class_index + std::clamp(within, 0.0, 0.99)) / num_classes));
   }
   PlacedParticles output() const;
+  // body(t) for every triangle, in parallel; cancel checked per block.
+  template <class Body>
+  void parallel_triangles(Body&& body) const {
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, in_.num_triangles, 2048), [&](const tbb::blocked_range<int32_t>& r) {
+      throw_if_cancelled(p_.cancel);
+      for (int32_t t = r.begin(); t < r.end(); ++t) body(t);
+    });
+  }
 };
 
 // ---------------------------------------------------------------------------------------------- input
@@ -388,11 +409,13 @@ void Placer::prepare_mesh() {
       total_c += area_[size_t(t)];
     }
     centroid = centroid * (1 / total_c);
-    // The component's point nearest the centroid (first triangle on ties).
-    double best = std::numeric_limits<double>::infinity();
-    SurfacePoint at;
-    for (int32_t t : comp_tris_[c]) {
-      if (t % 4096 == 0) throw_if_cancelled(p_.cancel);
+    // The component's point nearest the centroid (first triangle on ties), per triangle in parallel.
+    const std::vector<int32_t>& tris = comp_tris_[c];
+    std::vector<std::pair<double, SurfacePoint>> nearest(tris.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, tris.size(), 2048), [&](const tbb::blocked_range<size_t>& r) {
+     throw_if_cancelled(p_.cancel);
+     for (size_t i = r.begin(); i < r.end(); ++i) {
+      const int32_t t = tris[i];
       const int32_t* k = in_.triangles + 3 * size_t(t);
       const V3 p0 = mesh_position(in_, k[0]), e1 = mesh_position(in_, k[1]) - p0, e2 = mesh_position(in_, k[2]) - p0;
       const V3 q = centroid - p0, n = cross(e1, e2);
@@ -414,10 +437,13 @@ void Placer::prepare_mesh() {
         }
       }
       const V3 x = p0 + e1 * b1 + e2 * b2;
-      const double d2 = dot(centroid - x, centroid - x);
-      if (d2 < best) best = d2, at = {t, b1, b2};
-    }
-    comp_seeds_[c].push_back(at);
+      nearest[i] = {dot(centroid - x, centroid - x), {t, b1, b2}};
+     }
+    });
+    size_t best = 0;
+    for (size_t i = 1; i < nearest.size(); ++i)
+      if (nearest[i].first < nearest[best].first) best = i;
+    comp_seeds_[c].push_back(nearest[best].second);
   }
   std::vector<float> scales = p_.vertex_scale;
   if (!scales.empty()) {
@@ -482,15 +508,16 @@ ClassPlan Placer::plan_class(int32_t k) const {
 
 // kPlacementCapFactor x the expected count: area over box area under the local pixel, size, density.
 int64_t Placer::class_cap(const ClassPlan& cp) const {
-  double expected = 0;
-  for (int32_t t = 0; t < in_.num_triangles; ++t) {
-    if (t % 4096 == 0) throw_if_cancelled(p_.cancel);
-    if (area_[size_t(t)] <= 0) continue;
+  std::vector<double> per(size_t(in_.num_triangles), 0.0);
+  parallel_triangles([&](int32_t t) {
+    if (area_[size_t(t)] <= 0) return;
     const Local l = local({t, 1.0 / 3, 1.0 / 3}, V3{0, 0, 1});
-    if (l.empty()) continue;
+    if (l.empty()) return;
     const double box = cp.mean_box_px * (l.pixel * l.size) * (l.pixel * l.size);
-    expected += area_[size_t(t)] * l.density / box;
-  }
+    per[size_t(t)] = area_[size_t(t)] * l.density / box;
+  });
+  double expected = 0;
+  for (double e : per) expected += e;  // fixed order
   const double cap = kPlacementCapFactor * expected + 16 + double(comp_tris_.size());
   return cap < double(std::numeric_limits<int64_t>::max() / 2) ? int64_t(std::ceil(cap))
                                                                 : std::numeric_limits<int64_t>::max() / 2;
@@ -563,6 +590,8 @@ bool Placer::conflicts(const ClassGrid& g, const Placed& c, double tolerance, in
     if (dot(d, d) >= reach * reach) return false;
     const double ox = dot(o.axis, c.axis), oy = dot(o.axis, v), len = std::hypot(ox, oy);
     const double ux = len > 1e-9 ? ox / len : 1, uy = len > 1e-9 ? oy / len : 0, px = dot(d, c.axis), py = dot(d, v);
+    // The grown boxes hold the boxes: apart, nothing overlaps.
+    if (boxes_apart({0, 0, 1, 0, cx, cy}, {px, py, ux, uy, o.ex_x, o.ex_y})) return false;
     // The boxes (scaled like the offsets) may overlap up to the class's tolerance...
     const double bx = c.reach * c.half_x, by = c.reach * c.half_y, qx = o.reach * o.half_x, qy = o.reach * o.half_y;
     const double smaller = std::min(4 * bx * by, 4 * qx * qy);
@@ -780,9 +809,11 @@ PlacedParticles Placer::run() {
     st.cap = class_cap(cp);
     ClassRun run{cp, st, Rng(hash_combine(p_.seed, kClassStreamSalt), uint64_t(cp.id) + 1), {}};
     margin_px_ = cp.margin_px;
-    // Cells as wide as the largest box at the median scale; never more than 2^19 across the mesh.
+    // Cells twice as wide as the largest exclusion box at the median scale, so that a conflict query
+    // (radius: two half diagonals) touches at most 2 cells per axis; never 2^19 across the mesh.
     const double unit = p_.sample_world_width / a_.width / median_scale_;
-    run.grid.cell = std::max(2 * (cp.max_radius_px + cp.margin_px) * unit, extent / double(int64_t(1) << 19));
+    run.grid.cell = std::max(4 * std::hypot(cp.max_radius_px + cp.margin_px, cp.margin_px) * unit,
+                             extent / double(int64_t(1) << 19));
     run.grid.origin = lower_;
     report(ci, int32_t(order.size()), 0);
     if (cp.random) {
