@@ -51,7 +51,9 @@ struct Scene {
     for (int32_t v = 0; v < V(); ++v) d.insert(d.end(), {float(std::cos(a)), float(std::sin(a)), 0.f});
     return d;
   }
-  V3 vertex(int32_t v) const { return {mesh.positions[3 * size_t(v)], mesh.positions[3 * size_t(v) + 1], mesh.positions[3 * size_t(v) + 2]}; }
+  V3 vertex(int32_t v) const {
+    return {mesh.positions[3 * size_t(v)], mesh.positions[3 * size_t(v) + 1], mesh.positions[3 * size_t(v) + 2]};
+  }
   V3 centroid(int32_t t) const {
     const int32_t* c = &mesh.triangles[3 * size_t(t)];
     return (vertex(c[0]) + vertex(c[1]) + vertex(c[2])) * (1.0 / 3);
@@ -68,8 +70,12 @@ PlacementParams params_for(const Scene& s, const texsynth::ParticleAnalysis& a, 
   return p;
 }
 
-V3 position(const PlacedParticles& r, size_t i) { return {r.position[3 * i], r.position[3 * i + 1], r.position[3 * i + 2]}; }
-V3 axis(const PlacedParticles& r, size_t i) { return {r.sprite_axis[3 * i], r.sprite_axis[3 * i + 1], r.sprite_axis[3 * i + 2]}; }
+V3 position(const PlacedParticles& r, size_t i) {
+  return {r.position[3 * i], r.position[3 * i + 1], r.position[3 * i + 2]};
+}
+V3 axis(const PlacedParticles& r, size_t i) {
+  return {r.sprite_axis[3 * i], r.sprite_axis[3 * i + 1], r.sprite_axis[3 * i + 2]};
+}
 
 int64_t count_in(const PlacedParticles& r, double x0, double x1, double y0, double y1) {
   int64_t n = 0;
@@ -170,7 +176,8 @@ TEST(ParticlesPlace, ParticlesFollowARotatingField) {
   }
   std::sort(axis_err.begin(), axis_err.end());
   std::sort(neighbour_err.begin(), neighbour_err.end());
-  const double axis_worst = axis_err.back() * 180 / kPi, nb_median = neighbour_err[neighbour_err.size() / 2] * 180 / kPi;
+  const double axis_worst = axis_err.back() * 180 / kPi,
+               nb_median = neighbour_err[neighbour_err.size() / 2] * 180 / kPi;
   // Each child lies from its parent along the sample's axes or diagonals in the field at the parent.
   double child_worst = 0;
   for (size_t i = 0; i < r.size(); ++i) {
@@ -178,9 +185,10 @@ TEST(ParticlesPlace, ParticlesFollowARotatingField) {
     const V3 from = position(r, size_t(r.parent[i])), d = position(r, i) - from;
     child_worst = std::max(child_worst, std::abs(std::remainder(std::atan2(d.y, d.x) - field_angle(from), kPi / 4)));
   }
-  std::printf("rotating field: %zu particles, axis error worst %.3f deg, child direction worst %.3f deg, "
-              "nearest-neighbour direction median %.2f deg (midpoint field; lattice defects from the field's turn)\n",
-              r.size(), axis_worst, child_worst * 180 / kPi, nb_median);
+  std::printf(
+      "rotating field: %zu particles, axis error worst %.3f deg, child direction worst %.3f deg, "
+      "nearest-neighbour direction median %.2f deg (midpoint field; lattice defects from the field's turn)\n",
+      r.size(), axis_worst, child_worst * 180 / kPi, nb_median);
   EXPECT_LT(axis_worst, 0.5);
   EXPECT_LT(child_worst * 180 / kPi, 0.2);
   EXPECT_LT(nb_median, 6.0);
@@ -217,8 +225,8 @@ TEST(ParticlesPlace, ScaleChangesTheCountPerAreaByItsSquare) {
 
 // Nearest-neighbour distances among 2D points; only for points inside [x0, x1] x [y0, y1] (all points
 // count as neighbours).
-std::vector<double> nearest_distances(const std::vector<std::pair<double, double>>& pts, double x0, double x1, double y0,
-                                      double y1) {
+std::vector<double> nearest_distances(const std::vector<std::pair<double, double>>& pts, double x0, double x1,
+                                      double y0, double y1) {
   std::vector<double> out;
   for (size_t i = 0; i < pts.size(); ++i) {
     const auto [x, y] = pts[i];
@@ -252,7 +260,8 @@ TEST(ParticlesPlace, PlaneArrangementMatchesTheSampleWithinItsOwnNoise) {
   for (const auto& P : a.particles) sample.push_back({P.box.cx, P.box.cy});
   const double W = a.width, m = 64;  // interior margin, px
   const auto whole = nearest_distances(sample, m, W - m, m, W - m);
-  const auto left = nearest_distances(sample, m, W / 2, m, W - m), right = nearest_distances(sample, W / 2, W - m, m, W - m);
+  const auto left = nearest_distances(sample, m, W / 2, m, W - m),
+             right = nearest_distances(sample, W / 2, W - m, m, W - m);
   const Scene s = flat_plane(0.3);
   const double pixel = 0.004;  // 32 px spacing = 0.128 world units: ~2000 particles on the plane
   const PlacedParticles r = texsynth::place_particles(a, s.walk, params_for(s, a, pixel));
@@ -263,9 +272,10 @@ TEST(ParticlesPlace, PlaneArrangementMatchesTheSampleWithinItsOwnNoise) {
   const double ks = ks_statistic(got, whole), ks_halves = ks_statistic(left, right);
   const double density = double(got.size()) / ((M - 2 * m) * (M - 2 * m)),
                sample_density = double(whole.size()) / ((W - 2 * m) * (W - 2 * m));
-  std::printf("arrangement: nearest distance median %.1f px placed vs %.1f sample; KS %.3f (sample halves %.3f); "
-              "density ratio %.3f\n", got[got.size() / 2], whole[whole.size() / 2], ks, ks_halves,
-              density / sample_density);
+  std::printf(
+      "arrangement: nearest distance median %.1f px placed vs %.1f sample; KS %.3f (sample halves %.3f); "
+      "density ratio %.3f\n",
+      got[got.size() / 2], whole[whole.size() / 2], ks, ks_halves, density / sample_density);
   // Measured 0.18 against 0.11 between the sample's halves, 1.32 x the density (box overlap alone: KS
   // 0.81, 2.49 x): the propagation keeps neighbours' gaps but not a jittered lattice's long-range order.
   EXPECT_LE(ks, std::max(2 * ks_halves, 0.1));
@@ -290,8 +300,8 @@ TEST(ParticlesPlace, DensityOverrideThinsAndZeroEmpties) {
   const double left = double(count_in(half, 0.5, 2.5, 0.5, 5.5)), right = double(count_in(half, 3.5, 5.5, 0.5, 5.5));
   p.face_density = halves(s, 0.f, 1.f);
   const PlacedParticles none = texsynth::place_particles(a, s.walk, p);
-  std::printf("density 0.5 | 1: %g | %g particles (ratio %.3f); density 0 | 1: %lld left\n", left, right,
-              left / right, static_cast<long long>(count_in(none, 0, 3, 0, 6)));
+  std::printf("density 0.5 | 1: %g | %g particles (ratio %.3f); density 0 | 1: %lld left\n", left, right, left / right,
+              static_cast<long long>(count_in(none, 0, 3, 0, 6)));
   EXPECT_NEAR(left / right, 0.5, 0.06);
   EXPECT_EQ(count_in(none, 0, 3, 0, 6), 0);
   EXPECT_NEAR(double(count_in(none, 3.5, 5.5, 0.5, 5.5)) / right, 1.0, 0.1);
@@ -448,14 +458,16 @@ TEST(ParticlesPlace, EveryComponentGetsParticlesAndGivenSeedsAreUsed) {
   const int32_t nv = m.num_vertices(), nt = m.num_triangles();
   for (int32_t v = 0; v < nv; ++v) m.add_vertex(m.positions[3 * size_t(v)] + 10, m.positions[3 * size_t(v) + 1], 0);
   for (int32_t t = 0; t < nt; ++t)
-    m.add_triangle(m.triangles[3 * size_t(t)] + nv, m.triangles[3 * size_t(t) + 1] + nv, m.triangles[3 * size_t(t) + 2] + nv);
+    m.add_triangle(m.triangles[3 * size_t(t)] + nv, m.triangles[3 * size_t(t) + 1] + nv,
+                   m.triangles[3 * size_t(t) + 2] + nv);
   const Scene s(std::move(m));
   const texsynth::ParticleAnalysis a = analyse(jittered_discs());
   PlacementParams p = params_for(s, a, 0.004);
   const PlacedParticles r = texsynth::place_particles(a, s.walk, p);
   EXPECT_EQ(r.stats.components, 2);
   const int64_t first = count_in(r, 0, 3, 0, 3), second = count_in(r, 10, 13, 0, 3);
-  std::printf("two components: %lld and %lld particles\n", static_cast<long long>(first), static_cast<long long>(second));
+  std::printf("two components: %lld and %lld particles\n", static_cast<long long>(first),
+              static_cast<long long>(second));
   EXPECT_GT(first, 50);
   EXPECT_NEAR(double(second) / double(first), 1.0, 0.15);
   // A given seed on the second plane: its first particle is there, the first plane still seeded.
@@ -527,8 +539,10 @@ TEST(ParticlesPlace, WhereTheFieldVanishesParticlesTakeTheParentsDirection) {
   for (int32_t v = 0; v < s.V(); ++v) p.directions[3 * size_t(v) + 2] = 1.f;
   int counted_pole = 0;
   const double pole = worst_turn_from_parent(texsynth::place_particles(a, s.walk, p), std::cos(0.1), counted_pole);
-  std::printf("zero field cap: %d particles, worst turn from the parent %.2f deg; singular +z field within 0.1 rad "
-              "of the pole: %d particles, %.1f deg\n", counted, cap, counted_pole, pole);
+  std::printf(
+      "zero field cap: %d particles, worst turn from the parent %.2f deg; singular +z field within 0.1 rad "
+      "of the pole: %d particles, %.1f deg\n",
+      counted, cap, counted_pole, pole);
   EXPECT_GT(counted, 50);
   EXPECT_LE(cap, 15.0);
 }

@@ -181,3 +181,13 @@ def test_hostile_meshes_give_a_result_or_value_error(scene, name, pos, tris):
         return
     assert np.isfinite(out["position"]).all() and np.isfinite(out["sprite_axis"]).all()
     assert ((out["triangle"] >= 0) & (out["triangle"] < len(tris))).all()
+
+
+def test_same_seed_same_bytes_other_seed_other_draws(scene):
+    a, _, _, tris = scene
+    kwargs = {"size_jitter": 0.2, "face_probability": np.full(len(tris), 0.8)}
+    first, again, other = place(scene, **kwargs), place(scene, **kwargs), place(scene, seed=1, **kwargs)
+    for key in ("class", "sprite", "parent", "triangle", "barycentric", "position", "sprite_axis", "pixel_size"):
+        assert first[key].tobytes() == again[key].tobytes(), key
+    assert first["sprite"].tobytes() != other["sprite"].tobytes()
+    assert first["pixel_size"].tobytes() != other["pixel_size"].tobytes()

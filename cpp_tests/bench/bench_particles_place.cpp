@@ -59,7 +59,8 @@ void run(benchmark::State& state, const texsynth::ParticleAnalysis& a, std::vect
   state.counters["particles"] = double(r.size());
   state.counters["walks/particle"] = double(r.stats.walks) / double(r.size());
   state.counters["reseeded"] = double(reseeded);
-  state.counters["particles/s"] = benchmark::Counter(double(r.size()) * double(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["particles/s"] =
+      benchmark::Counter(double(r.size()) * double(state.iterations()), benchmark::Counter::kIsRate);
 }
 
 void BM_PlaceDiscsOnTorus(benchmark::State& state) { run(state, scene().discs, {}); }

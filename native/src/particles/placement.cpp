@@ -37,23 +37,23 @@ double fold_half_turn(double a) {
 // What the surface says at a point: frame, pixel size and the overrides of its triangle.
 struct Local {
   V3 position, normal, right, up;
-  double pixel = 0;       // world units per sample pixel (scale field only)
-  double density = 1;     // clamped; 0 = no particle here
+  double pixel = 0;    // world units per sample pixel (scale field only)
+  double density = 1;  // clamped; 0 = no particle here
   double probability = 1;
-  double size = 1;        // face size override, clamped; 0 = no particle here
+  double size = 1;  // face size override, clamped; 0 = no particle here
   bool empty() const { return density == 0 || size == 0; }
 };
 
 struct Placed {
   SurfacePoint at;
   Local l;
-  V3 axis;                  // box x axis, world unit vector in the tangent plane
-  double theta = 0;         // box angle in the local frame, folded
+  V3 axis;                        // box x axis, world unit vector in the tangent plane
+  double theta = 0;               // box angle in the local frame, folded
   double half_x = 0, half_y = 0;  // world half extents
-  double reach = 1;         // 1 / sqrt(density): conflicts use the box scaled like the offsets
-  double ex_x = 0, ex_y = 0;  // exclusion half extents: (box + half the class's least gap) x reach
-  double bound = 0;         // half diagonal of the exclusion box
-  double unit = 0;          // world units per box pixel: pixel x size factor
+  double reach = 1;               // 1 / sqrt(density): conflicts use the box scaled like the offsets
+  double ex_x = 0, ex_y = 0;      // exclusion half extents: (box + half the class's least gap) x reach
+  double bound = 0;               // half diagonal of the exclusion box
+  double unit = 0;                // world units per box pixel: pixel x size factor
   int32_t sprite = -1, parent = -1;
   uint8_t origin = 0;
   bool visible = true;
@@ -157,10 +157,10 @@ struct ClassPlan {
   std::vector<int32_t> lists;     // complete particles with a non-empty list
   bool random = false;
   double tolerance = 0.1;
-  double spacing_px = 0;          // mean centre distance to measured neighbours
-  double mean_box_px = 0;         // mean box area
-  double max_radius_px = 0;       // largest half diagonal
-  double margin_px = 0;           // half the low percentile of nearest box gaps (>= 0)
+  double spacing_px = 0;     // mean centre distance to measured neighbours
+  double mean_box_px = 0;    // mean box area
+  double max_radius_px = 0;  // largest half diagonal
+  double margin_px = 0;      // half the low percentile of nearest box gaps (>= 0)
   double density_px = 0, min_distance_px = 0;
 };
 
@@ -186,8 +186,8 @@ class Placer {
   const PlacementParams& p_;
   TriangleMeshInput in_;
 
-  std::vector<double> area_;              // per triangle
-  std::vector<int32_t> component_;        // per triangle, -1 = degenerate
+  std::vector<double> area_;        // per triangle
+  std::vector<int32_t> component_;  // per triangle, -1 = degenerate
   std::vector<std::vector<int32_t>> comp_tris_;
   std::vector<std::vector<double>> comp_cdf_;
   std::vector<std::vector<SurfacePoint>> comp_seeds_;
@@ -209,8 +209,7 @@ class Placer {
   SurfacePoint random_point(const std::vector<int32_t>& tris, const std::vector<double>& cdf, Rng& rng) const;
   bool conflicts(const ClassGrid& g, const Placed& c, double tolerance, int32_t from = 0) const;
   bool any_within(const ClassGrid& g, V3 p, V3 n, double radius) const;
-  Placed make(const SurfacePoint& at, const Local& l, int32_t sprite, double theta, double jitter,
-             double margin) const;
+  Placed make(const SurfacePoint& at, const Local& l, int32_t sprite, double theta, double jitter, double margin) const;
   Placed child_particle(const Child& ch) const {
     Placed c = make(ch.at, ch.l, ch.sprite, placed_[size_t(ch.parent)].theta + a_.cooc[size_t(ch.entry)].angle,
                     ch.jitter, margin_px_);
@@ -238,10 +237,11 @@ class Placer {
   // body(t) for every triangle, in parallel; cancel checked per block.
   template <class Body>
   void parallel_triangles(Body&& body) const {
-    tbb::parallel_for(tbb::blocked_range<int32_t>(0, in_.num_triangles, 2048), [&](const tbb::blocked_range<int32_t>& r) {
-      throw_if_cancelled(p_.cancel);
-      for (int32_t t = r.begin(); t < r.end(); ++t) body(t);
-    });
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, in_.num_triangles, 2048),
+                      [&](const tbb::blocked_range<int32_t>& r) {
+                        throw_if_cancelled(p_.cancel);
+                        for (int32_t t = r.begin(); t < r.end(); ++t) body(t);
+                      });
   }
 };
 
@@ -312,8 +312,8 @@ void Placer::validate() const {
     if (s.triangle < 0 || s.triangle >= T)
       refuse("seed " + std::to_string(i) + " is in triangle " + std::to_string(s.triangle) + " (mesh has " +
              std::to_string(T) + " triangles)");
-    if (!std::isfinite(s.b1) || !std::isfinite(s.b2) || s.b1 < -kBarycentricTolerance || s.b2 < -kBarycentricTolerance ||
-        s.b1 + s.b2 > 1 + kBarycentricTolerance)
+    if (!std::isfinite(s.b1) || !std::isfinite(s.b2) || s.b1 < -kBarycentricTolerance ||
+        s.b2 < -kBarycentricTolerance || s.b1 + s.b2 > 1 + kBarycentricTolerance)
       refuse("barycentrics of seed " + std::to_string(i) + " are NaN or not inside the triangle");
     if (m_.walk.tris[size_t(s.triangle)].degenerate)
       refuse("seed " + std::to_string(i) + " lies on a zero-area triangle");
@@ -413,32 +413,32 @@ void Placer::prepare_mesh() {
     const std::vector<int32_t>& tris = comp_tris_[c];
     std::vector<std::pair<double, SurfacePoint>> nearest(tris.size());
     tbb::parallel_for(tbb::blocked_range<size_t>(0, tris.size(), 2048), [&](const tbb::blocked_range<size_t>& r) {
-     throw_if_cancelled(p_.cancel);
-     for (size_t i = r.begin(); i < r.end(); ++i) {
-      const int32_t t = tris[i];
-      const int32_t* k = in_.triangles + 3 * size_t(t);
-      const V3 p0 = mesh_position(in_, k[0]), e1 = mesh_position(in_, k[1]) - p0, e2 = mesh_position(in_, k[2]) - p0;
-      const V3 q = centroid - p0, n = cross(e1, e2);
-      const double n2 = dot(n, n);
-      double b1 = dot(cross(q, e2), n) / n2, b2 = dot(cross(e1, q), n) / n2;
-      if (b1 < 0 || b2 < 0 || b1 + b2 > 1) {  // outside: the nearest point of the three edges
-        const V3 corners[3] = {p0, p0 + e1, p0 + e2};
-        double best_e = std::numeric_limits<double>::infinity();
-        for (int e = 0; e < 3; ++e) {
-          const V3 a = corners[e], d = corners[(e + 1) % 3] - a;
-          const double s = std::clamp(dot(centroid - a, d) / dot(d, d), 0.0, 1.0);
-          const V3 x = a + d * s;
-          const double dd = dot(centroid - x, centroid - x);
-          if (dd >= best_e) continue;
-          best_e = dd;
-          double w[3] = {0, 0, 0};
-          w[e] = 1 - s, w[(e + 1) % 3] = s;
-          b1 = w[1], b2 = w[2];
+      throw_if_cancelled(p_.cancel);
+      for (size_t i = r.begin(); i < r.end(); ++i) {
+        const int32_t t = tris[i];
+        const int32_t* k = in_.triangles + 3 * size_t(t);
+        const V3 p0 = mesh_position(in_, k[0]), e1 = mesh_position(in_, k[1]) - p0, e2 = mesh_position(in_, k[2]) - p0;
+        const V3 q = centroid - p0, n = cross(e1, e2);
+        const double n2 = dot(n, n);
+        double b1 = dot(cross(q, e2), n) / n2, b2 = dot(cross(e1, q), n) / n2;
+        if (b1 < 0 || b2 < 0 || b1 + b2 > 1) {  // outside: the nearest point of the three edges
+          const V3 corners[3] = {p0, p0 + e1, p0 + e2};
+          double best_e = std::numeric_limits<double>::infinity();
+          for (int e = 0; e < 3; ++e) {
+            const V3 a = corners[e], d = corners[(e + 1) % 3] - a;
+            const double s = std::clamp(dot(centroid - a, d) / dot(d, d), 0.0, 1.0);
+            const V3 x = a + d * s;
+            const double dd = dot(centroid - x, centroid - x);
+            if (dd >= best_e) continue;
+            best_e = dd;
+            double w[3] = {0, 0, 0};
+            w[e] = 1 - s, w[(e + 1) % 3] = s;
+            b1 = w[1], b2 = w[2];
+          }
         }
+        const V3 x = p0 + e1 * b1 + e2 * b2;
+        nearest[i] = {dot(centroid - x, centroid - x), {t, b1, b2}};
       }
-      const V3 x = p0 + e1 * b1 + e2 * b2;
-      nearest[i] = {dot(centroid - x, centroid - x), {t, b1, b2}};
-     }
     });
     size_t best = 0;
     for (size_t i = 1; i < nearest.size(); ++i)
@@ -484,7 +484,8 @@ ClassPlan Placer::plan_class(int32_t k) const {
     if (e > b) cp.lists.push_back(P.id);
     for (int32_t i = b; i < e; ++i) {
       const CoOccurrence& c = a_.cooc[size_t(i)];
-      if (c.source != EntrySource::kMeasured || c.neighbour < 0 || c.neighbour >= int32_t(a_.particles.size())) continue;
+      if (c.source != EntrySource::kMeasured || c.neighbour < 0 || c.neighbour >= int32_t(a_.particles.size()))
+        continue;
       const ParticleBox& q = a_.particles[size_t(c.neighbour)].box;
       const double cs = std::abs(std::cos(double(c.angle))), sn = std::abs(std::sin(double(c.angle)));
       const double u = P.box.half_x + c.dx + q.half_x * cs + q.half_y * sn;
@@ -520,7 +521,7 @@ int64_t Placer::class_cap(const ClassPlan& cp) const {
   for (double e : per) expected += e;  // fixed order
   const double cap = kPlacementCapFactor * expected + 16 + double(comp_tris_.size());
   return cap < double(std::numeric_limits<int64_t>::max() / 2) ? int64_t(std::ceil(cap))
-                                                                : std::numeric_limits<int64_t>::max() / 2;
+                                                               : std::numeric_limits<int64_t>::max() / 2;
 }
 
 // --------------------------------------------------------------------------------------- geometry
@@ -704,8 +705,7 @@ void Placer::propagate(ClassRun& run, std::vector<int32_t> frontier, int32_t cla
         requests.push_back(r);
         walked.push_back(k);
       }
-      const auto results =
-          walk_normal_sections(m_.walk, in_, requests.data(), int64_t(requests.size()), {}, p_.cancel);
+      const auto results = walk_normal_sections(m_.walk, in_, requests.data(), int64_t(requests.size()), {}, p_.cancel);
       stats_.walks += int64_t(requests.size());
       tbb::parallel_for(tbb::blocked_range<size_t>(0, walked.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i < r.end(); ++i) {

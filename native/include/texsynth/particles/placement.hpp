@@ -77,27 +77,27 @@ namespace texsynth {
 constexpr double kPlacementMinOverride = 0.05;  // density and size overrides are clamped to this..
 constexpr double kPlacementMaxOverride = 20.0;  // ..and this (0 stays "no particle")
 constexpr double kPlacementMaxJitter = 0.9;
-constexpr int kPlacementReseedTries = 64;       // per component and round
-constexpr double kPlacementReseedGaps = 2.0;    // x the class's mean neighbour centre distance
-constexpr double kPlacementCapFactor = 4.0;     // x the expected count, per class
-constexpr double kPlacementFieldZero = 1e-3;    // a projected field shorter than this is a zero
-constexpr double kPlacementGapPercentile = 0.10;  // of the class's nearest box gaps: the exclusion margin
-constexpr double kPlacementGrownTolerance = 0.01; // grown boxes may intersect by this x the smaller
+constexpr int kPlacementReseedTries = 64;          // per component and round
+constexpr double kPlacementReseedGaps = 2.0;       // x the class's mean neighbour centre distance
+constexpr double kPlacementCapFactor = 4.0;        // x the expected count, per class
+constexpr double kPlacementFieldZero = 1e-3;       // a projected field shorter than this is a zero
+constexpr double kPlacementGapPercentile = 0.10;   // of the class's nearest box gaps: the exclusion margin
+constexpr double kPlacementGrownTolerance = 0.01;  // grown boxes may intersect by this x the smaller
 
 enum class PlacementOrigin : uint8_t { seed = 0, propagated = 1, reseeded = 2, random_class = 3 };
 
 struct PlacementParams {
-  std::vector<float> directions;          // V x 3 per-vertex "up" field (zero vectors allowed)
-  double sample_world_width = 0;          // world size of the sample's width, > 0
-  std::vector<int32_t> classes;           // processing order; empty = every placeable class by count
-  std::vector<float> vertex_scale;        // empty or V values > 0
-  std::vector<float> face_density;        // empty or T values >= 0
-  std::vector<float> face_probability;    // empty or T values in [0, 1]
-  std::vector<float> face_size;           // empty or T values >= 0
-  double size_jitter = 0;                 // [0, 0.9]
-  std::vector<SurfacePoint> seeds;        // optional seed points
+  std::vector<float> directions;        // V x 3 per-vertex "up" field (zero vectors allowed)
+  double sample_world_width = 0;        // world size of the sample's width, > 0
+  std::vector<int32_t> classes;         // processing order; empty = every placeable class by count
+  std::vector<float> vertex_scale;      // empty or V values > 0
+  std::vector<float> face_density;      // empty or T values >= 0
+  std::vector<float> face_probability;  // empty or T values in [0, 1]
+  std::vector<float> face_size;         // empty or T values >= 0
+  double size_jitter = 0;               // [0, 0.9]
+  std::vector<SurfacePoint> seeds;      // optional seed points
   uint64_t seed = 0;
-  int64_t max_particles = 2000000;        // >= 1; placed particles (hidden ones included)
+  int64_t max_particles = 2000000;  // >= 1; placed particles (hidden ones included)
   const std::atomic<bool>* cancel = nullptr;
   std::atomic<float>* progress = nullptr;  // 0..1 (optional)
 };
@@ -111,9 +111,9 @@ struct ClassPlacementStats {
   int64_t excluded = 0;          // landed where density or size is 0
   int64_t seeds = 0, reseeded = 0;
   int32_t reseed_rounds = 0;
-  int64_t cap = 0;               // per-class cap
-  bool capped = false;           // the cap stopped it
-  bool random = false;           // dart throwing
+  int64_t cap = 0;      // per-class cap
+  bool capped = false;  // the cap stopped it
+  bool random = false;  // dart throwing
 };
 
 struct PlacementStats {
@@ -130,7 +130,7 @@ struct PlacedParticles {
   std::vector<double> barycentric;                   // 2 per row (b1, b2)
   std::vector<float> position, normal, sprite_axis;  // 3 per row
   std::vector<float> pixel_size, angle;
-  std::vector<uint8_t> origin;                       // PlacementOrigin
+  std::vector<uint8_t> origin;  // PlacementOrigin
   PlacementStats stats;
   size_t size() const { return class_id.size(); }
 };
