@@ -547,6 +547,26 @@ TEST(ParticlesPlace, WhereTheFieldVanishesParticlesTakeTheParentsDirection) {
   EXPECT_LE(cap, 15.0);
 }
 
+TEST(ParticlesPlace, BothSidesOfAThinSheetAreCovered) {
+  // A closed flat box 0.001 thick: its two sheets face away from each other, so their particles never
+  // conflict although their boxes overlap in projection.
+  const Scene s(ring_fixtures::thin_box(40, 0.1, 0.001));
+  const texsynth::ParticleAnalysis a = analyse(jittered_discs());
+  PlacementParams p = params_for(s, a, 0.004);
+  const PlacedParticles r = texsynth::place_particles(a, s.walk, p);
+  int64_t top = 0, bottom = 0;
+  for (size_t i = 0; i < r.size(); ++i) {
+    const V3 x = position(r, i);
+    if (x.x < 0.3 || x.x > 3.7 || x.y < 0.3 || x.y > 3.7) continue;  // away from the rim
+    top += r.normal[3 * i + 2] > 0.9f;
+    bottom += r.normal[3 * i + 2] < -0.9f;
+  }
+  std::printf("thin sheet: %lld particles on top, %lld below\n", static_cast<long long>(top),
+              static_cast<long long>(bottom));
+  EXPECT_GT(top, 200);
+  EXPECT_NEAR(double(bottom) / double(top), 1.0, 0.15);
+}
+
 TEST(ParticlesPlace, RandomClassFollowsTheSampleDensity) {
   // Two discs: a random class (density 2 / 256^2, min distance 0.7 x their distance).
   LabelSample smp = blank(256, 256);
