@@ -24,8 +24,8 @@ struct LabelSample {
       for (int x = std::max(0, x0); x < std::min(W, x0 + w); ++x) labels[size_t(y) * W + x] = cls;
   }
   void disc(double cx, double cy, double r, int32_t cls) {
-    for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x)
+    for (int y = std::max(0, int(cy - r) - 1); y < std::min(H, int(cy + r) + 2); ++y)
+      for (int x = std::max(0, int(cx - r) - 1); x < std::min(W, int(cx + r) + 2); ++x)
         if (std::hypot(x + 0.5 - cx, y + 0.5 - cy) <= r) labels[size_t(y) * W + x] = cls;
   }
 };

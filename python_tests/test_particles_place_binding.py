@@ -153,3 +153,41 @@ def test_cancel_progress_and_gil(scene):
     token.cancel()
     worker.join(5)
     assert caught == [True] and ticks > 0
+
+
+def hostile_meshes():
+    """(name, positions, triangles) that must end in a result or a ValueError, never a crash."""
+    pos, tris = plane(n=6, spacing=0.5, jitter=0.2)
+    yield "coords_1e30", pos * np.float32(1e30), tris
+    yield "coords_1e-30", pos * np.float32(1e-30), tris
+    yield "zero_area", np.zeros((3, 3), np.float32), np.array([[0, 1, 2]], np.int32)
+    yield "one_triangle", np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]], np.int32)
+    flipped = tris.copy()
+    flipped[::3] = flipped[::3, ::-1]
+    yield "inconsistent_winding", pos, flipped
+    fan = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]], np.float32)
+    yield "nonmanifold_fan", fan, np.array([[0, 1, 2], [0, 1, 3], [0, 1, 4]], np.int32)
+    yield "sliver", np.array([[0, 0, 0], [1, 0, 0], [0.5, 1e-9, 0]], np.float32), np.array([[0, 1, 2]], np.int32)
+
+
+@pytest.mark.parametrize("name, pos, tris", list(hostile_meshes()), ids=[m[0] for m in hostile_meshes()])
+def test_hostile_meshes_give_a_result_or_value_error(scene, name, pos, tris):
+    a = scene[0]
+    try:
+        mesh = tn.surface_walk_mesh(pos, tris)
+        out = tn.place_particles(a, mesh, field(pos, 0), sample_world_width=0.01 * a.width, max_particles=20000)
+    except ValueError as e:
+        assert "placement" in str(e) or "mesh" in str(e)
+        return
+    assert np.isfinite(out["position"]).all() and np.isfinite(out["sprite_axis"]).all()
+    assert ((out["triangle"] >= 0) & (out["triangle"] < len(tris))).all()
+
+
+def test_same_seed_same_bytes_other_seed_other_draws(scene):
+    a, _, _, tris = scene
+    kwargs = {"size_jitter": 0.2, "face_probability": np.full(len(tris), 0.8)}
+    first, again, other = place(scene, **kwargs), place(scene, **kwargs), place(scene, seed=1, **kwargs)
+    for key in ("class", "sprite", "parent", "triangle", "barycentric", "position", "sprite_axis", "pixel_size"):
+        assert first[key].tobytes() == again[key].tobytes(), key
+    assert first["sprite"].tobytes() != other["sprite"].tobytes()
+    assert first["pixel_size"].tobytes() != other["pixel_size"].tobytes()

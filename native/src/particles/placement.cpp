@@ -37,31 +37,46 @@ double fold_half_turn(double a) {
 // What the surface says at a point: frame, pixel size and the overrides of its triangle.
 struct Local {
   V3 position, normal, right, up;
-  double pixel = 0;       // world units per sample pixel (scale field only)
-  double density = 1;     // clamped; 0 = no particle here
+  double pixel = 0;    // world units per sample pixel (scale field only)
+  double density = 1;  // clamped; 0 = no particle here
   double probability = 1;
-  double size = 1;        // face size override, clamped; 0 = no particle here
+  double size = 1;  // face size override, clamped; 0 = no particle here
   bool empty() const { return density == 0 || size == 0; }
 };
 
 struct Placed {
   SurfacePoint at;
   Local l;
-  V3 axis;                  // box x axis, world unit vector in the tangent plane
-  double theta = 0;         // box angle in the local frame, folded
+  V3 axis;                        // box x axis, world unit vector in the tangent plane
+  double theta = 0;               // box angle in the local frame, folded
   double half_x = 0, half_y = 0;  // world half extents
-  double reach = 1;         // 1 / sqrt(density): conflicts use the box scaled like the offsets
-  double unit = 0;          // world units per box pixel: pixel x size factor
+  double reach = 1;               // 1 / sqrt(density): conflicts use the box scaled like the offsets
+  double ex_x = 0, ex_y = 0;      // exclusion half extents: (box + half the class's least gap) x reach
+  double bound = 0;               // half diagonal of the exclusion box
+  double unit = 0;                // world units per box pixel: pixel x size factor
   int32_t sprite = -1, parent = -1;
   uint8_t origin = 0;
   bool visible = true;
-  double radius() const { return reach * std::hypot(half_x, half_y); }
+  double radius() const { return bound; }
 };
 
 // 2D box: centre, unit x axis, half extents.
 struct Box2 {
   double cx, cy, ux, uy, hx, hy;
 };
+
+// True when an axis of a or b separates them (then they do not intersect).
+bool boxes_apart(const Box2& a, const Box2& b) {
+  const double dx = b.cx - a.cx, dy = b.cy - a.cy;
+  const double axes[4][2] = {{a.ux, a.uy}, {-a.uy, a.ux}, {b.ux, b.uy}, {-b.uy, b.ux}};
+  for (int k = 0; k < 4; ++k) {
+    const double x = axes[k][0], y = axes[k][1];
+    const double ra = a.hx * std::abs(a.ux * x + a.uy * y) + a.hy * std::abs(-a.uy * x + a.ux * y);
+    const double rb = b.hx * std::abs(b.ux * x + b.uy * y) + b.hy * std::abs(-b.uy * x + b.ux * y);
+    if (std::abs(dx * x + dy * y) >= ra + rb) return true;
+  }
+  return false;
+}
 
 // Area of a ∩ b: a's corners clipped by b's four half-planes (at most 8 corners, no allocation).
 double box_overlap_area(const Box2& a, const Box2& b) {
@@ -113,20 +128,21 @@ struct ClassGrid {
     int64_t c[3];
     if (key_of(p, c)) cells[spatial_cell_key(c[0], c[1], c[2])].push_back(index);
   }
-  // f(index) for candidates within `radius` of p (a superset); stops when f returns true.
+  // f(index) for candidates within `radius` of p (a superset): the cells the ball touches, or the whole
+  // list when that is shorter; stops when f returns true.
   template <class F>
   void near(V3 p, double radius, F&& f) const {
-    const double reach = std::ceil(radius / cell);
-    int64_t c[3];
-    if (!(reach < 64) || std::pow(2 * reach + 1, 3) > double(members.size()) || !key_of(p, c)) {
+    int64_t lo[3], hi[3];
+    const double span = std::ceil(2 * radius / cell) + 1;
+    if (!(span < 128) || span * span * span > double(members.size()) || !key_of(p - V3{radius, radius, radius}, lo) ||
+        !key_of(p + V3{radius, radius, radius}, hi)) {
       for (int32_t i : members)
         if (f(i)) return;
       return;
     }
-    const int64_t r = int64_t(reach);
-    for (int64_t x = c[0] - r; x <= c[0] + r; ++x)
-      for (int64_t y = c[1] - r; y <= c[1] + r; ++y)
-        for (int64_t z = c[2] - r; z <= c[2] + r; ++z) {
+    for (int64_t x = lo[0]; x <= hi[0]; ++x)
+      for (int64_t y = lo[1]; y <= hi[1]; ++y)
+        for (int64_t z = lo[2]; z <= hi[2]; ++z) {
           const auto it = cells.find(spatial_cell_key(x, y, z));
           if (it == cells.end()) continue;
           for (int32_t i : it->second)
@@ -141,18 +157,20 @@ struct ClassPlan {
   std::vector<int32_t> lists;     // complete particles with a non-empty list
   bool random = false;
   double tolerance = 0.1;
-  double spacing_px = 0;          // mean centre distance to measured neighbours
-  double mean_box_px = 0;         // mean box area
-  double max_radius_px = 0;       // largest half diagonal
+  double spacing_px = 0;     // mean centre distance to measured neighbours
+  double mean_box_px = 0;    // mean box area
+  double max_radius_px = 0;  // largest half diagonal
+  double margin_px = 0;      // half the low percentile of nearest box gaps (>= 0)
   double density_px = 0, min_distance_px = 0;
 };
 
 struct Child {
-  int32_t parent = -1, sprite = -1, entry = -1, walk = -1;
+  int32_t parent = -1, sprite = -1, entry = -1;
   double jitter = 1;
   SurfacePoint at;
   Local l;
   bool reached = false;
+  bool refused = false;  // conflicts with a particle of an earlier generation
 };
 
 class Placer {
@@ -168,8 +186,8 @@ class Placer {
   const PlacementParams& p_;
   TriangleMeshInput in_;
 
-  std::vector<double> area_;              // per triangle
-  std::vector<int32_t> component_;        // per triangle, -1 = degenerate
+  std::vector<double> area_;        // per triangle
+  std::vector<int32_t> component_;  // per triangle, -1 = degenerate
   std::vector<std::vector<int32_t>> comp_tris_;
   std::vector<std::vector<double>> comp_cdf_;
   std::vector<std::vector<SurfacePoint>> comp_seeds_;
@@ -179,6 +197,7 @@ class Placer {
   std::vector<Placed> placed_;
   PlacementStats stats_;
   bool global_capped_ = false;
+  double margin_px_ = 0;  // the running class's
 
   void validate() const;
   void prepare_mesh();
@@ -188,9 +207,16 @@ class Placer {
 
   Local local(const SurfacePoint& sp, V3 fallback_up) const;
   SurfacePoint random_point(const std::vector<int32_t>& tris, const std::vector<double>& cdf, Rng& rng) const;
-  bool conflicts(const ClassGrid& g, const Placed& c, double tolerance) const;
+  bool conflicts(const ClassGrid& g, const Placed& c, double tolerance, int32_t from = 0) const;
   bool any_within(const ClassGrid& g, V3 p, V3 n, double radius) const;
-  Placed make(const SurfacePoint& at, const Local& l, int32_t sprite, double theta, double jitter) const;
+  Placed make(const SurfacePoint& at, const Local& l, int32_t sprite, double theta, double jitter, double margin) const;
+  Placed child_particle(const Child& ch) const {
+    Placed c = make(ch.at, ch.l, ch.sprite, placed_[size_t(ch.parent)].theta + a_.cooc[size_t(ch.entry)].angle,
+                    ch.jitter, margin_px_);
+    c.parent = ch.parent;
+    c.origin = uint8_t(PlacementOrigin::propagated);
+    return c;
+  }
 
   struct ClassRun {
     const ClassPlan& cp;
@@ -208,6 +234,15 @@ class Placer {
     if (p_.progress) p_.progress->store(float((class_index + std::clamp(within, 0.0, 0.99)) / num_classes));
   }
   PlacedParticles output() const;
+  // body(t) for every triangle, in parallel; cancel checked per block.
+  template <class Body>
+  void parallel_triangles(Body&& body) const {
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, in_.num_triangles, 2048),
+                      [&](const tbb::blocked_range<int32_t>& r) {
+                        throw_if_cancelled(p_.cancel);
+                        for (int32_t t = r.begin(); t < r.end(); ++t) body(t);
+                      });
+  }
 };
 
 // ---------------------------------------------------------------------------------------------- input
@@ -230,6 +265,10 @@ void Placer::validate() const {
   }
   if (a.cooc_start.front() != 0 || size_t(a.cooc_start.back()) != a.cooc.size())
     refuse("the analysis is inconsistent (co-occurrence lists)");
+  for (const ParticleClass& c : a.classes)
+    if (!std::isfinite(c.density) || !std::isfinite(c.min_distance) || !std::isfinite(c.tolerance) || c.density < 0 ||
+        c.min_distance < 0 || c.tolerance < 0)
+      refuse("the analysis is inconsistent (a class table entry)");
   for (const CoOccurrence& e : a.cooc)
     if (e.quadrant < 0 || e.quadrant > 3 || !std::isfinite(e.dx) || !std::isfinite(e.dy) || !std::isfinite(e.angle))
       refuse("the analysis is inconsistent (a co-occurrence entry)");
@@ -273,8 +312,8 @@ void Placer::validate() const {
     if (s.triangle < 0 || s.triangle >= T)
       refuse("seed " + std::to_string(i) + " is in triangle " + std::to_string(s.triangle) + " (mesh has " +
              std::to_string(T) + " triangles)");
-    if (!std::isfinite(s.b1) || !std::isfinite(s.b2) || s.b1 < -kBarycentricTolerance || s.b2 < -kBarycentricTolerance ||
-        s.b1 + s.b2 > 1 + kBarycentricTolerance)
+    if (!std::isfinite(s.b1) || !std::isfinite(s.b2) || s.b1 < -kBarycentricTolerance ||
+        s.b2 < -kBarycentricTolerance || s.b1 + s.b2 > 1 + kBarycentricTolerance)
       refuse("barycentrics of seed " + std::to_string(i) + " are NaN or not inside the triangle");
     if (m_.walk.tris[size_t(s.triangle)].degenerate)
       refuse("seed " + std::to_string(i) + " lies on a zero-area triangle");
@@ -302,6 +341,7 @@ void Placer::prepare_mesh() {
     upper_ = {std::max(upper_.x, p.x), std::max(upper_.y, p.y), std::max(upper_.z, p.z)};
   }
   for (int32_t t = 0; t < T; ++t) {
+    if (t % 4096 == 0) throw_if_cancelled(p_.cancel);
     if (m_.walk.tris[size_t(t)].degenerate) continue;
     const int32_t* c = in_.triangles + 3 * size_t(t);
     const V3 p0 = mesh_position(in_, c[0]);
@@ -309,6 +349,8 @@ void Placer::prepare_mesh() {
     total += area_[size_t(t)];
   }
   if (!(total > 0)) refuse("the mesh has no area");
+  if (!std::isfinite(total) || !std::isfinite(norm(upper_ - lower_)))
+    refuse("the mesh's area or extent overflows (coordinates too large)");
   // Components: faces joined across walkable edges, numbered by their lowest triangle.
   std::vector<int32_t> queue;
   for (int32_t t = 0; t < T; ++t) {
@@ -367,35 +409,41 @@ void Placer::prepare_mesh() {
       total_c += area_[size_t(t)];
     }
     centroid = centroid * (1 / total_c);
-    // The component's point nearest the centroid (first triangle on ties).
-    double best = std::numeric_limits<double>::infinity();
-    SurfacePoint at;
-    for (int32_t t : comp_tris_[c]) {
-      const int32_t* k = in_.triangles + 3 * size_t(t);
-      const V3 p0 = mesh_position(in_, k[0]), e1 = mesh_position(in_, k[1]) - p0, e2 = mesh_position(in_, k[2]) - p0;
-      const V3 q = centroid - p0, n = cross(e1, e2);
-      const double n2 = dot(n, n);
-      double b1 = dot(cross(q, e2), n) / n2, b2 = dot(cross(e1, q), n) / n2;
-      if (b1 < 0 || b2 < 0 || b1 + b2 > 1) {  // outside: the nearest point of the three edges
-        const V3 corners[3] = {p0, p0 + e1, p0 + e2};
-        double best_e = std::numeric_limits<double>::infinity();
-        for (int e = 0; e < 3; ++e) {
-          const V3 a = corners[e], d = corners[(e + 1) % 3] - a;
-          const double s = std::clamp(dot(centroid - a, d) / dot(d, d), 0.0, 1.0);
-          const V3 x = a + d * s;
-          const double dd = dot(centroid - x, centroid - x);
-          if (dd >= best_e) continue;
-          best_e = dd;
-          double w[3] = {0, 0, 0};
-          w[e] = 1 - s, w[(e + 1) % 3] = s;
-          b1 = w[1], b2 = w[2];
+    // The component's point nearest the centroid (first triangle on ties), per triangle in parallel.
+    const std::vector<int32_t>& tris = comp_tris_[c];
+    std::vector<std::pair<double, SurfacePoint>> nearest(tris.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, tris.size(), 2048), [&](const tbb::blocked_range<size_t>& r) {
+      throw_if_cancelled(p_.cancel);
+      for (size_t i = r.begin(); i < r.end(); ++i) {
+        const int32_t t = tris[i];
+        const int32_t* k = in_.triangles + 3 * size_t(t);
+        const V3 p0 = mesh_position(in_, k[0]), e1 = mesh_position(in_, k[1]) - p0, e2 = mesh_position(in_, k[2]) - p0;
+        const V3 q = centroid - p0, n = cross(e1, e2);
+        const double n2 = dot(n, n);
+        double b1 = dot(cross(q, e2), n) / n2, b2 = dot(cross(e1, q), n) / n2;
+        if (b1 < 0 || b2 < 0 || b1 + b2 > 1) {  // outside: the nearest point of the three edges
+          const V3 corners[3] = {p0, p0 + e1, p0 + e2};
+          double best_e = std::numeric_limits<double>::infinity();
+          for (int e = 0; e < 3; ++e) {
+            const V3 a = corners[e], d = corners[(e + 1) % 3] - a;
+            const double s = std::clamp(dot(centroid - a, d) / dot(d, d), 0.0, 1.0);
+            const V3 x = a + d * s;
+            const double dd = dot(centroid - x, centroid - x);
+            if (dd >= best_e) continue;
+            best_e = dd;
+            double w[3] = {0, 0, 0};
+            w[e] = 1 - s, w[(e + 1) % 3] = s;
+            b1 = w[1], b2 = w[2];
+          }
         }
+        const V3 x = p0 + e1 * b1 + e2 * b2;
+        nearest[i] = {dot(centroid - x, centroid - x), {t, b1, b2}};
       }
-      const V3 x = p0 + e1 * b1 + e2 * b2;
-      const double d2 = dot(centroid - x, centroid - x);
-      if (d2 < best) best = d2, at = {t, b1, b2};
-    }
-    comp_seeds_[c].push_back(at);
+    });
+    size_t best = 0;
+    for (size_t i = 1; i < nearest.size(); ++i)
+      if (nearest[i].first < nearest[best].first) best = i;
+    comp_seeds_[c].push_back(nearest[best].second);
   }
   std::vector<float> scales = p_.vertex_scale;
   if (!scales.empty()) {
@@ -425,6 +473,7 @@ ClassPlan Placer::plan_class(int32_t k) const {
   cp.density_px = cls.density;
   cp.min_distance_px = cls.min_distance;
   double box_sum = 0, spacing_sum = 0;
+  std::vector<float> gaps;  // box separation of each measured neighbour
   int64_t spacing_n = 0;
   for (const Particle& P : a_.particles) {
     if (P.class_id != k || !P.complete) continue;
@@ -435,34 +484,44 @@ ClassPlan Placer::plan_class(int32_t k) const {
     if (e > b) cp.lists.push_back(P.id);
     for (int32_t i = b; i < e; ++i) {
       const CoOccurrence& c = a_.cooc[size_t(i)];
-      if (c.source != EntrySource::kMeasured || c.neighbour < 0 || c.neighbour >= int32_t(a_.particles.size())) continue;
+      if (c.source != EntrySource::kMeasured || c.neighbour < 0 || c.neighbour >= int32_t(a_.particles.size()))
+        continue;
       const ParticleBox& q = a_.particles[size_t(c.neighbour)].box;
       const double cs = std::abs(std::cos(double(c.angle))), sn = std::abs(std::sin(double(c.angle)));
       const double u = P.box.half_x + c.dx + q.half_x * cs + q.half_y * sn;
       const double v = P.box.half_y + c.dy + q.half_x * sn + q.half_y * cs;
       spacing_sum += std::hypot(u, v), ++spacing_n;
+      gaps.push_back(std::max(c.dx, c.dy));
     }
   }
-  cp.mean_box_px = cp.complete.empty() ? 1.0 : std::max(box_sum / double(cp.complete.size()), 1e-6);
+  if (cp.complete.empty()) refuse("class " + std::to_string(k) + " has no complete particle (nothing to place)");
+  cp.mean_box_px = std::max(box_sum / double(cp.complete.size()), 1e-6);
   cp.spacing_px = spacing_n > 0 ? spacing_sum / double(spacing_n)
                                 : std::sqrt(double(a_.width) * a_.height / std::max(1, cls.particles));
   cp.random = cls.random || cp.lists.empty();
+  if (!gaps.empty()) {
+    const size_t at = std::min(gaps.size() - 1, size_t(kPlacementGapPercentile * double(gaps.size())));
+    std::nth_element(gaps.begin(), gaps.begin() + ptrdiff_t(at), gaps.end());
+    cp.margin_px = std::max(0.0, 0.5 * double(gaps[at]));
+  }
   return cp;
 }
 
 // kPlacementCapFactor x the expected count: area over box area under the local pixel, size, density.
 int64_t Placer::class_cap(const ClassPlan& cp) const {
-  double expected = 0;
-  for (int32_t t = 0; t < in_.num_triangles; ++t) {
-    if (area_[size_t(t)] <= 0) continue;
+  std::vector<double> per(size_t(in_.num_triangles), 0.0);
+  parallel_triangles([&](int32_t t) {
+    if (area_[size_t(t)] <= 0) return;
     const Local l = local({t, 1.0 / 3, 1.0 / 3}, V3{0, 0, 1});
-    if (l.empty()) continue;
+    if (l.empty()) return;
     const double box = cp.mean_box_px * (l.pixel * l.size) * (l.pixel * l.size);
-    expected += area_[size_t(t)] * l.density / box;
-  }
+    per[size_t(t)] = area_[size_t(t)] * l.density / box;
+  });
+  double expected = 0;
+  for (double e : per) expected += e;  // fixed order
   const double cap = kPlacementCapFactor * expected + 16 + double(comp_tris_.size());
-  return cap >= double(std::numeric_limits<int64_t>::max() / 2) ? std::numeric_limits<int64_t>::max() / 2
-                                                                 : int64_t(std::ceil(cap));
+  return cap < double(std::numeric_limits<int64_t>::max() / 2) ? int64_t(std::ceil(cap))
+                                                               : std::numeric_limits<int64_t>::max() / 2;
 }
 
 // --------------------------------------------------------------------------------------- geometry
@@ -501,7 +560,8 @@ SurfacePoint Placer::random_point(const std::vector<int32_t>& tris, const std::v
   return {tris[i], b1, b2};
 }
 
-Placed Placer::make(const SurfacePoint& at, const Local& l, int32_t sprite, double theta, double jitter) const {
+Placed Placer::make(const SurfacePoint& at, const Local& l, int32_t sprite, double theta, double jitter,
+                    double margin) const {
   Placed c;
   c.at = at;
   c.l = l;
@@ -512,26 +572,36 @@ Placed Placer::make(const SurfacePoint& at, const Local& l, int32_t sprite, doub
   const ParticleBox& box = a_.particles[size_t(sprite)].box;
   c.half_x = box.half_x * c.unit, c.half_y = box.half_y * c.unit;
   c.reach = 1 / std::sqrt(std::max(l.density, kPlacementMinOverride));
+  c.ex_x = c.reach * (c.half_x + margin * l.pixel), c.ex_y = c.reach * (c.half_y + margin * l.pixel);
+  c.bound = std::hypot(c.ex_x, c.ex_y);
   return c;
 }
 
-bool Placer::conflicts(const ClassGrid& g, const Placed& c, double tolerance) const {
+// Against the class's particles with index >= from.
+bool Placer::conflicts(const ClassGrid& g, const Placed& c, double tolerance, int32_t from) const {
   const V3 v = cross(c.l.normal, c.axis);
-  const double r = c.radius(), cx = c.reach * c.half_x, cy = c.reach * c.half_y, own = 4 * cx * cy;
+  const double r = c.radius(), cx = c.ex_x, cy = c.ex_y, own = 4 * cx * cy;
   bool hit = false;
   g.near(c.l.position, r + g.max_radius, [&](int32_t j) {
+    if (j < from) return false;
     const Placed& o = placed_[size_t(j)];
     if (dot(o.l.normal, c.l.normal) < 0) return false;  // two sides of a thin part
     const V3 d = o.l.position - c.l.position;
     const double reach = r + o.radius();
     if (dot(d, d) >= reach * reach) return false;
     const double ox = dot(o.axis, c.axis), oy = dot(o.axis, v), len = std::hypot(ox, oy);
-    const double hx = o.reach * o.half_x, hy = o.reach * o.half_y;
-    const Box2 mine{0, 0, 1, 0, cx, cy};
-    const Box2 theirs{dot(d, c.axis), dot(d, v), len > 1e-9 ? ox / len : 1, len > 1e-9 ? oy / len : 0, hx, hy};
-    const double smaller = std::min(own, 4 * hx * hy);
-    if (smaller <= 0) return false;
-    hit = box_overlap_area(mine, theirs) > tolerance * smaller;
+    const double ux = len > 1e-9 ? ox / len : 1, uy = len > 1e-9 ? oy / len : 0, px = dot(d, c.axis), py = dot(d, v);
+    // The grown boxes hold the boxes: apart, nothing overlaps.
+    if (boxes_apart({0, 0, 1, 0, cx, cy}, {px, py, ux, uy, o.ex_x, o.ex_y})) return false;
+    // The boxes (scaled like the offsets) may overlap up to the class's tolerance...
+    const double bx = c.reach * c.half_x, by = c.reach * c.half_y, qx = o.reach * o.half_x, qy = o.reach * o.half_y;
+    const double smaller = std::min(4 * bx * by, 4 * qx * qy);
+    if (smaller > 0 && box_overlap_area({0, 0, 1, 0, bx, by}, {px, py, ux, uy, qx, qy}) > tolerance * smaller)
+      return hit = true;
+    // ...and the boxes grown by half the class's least gap must stay apart.
+    if (cx == bx && cy == by) return false;
+    const double grown = std::min(own, 4 * o.ex_x * o.ex_y);
+    hit = box_overlap_area({0, 0, 1, 0, cx, cy}, {px, py, ux, uy, o.ex_x, o.ex_y}) > kPlacementGrownTolerance * grown;
     return hit;
   });
   return hit;
@@ -573,7 +643,7 @@ bool Placer::try_seed(ClassRun& run, const SurfacePoint& at, PlacementOrigin ori
     run.st.excluded++;
     return false;
   }
-  Placed c = make(at, l, sprite, a_.particles[size_t(sprite)].box.angle, jitter);
+  Placed c = make(at, l, sprite, a_.particles[size_t(sprite)].box.angle, jitter, run.cp.margin_px);
   c.origin = uint8_t(origin);
   if (conflicts(run.grid, c, run.cp.tolerance)) {
     run.st.rejected_overlap++;
@@ -635,8 +705,7 @@ void Placer::propagate(ClassRun& run, std::vector<int32_t> frontier, int32_t cla
         requests.push_back(r);
         walked.push_back(k);
       }
-      const auto results =
-          walk_normal_sections(m_.walk, in_, requests.data(), int64_t(requests.size()), {}, p_.cancel);
+      const auto results = walk_normal_sections(m_.walk, in_, requests.data(), int64_t(requests.size()), {}, p_.cancel);
       stats_.walks += int64_t(requests.size());
       tbb::parallel_for(tbb::blocked_range<size_t>(0, walked.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i < r.end(); ++i) {
@@ -660,6 +729,16 @@ void Placer::propagate(ClassRun& run, std::vector<int32_t> frontier, int32_t cla
         again.push_back(k);
     }
     if (!again.empty()) walk_all(again, false);
+    // Conflicts with earlier generations do not depend on the order: tested in parallel (the grid is
+    // only read); those with this generation's particles one by one below.
+    const int32_t generation = int32_t(placed_.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, kids.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t k = r.begin(); k < r.end(); ++k) {
+        Child& ch = kids[k];
+        if (!ch.reached || ch.l.empty()) continue;
+        ch.refused = conflicts(run.grid, child_particle(ch), run.cp.tolerance);
+      }
+    });
     // Accept one by one, in order.
     next.clear();
     for (size_t k = 0; k < kids.size() && !run.stop; ++k) {
@@ -673,11 +752,8 @@ void Placer::propagate(ClassRun& run, std::vector<int32_t> frontier, int32_t cla
         run.st.excluded++;
         continue;
       }
-      const Placed& P = placed_[size_t(ch.parent)];
-      Placed c = make(ch.at, ch.l, ch.sprite, P.theta + a_.cooc[size_t(ch.entry)].angle, ch.jitter);
-      c.parent = ch.parent;
-      c.origin = uint8_t(PlacementOrigin::propagated);
-      if (conflicts(run.grid, c, run.cp.tolerance)) {
+      Placed c = child_particle(ch);
+      if (ch.refused || conflicts(run.grid, c, run.cp.tolerance, generation)) {
         run.st.rejected_overlap++;
         continue;
       }
@@ -694,6 +770,7 @@ void Placer::run_random(ClassRun& run) {
   std::vector<double> cdf;
   double acc = 0;
   for (int32_t t = 0; t < in_.num_triangles; ++t) {
+    if (t % 4096 == 0) throw_if_cancelled(p_.cancel);
     if (component_[size_t(t)] < 0) continue;
     const Local l = local({t, 1.0 / 3, 1.0 / 3}, V3{0, 0, 1});
     if (l.empty()) continue;
@@ -702,7 +779,8 @@ void Placer::run_random(ClassRun& run) {
   }
   if (tris.empty() || !(acc > 0)) return;
   const double expected = run.cp.density_px * acc;
-  const int64_t target = std::min<int64_t>(run.st.cap, int64_t(std::floor(expected + run.rng.uniform())));
+  const double draw = std::floor(expected + run.rng.uniform());
+  const int64_t target = draw < double(run.st.cap) ? int64_t(draw) : run.st.cap;
   const int64_t darts = 30 * target + 64;
   int64_t got = 0;
   for (int64_t i = 0; i < darts && got < target && !run.stop; ++i) {
@@ -730,9 +808,12 @@ PlacedParticles Placer::run() {
     st.random = cp.random;
     st.cap = class_cap(cp);
     ClassRun run{cp, st, Rng(hash_combine(p_.seed, kClassStreamSalt), uint64_t(cp.id) + 1), {}};
-    // Cells as wide as the largest box at the median scale; never more than 2^19 across the mesh.
+    margin_px_ = cp.margin_px;
+    // Cells twice as wide as the largest exclusion box at the median scale, so that a conflict query
+    // (radius: two half diagonals) touches at most 2 cells per axis; never 2^19 across the mesh.
     const double unit = p_.sample_world_width / a_.width / median_scale_;
-    run.grid.cell = std::max(2 * cp.max_radius_px * unit, extent / double(int64_t(1) << 19));
+    run.grid.cell = std::max(4 * std::hypot(cp.max_radius_px + cp.margin_px, cp.margin_px) * unit,
+                             extent / double(int64_t(1) << 19));
     run.grid.origin = lower_;
     report(ci, int32_t(order.size()), 0);
     if (cp.random) {
