@@ -2,6 +2,7 @@
 """Texture Particles in Blender: the checks inside Blender (python_tests/blender/tests_particles.py) and the
 CLI's --method particles end to end in a subprocess. The end-to-end checks need the native place_particles
 and decal_mesh: skipped while the module lacks them (they are not faked)."""
+import ast
 import json
 import os
 
@@ -26,14 +27,18 @@ def _has(*names):
 needs_placement = pytest.mark.skipif(not _has("place_particles", "decal_mesh"),
                                      reason="texsynth_native has no place_particles / decal_mesh yet")
 SUITE = os.path.join(blender_run.BLENDER_TESTS, "tests_particles.py")
-FULL_RUN = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_placed_count",
-            "test_resynthesizing_one_class_gives_the_same_rows_and_leaves_the_others",
-            "test_undo_removes_what_synthesize_made", "test_cancel_leaves_nothing_behind",
-            "test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour",
-            "test_density_override_of_zero_keeps_particles_off_those_faces",
-            "test_texton_background_writes_the_texton_layers",
-            "test_the_worker_thread_runs_the_job_as_the_modal_operator_does",
-            "test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_along_its_normal")
+
+
+def suite_names():
+    """(every test of the suite, the end-to-end ones): read from its source, which needs bpy to import."""
+    tree = ast.parse(open(SUITE).read())
+    names = [node.name for node in tree.body if isinstance(node, ast.FunctionDef) and node.name.startswith("test_")]
+    full = next(ast.literal_eval(node.value) for node in tree.body if isinstance(node, ast.Assign)
+                and getattr(node.targets[0], "id", "") == "FULL_RUN_TESTS")
+    return names, tuple(full)
+
+
+ALL_TESTS, FULL_RUN = suite_names()
 
 
 def run_suite(*names):
@@ -45,9 +50,7 @@ def run_suite(*names):
 
 @needs_native
 def test_particles_view_and_outputs_inside_blender():
-    source = open(SUITE).read()
-    names = [line.split("(")[0][4:] for line in source.splitlines() if line.startswith("def test_")]
-    names = [name for name in names if name not in FULL_RUN]
+    names = [name for name in ALL_TESTS if name not in FULL_RUN]
     output = run_suite(*names)
     assert output.count("PASS test_") == len(names) >= 17, output[-3000:]
 
