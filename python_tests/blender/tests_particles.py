@@ -138,6 +138,18 @@ def test_show_in_image_editor_puts_the_segmentation_there():
     assert area.spaces.active.image == image
 
 
+def test_live_field_update_is_refused_for_particles():
+    clean()
+    configure()
+    obj = plane()
+    try:
+        texsynth.fields.tools.live_update(bpy.context, obj)
+        raise AssertionError("live update ran the UV path for Texture Particles")
+    except pipeline.SettingsError as error:
+        assert "not available for Texture Particles" in str(error), error
+    assert "TexSynth" not in obj.data.uv_layers
+
+
 def test_settings_persist_in_the_blend_file():
     clean()
     props = configure(particle_classes=5, particle_blur=2.0, particle_merges="3>1", particle_class_order="1, 2",
