@@ -293,6 +293,10 @@ class Job:
             except (ValueError, RuntimeError, ReferenceError) as error:
                 self.report.failures.append((getattr(item.obj, "name", "?"), str(error)))
         if self.background_job is not None:
+            written = set(self.report.objects)
+            for entry in self.background_job.items:  # no background where the particles could not be written
+                if entry[0].name not in written:
+                    entry[2] = None
             background = self.background_job.apply()
             self.report.notes += background.notes
             for name, message in background.failures:

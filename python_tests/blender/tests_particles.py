@@ -628,6 +628,24 @@ def test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_alo
     assert axes and all(abs(float(np.dot(a, normal))) > 0.999 for a in axes), len(axes)
 
 
+def test_a_failed_particle_write_leaves_the_scene_and_the_mesh_unchanged():
+    clean()
+    target = plane(size=4.0, cuts=20)
+    configure(scale=1.5)
+    harness.select_only([target])
+    before, hashed = names(), harness.mesh_hash(target.data)
+    os.environ["TEXSYNTH_TEST_FAIL_AT"] = "particle_outputs"
+    try:
+        bpy.ops.texsynth.synthesize()
+        raise AssertionError("the injected failure was not reported")
+    except RuntimeError as error:
+        assert "injected" in str(error), error
+    finally:
+        del os.environ["TEXSYNTH_TEST_FAIL_AT"]
+    # the background image file may be loaded by nothing: no datablock, no layer, no material changed
+    assert names() == before and harness.mesh_hash(target.data) == hashed and not target.material_slots
+
+
 def test_the_worker_thread_runs_the_job_as_the_modal_operator_does():
     import time
     clean()
@@ -667,7 +685,8 @@ FULL_RUN_TESTS = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_
                   "test_density_override_of_zero_keeps_particles_off_those_faces",
                   "test_texton_background_writes_the_texton_layers",
                   "test_the_worker_thread_runs_the_job_as_the_modal_operator_does",
-                  "test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_along_its_normal")
+                  "test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_along_its_normal",
+                  "test_a_failed_particle_write_leaves_the_scene_and_the_mesh_unchanged")
 
 
 if __name__ == "__main__":
