@@ -579,6 +579,23 @@ def test_density_override_of_zero_keeps_particles_off_those_faces():
         assert "no face attribute or vertex group 'NoSuchGroup'" in str(error), error
 
 
+def test_probability_from_a_vertex_group_thins_the_particles():
+    # Weight 1 on the vertices right of x = 0.5, 0 elsewhere: probability (mean of the triangle's weights) 0 on
+    # most faces, so far fewer particles are output than with no override, and none far left.
+    clean()
+    target = plane(size=4.0, cuts=40)
+    assert full_run(target, scale=1.5, particle_background="NONE") == {"FINISHED"}
+    full = sum(np.unique(texsynth.bridge.mesh_io.read_face_ints(o.data, core.PARTICLE_ID_NAME)).size
+               for o in scene.owned_objects("Plane", ("DECALS",)))
+    group = target.vertex_groups.new(name="Keep")
+    group.add([v.index for v in target.data.vertices if v.co.x > 0.5], 1.0, "REPLACE")
+    collection = particle_instances.make_collection()
+    assert full_run(target, scale=1.5, particle_background="NONE", particle_output="INSTANCES",
+                    particle_collection=collection, particle_probability_source="Keep") == {"FINISHED"}
+    xs = np.concatenate([np.array([v.co.x for v in o.data.vertices]) for o in scene.owned_objects("Plane", ("POINTS",))])
+    assert 0 < xs.size < full / 2 and xs.min() > 0.4, (xs.size, full, xs.min())
+
+
 def test_texton_background_writes_the_texton_layers():
     clean()
     target = plane(size=4.0, cuts=20)
@@ -686,7 +703,8 @@ FULL_RUN_TESTS = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_
                   "test_texton_background_writes_the_texton_layers",
                   "test_the_worker_thread_runs_the_job_as_the_modal_operator_does",
                   "test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_along_its_normal",
-                  "test_a_failed_particle_write_leaves_the_scene_and_the_mesh_unchanged")
+                  "test_a_failed_particle_write_leaves_the_scene_and_the_mesh_unchanged",
+                  "test_probability_from_a_vertex_group_thins_the_particles")
 
 
 if __name__ == "__main__":
