@@ -427,3 +427,38 @@ TEST(ParticlesDecal, RefusesBadInputAndStopsOnCancel) {
 }
 
 }  // namespace
+
+// The source triangle and barycentrics put every corner back on its vertex (before the offset): the bake
+// composites decals through them, so a corner off by more than float rounding would smear the sprite.
+TEST(ParticlesDecal, SourceTrianglesAndBarycentricsReproduceTheVertices) {
+  for (int shape = 0; shape < 2; ++shape) {
+    const Scene sc(shape == 0 ? ring_fixtures::plane(40, 40, 0.1, 0.6, 7) : ring_fixtures::icosphere(4, 1.0));
+    const V3 at_point = shape == 0 ? V3{2.03, 1.96, 0} : texsynth::normalized_or(V3{0.3, -0.5, 0.8}, V3{});
+    const SurfacePoint at = locate(sc.mesh, at_point);
+    ASSERT_GE(at.triangle, 0);
+    const V3 axis = shape == 0 ? V3{1, 0.3, 0} : texsynth::normalized_or(texsynth::cross(at_point, V3{0, 0, 1}), V3{});
+    const std::vector<DecalParticle> ps{particle(at, axis, {-0.4, -0.3, 0.35, 0.25})};
+    const DecalMesh d = decals(sc, ps), lifted = decals(sc, ps, 0.01);
+    ASSERT_EQ(d.face_triangle.size(), d.loop_starts.size());
+    ASSERT_EQ(d.corner_barycentric.size(), 2 * d.corner_verts.size());
+    EXPECT_EQ(lifted.face_triangle, d.face_triangle) << "the offset moves vertices, not their source";
+    EXPECT_EQ(lifted.corner_barycentric, d.corner_barycentric);
+    const int32_t num_triangles = int32_t(sc.mesh.triangles.size() / 3);
+    for (size_t f = 0; f < d.loop_starts.size(); ++f) {
+      const int32_t t = d.face_triangle[f];
+      ASSERT_TRUE(t >= 0 && t < num_triangles);
+      const int32_t* c = sc.mesh.triangles.data() + 3 * size_t(t);
+      for (int32_t k = 0; k < d.loop_totals[f]; ++k) {
+        const size_t corner = size_t(d.loop_starts[f] + k);
+        const double b1 = d.corner_barycentric[2 * corner], b2 = d.corner_barycentric[2 * corner + 1];
+        ASSERT_TRUE(b1 >= 0 && b2 >= 0 && b1 + b2 <= 1 + 1e-6) << b1 << " " << b2;
+        const V3 p = vertex(sc.mesh.positions, c[0]) * (1 - b1 - b2) + vertex(sc.mesh.positions, c[1]) * b1 +
+                     vertex(sc.mesh.positions, c[2]) * b2;
+        const V3 q = vertex(d.positions, d.corner_verts[corner]);
+        ASSERT_LT(texsynth::norm(p - q), 1e-6) << "shape " << shape << " corner " << corner;
+      }
+    }
+    // Faces of several triangles: the polygons really come from different source triangles.
+    EXPECT_GT(std::set<int32_t>(d.face_triangle.begin(), d.face_triangle.end()).size(), 5u);
+  }
+}

@@ -84,6 +84,24 @@ def test_grid_decals_cover_their_rectangles_in_particle_order():
     assert (d["corner_verts"][owner == 0] < first[1]).all()
 
 
+
+def test_source_triangles_and_barycentrics_put_the_corners_back_on_the_surface():
+    pos, tris = grid(12, 0.25)
+    d = one(pos, tris, (1.43, 1.61), (1.0, 0.4, 0.0), (-0.6, -0.35, 0.5, 0.45), (0.1, 0.2, 0.3, 0.4), offset=0.0)
+    lifted = one(pos, tris, (1.43, 1.61), (1.0, 0.4, 0.0), (-0.6, -0.35, 0.5, 0.45), (0.1, 0.2, 0.3, 0.4),
+                 offset=0.05)
+    source, bary = d["source_triangle"], d["source_barycentric"]
+    assert source.dtype == np.int32 and source.shape == d["loop_starts"].shape
+    assert bary.dtype == np.float32 and bary.shape == (len(d["corner_verts"]), 2)
+    np.testing.assert_array_equal(lifted["source_triangle"], source)
+    np.testing.assert_array_equal(lifted["source_barycentric"], bary)
+    face_of_corner = np.repeat(np.arange(len(source)), d["loop_totals"])
+    corners = pos[tris[source[face_of_corner]]].astype(np.float64)  # (C, 3, 3)
+    b = bary.astype(np.float64)
+    rebuilt = corners[:, 0] * (1 - b[:, :1] - b[:, 1:]) + corners[:, 1] * b[:, :1] + corners[:, 2] * b[:, 1:]
+    np.testing.assert_allclose(rebuilt, d["positions"][d["corner_verts"]], atol=1e-6)
+    assert len(np.unique(source)) > 5
+
 def test_shapes_and_values_are_checked():
     pos, tris = grid(4, 1.0)
     mesh = tn.surface_walk_mesh(pos, tris)

@@ -76,6 +76,8 @@ void bind_particles_decals(py::module_& m) {
         out["corner_verts"] = to_numpy(std::move(d.corner_verts), {C});
         out["corner_uvs"] = to_numpy(std::move(d.corner_uvs), {C, 2});
         out["face_particle"] = to_numpy(std::move(d.face_particle), {F});
+        out["source_triangle"] = to_numpy(std::move(d.face_triangle), {F});
+        out["source_barycentric"] = to_numpy(std::move(d.corner_barycentric), {C, 2});
         out["curved"] = to_numpy(std::move(d.curved), {n}).attr("astype")("bool");
         out["stats"] = decal_stats(d.stats);
         return out;
@@ -89,7 +91,8 @@ void bind_particles_decals(py::module_& m) {
       "under each rectangle (flood fill while the face normal is within max_normal_angle degrees of the anchor's), "
       "clipped to it, on the surface, moved by offset along the smooth normal; vertices shared within a particle. "
       "Returns dict: positions (P, 3) float32, loop_starts / loop_totals (F,) int32, corner_verts (C,) int32, "
-      "corner_uvs (C, 2) float32, face_particle (F,) int32, curved (n,) bool (footprint radius x curvature > 0.5), "
+      "corner_uvs (C, 2) float32, face_particle (F,) int32, source_triangle (F,) int32 (the target triangle each polygon "
+      "lies in) and source_barycentric (C, 2) float32 (each corner's (b1, b2) on it, before the offset), curved (n,) bool (footprint radius x curvature > 0.5), "
       "stats. Same result at any thread count. ValueError on bad input.");
 
   m.def(

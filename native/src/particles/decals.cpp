@@ -182,6 +182,8 @@ struct Patch {
   std::vector<float> uvs;        // 2 per vertex (atlas)
   std::vector<int32_t> sizes;    // corners per polygon
   std::vector<int32_t> corners;  // local vertex ids
+  std::vector<int32_t> triangles;  // per polygon: the target triangle it lies in
+  std::vector<float> barycentric;  // 2 per corner: (b1, b2) on that triangle (a vertex shared by faces has one per face)
   bool curved = false, capped = false;
   int64_t visited = 0, folded = 0;
   double coverage = 0;
@@ -190,7 +192,8 @@ struct Patch {
 // Per-thread scratch reused across particles; the patch is built in the buffers of a Patch's names.
 struct Scratch {
   std::vector<float> positions, uvs;
-  std::vector<int32_t> sizes, corners;
+  std::vector<int32_t> sizes, corners, triangles;
+  std::vector<float> barycentric;
   std::vector<uint32_t> stamp;  // per triangle: particle + 1 that queued it
   std::vector<int32_t> queue;
   std::unordered_map<Key, int32_t, KeyHash> vertex_of;
@@ -217,6 +220,7 @@ Patch build_patch(const SurfaceWalkMesh& mesh, const TriangleMeshInput& in, cons
   FaceClipper clipper(r, unshared);
   sc.vertex_of.clear();
   sc.positions.clear(), sc.uvs.clear(), sc.sizes.clear(), sc.corners.clear();
+  sc.triangles.clear(), sc.barycentric.clear();
   sc.normal_cos.clear(), sc.distance.clear();
   sc.queue.clear();
   sc.queue.push_back(t0);
@@ -264,14 +268,20 @@ Patch build_patch(const SurfaceWalkMesh& mesh, const TriangleMeshInput& in, cons
       // Two clip points with one key in a row (a degenerate touch) make one corner.
       if (size > 0 && sc.corners.back() == it->second) continue;
       sc.corners.push_back(it->second);
+      sc.barycentric.insert(sc.barycentric.end(), {float(q.b[1]), float(q.b[2])});
       ++size;
     }
-    if (size > 1 && sc.corners.back() == sc.corners[sc.corners.size() - size_t(size)]) sc.corners.pop_back(), --size;
+    if (size > 1 && sc.corners.back() == sc.corners[sc.corners.size() - size_t(size)]) {
+      sc.corners.pop_back(), --size;
+      sc.barycentric.resize(sc.barycentric.size() - 2);
+    }
     if (size < 3) {
       sc.corners.resize(sc.corners.size() - size_t(size));
+      sc.barycentric.resize(sc.barycentric.size() - 2 * size_t(size));
       continue;
     }
     sc.sizes.push_back(size);
+    sc.triangles.push_back(t);
     if (++included >= o.max_faces_per_particle) {
       out.capped = true;
       break;
@@ -295,6 +305,8 @@ Patch build_patch(const SurfaceWalkMesh& mesh, const TriangleMeshInput& in, cons
   out.uvs.assign(sc.uvs.begin(), sc.uvs.end());
   out.sizes.assign(sc.sizes.begin(), sc.sizes.end());
   out.corners.assign(sc.corners.begin(), sc.corners.end());
+  out.triangles.assign(sc.triangles.begin(), sc.triangles.end());
+  out.barycentric.assign(sc.barycentric.begin(), sc.barycentric.end());
   return out;
 }
 
@@ -396,6 +408,8 @@ DecalMesh build_decal_mesh(const SurfaceWalkMesh& mesh, const DecalParticle* par
   out.loop_starts.resize(size_t(F));
   out.loop_totals.resize(size_t(F));
   out.face_particle.resize(size_t(F));
+  out.face_triangle.resize(size_t(F));
+  out.corner_barycentric.resize(size_t(C) * 2);
   out.corner_verts.resize(size_t(C));
   out.corner_uvs.resize(size_t(C) * 2);
   out.curved.resize(size_t(count));
@@ -409,6 +423,7 @@ DecalMesh build_decal_mesh(const SurfaceWalkMesh& mesh, const DecalParticle* par
         out.loop_starts[at] = int32_t(corner);
         out.loop_totals[at] = p.sizes[f];
         out.face_particle[at] = int32_t(i);
+        out.face_triangle[at] = p.triangles[f];
         corner += p.sizes[f];
       }
       for (size_t k = 0; k < p.corners.size(); ++k) {
@@ -418,6 +433,7 @@ DecalMesh build_decal_mesh(const SurfaceWalkMesh& mesh, const DecalParticle* par
         out.corner_uvs[2 * at] = p.uvs[2 * size_t(local)];
         out.corner_uvs[2 * at + 1] = p.uvs[2 * size_t(local) + 1];
       }
+      std::copy(p.barycentric.begin(), p.barycentric.end(), out.corner_barycentric.begin() + 2 * corner_at[size_t(i)]);
       out.curved[size_t(i)] = p.curved;
     }
   });

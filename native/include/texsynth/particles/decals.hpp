@@ -67,6 +67,10 @@ struct DecalMesh {
   std::vector<int32_t> corner_verts;  // C
   std::vector<float> corner_uvs;      // C × 2
   std::vector<int32_t> face_particle; // F: particle index
+  // Where each polygon lies on the target (for compositing the decals into a bake image in texture space):
+  // the triangle, and per corner its barycentrics (b1, b2) there (b0 = 1 - b1 - b2), before the offset.
+  std::vector<int32_t> face_triangle;       // F
+  std::vector<float> corner_barycentric;    // C × 2
   std::vector<uint8_t> curved;        // per particle, 0 / 1
   DecalStats stats;
 };
