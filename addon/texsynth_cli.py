@@ -21,7 +21,8 @@
 fast) or optimisation (refines the sampled result). particles: texture particles (Dischler et al.): the sample's
 elements placed whole as decal objects per class and/or points instancing --instances (a collection of the
 opened .blend, or "example" for the thorn collection of blend_samples/particle_instances.py), over the filled
-background synthesized by --background; --density/--probability/--size name a face attribute or vertex group.
+background synthesized by --background; --density/--probability/--size name a face attribute or vertex group;
+--bake bakes the background and composites the decals over it.
 
 Exit 0 on success; bad arguments or inputs print one line "texsynth_cli: error: ..." and exit 2
 (arguments) or 1 (inputs, synthesis failures).
@@ -184,8 +185,8 @@ def check_particle_args(args):
     args.particle_output = args.particle_output or "decals"
     if args.particle_output != "decals" and not args.instances:
         raise UsageError("--particle-output %s needs --instances COLLECTION" % args.particle_output)
-    if args.method == "particles" and args.bake is not None:
-        raise UsageError("--bake is not available for --method particles")
+    if args.method == "particles" and args.bake is not None and args.background == "none":
+        raise UsageError("--bake composites the particles over their background: drop --background none")
 
 
 def particle_settings(args):

@@ -89,18 +89,22 @@ def pebbles_png(path, flat=False):
     return write_png(path, pixels)
 
 
+def cli_particles(tmp_path, *extra):
+    """The CLI's particles run on a 30 x 30 grid of the pebbles; returns its stats."""
+    mesh = write_grid_obj(tmp_path / "grid.obj", cells=30)
+    stats_path = tmp_path / "stats.json"
+    process = blender_run.cli("--sample", pebbles_png(tmp_path / "pebbles.png"), "--mesh", str(mesh),
+                              "--method", "particles", "--classes", "3", "--blur", "0", "--scale", "1.5",
+                              "--stats", str(stats_path), "--cache-dir", str(tmp_path / "cache"), *extra)
+    assert process.returncode == 0, process.stdout[-3000:] + process.stderr[-3000:]
+    return json.loads(stats_path.read_text())
+
+
 @needs_native
 @needs_placement
 def test_cli_particles_writes_decals_and_stats(tmp_path):
-    mesh = write_grid_obj(tmp_path / "grid.obj", cells=30)
-    stats_path, blend = tmp_path / "stats.json", tmp_path / "out.blend"
-    process = blender_run.cli("--sample", pebbles_png(tmp_path / "pebbles.png"), "--mesh", str(mesh),
-                              "--method", "particles", "--classes", "3", "--blur", "0", "--scale", "1.5",
-                              "--particle-output", "both", "--instances", "example",
-                              "--stats", str(stats_path), "--save", str(blend),
-                              "--cache-dir", str(tmp_path / "cache"))
-    assert process.returncode == 0, process.stdout[-3000:] + process.stderr[-3000:]
-    stats = json.loads(stats_path.read_text())
+    blend = tmp_path / "out.blend"
+    stats = cli_particles(tmp_path, "--particle-output", "both", "--instances", "example", "--save", str(blend))
     name = stats["objects"][0]
     per_class = stats["native"][name]["per_class"]
     assert sum(per_class.values()) == stats["native"][name]["placed"] > 0
@@ -110,11 +114,23 @@ def test_cli_particles_writes_decals_and_stats(tmp_path):
     assert blend.is_file() and any(f.startswith("particles-") for f in os.listdir(tmp_path / "cache"))
 
 
+@needs_native
+@needs_placement
+def test_cli_particles_bake_composites_the_decals_into_the_image(tmp_path):
+    from test_blender_bake import png_size
+    baked = tmp_path / "baked.png"
+    stats = cli_particles(tmp_path, "--bake", str(baked), "--bake-size", "128")
+    layers = sum(1 for count in stats["native"][stats["objects"][0]]["per_class"].values() if count)
+    assert any(note.startswith("particles: %d class layer(s) composited" % layers) for note in stats["bake"]["notes"]), \
+        stats["bake"]
+    assert png_size(baked) == (128, 128)
+
 @pytest.mark.parametrize("extra, code, fragment", [
     (("--method", "jumpmap", "--classes", "3"), 2, "--classes is for --method particles"),
     (("--method", "particles", "--particle-output", "instances"), 2, "--instances"),
     (("--method", "particles", "--classes", "20"), 1, "particle classes"),
     (("--method", "particles", "--size-jitter", "2"), 1, "size jitter"),
+    (("--method", "particles", "--background", "none", "--bake", "out.png"), 2, "drop --background none"),
 ])
 def test_cli_particles_bad_arguments_exit_with_one_line(tmp_path, extra, code, fragment):
     mesh = write_grid_obj(tmp_path / "grid.obj")

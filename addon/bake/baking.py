@@ -11,6 +11,9 @@ made by Smart UV Project) is restored in a finally block, also when the bake fai
 failed bake leaves no image or material behind.
 
 Surface-colour methods (round neighbourhoods) write their texels directly: write_surface_colour().
+
+Texture particles: the background bakes as above, then each class's decals are composited over it in
+texture space (particles/baking.py; Cycles' selected-to-active bake would keep one decal per ray).
 """
 import dataclasses
 import math
@@ -22,6 +25,7 @@ import numpy as np
 from .. import native
 from ..bridge import mesh_io
 from ..core import pipeline
+from ..particles import baking as particle_baking
 from ..shading import blend_groups, surface_material
 from . import options
 from .options import BakeError, BakeRequest  # noqa: F401  (re-exported for the operator and the CLI)
@@ -372,6 +376,7 @@ def bake(obj, request, context=None, progress=None):
         raise BakeError("object %r is not in the active view layer" % obj.name)
     if context.mode != "OBJECT":
         raise BakeError("baking needs Object Mode")
+    particles = particle_baking.prepare(obj)  # checked before anything changes
     state = _SceneState(scene, view_layer)
     materials, image, created_uv, success = [], None, None, False
     notes = []
@@ -394,6 +399,9 @@ def bake(obj, request, context=None, progress=None):
         for material in materials:
             material.restore()
         materials = []
+        if particles is not None:
+            progress(0.8, "TexSynth: compositing the particles of %s" % obj.name)
+            notes.append(particle_baking.apply(particles, image, uv_map, request.margin).note())
         progress(0.9, "TexSynth: storing %s" % target.image_name)
         mesh_io.fail_point("bake")  # tests: a failure after Cycles baked must still undo everything
         store_image(image, target)

@@ -489,9 +489,10 @@ def check_polygons(num_vertices, loop_starts, loop_totals, corner_verts):
 
 
 def new_polygon_mesh(name, positions, loop_starts, loop_totals, corner_verts, uv_name="", corner_uvs=None,
-                     face_ints=None):
+                     face_ints=None, corner_vectors=None):
     """A new mesh from Blender-layout arrays (positions (P, 3) in the object's space), with an optional UV
-    map and INT FACE attributes {name: (F,) int32}; removed again if anything fails."""
+    map, INT FACE attributes {name: (F,) int32} and FLOAT_VECTOR CORNER attributes {name: (C, 3) float32};
+    removed again if anything fails."""
     check_polygons(len(positions), loop_starts, loop_totals, corner_verts)
     mesh = bpy.data.meshes.new(name)
     try:
@@ -509,6 +510,9 @@ def new_polygon_mesh(name, positions, loop_starts, loop_totals, corner_verts, uv
         for attribute_name, values in (face_ints or {}).items():
             mesh.attributes.new(attribute_name, "INT", "FACE").data.foreach_set(
                 "value", np.ascontiguousarray(values, dtype=np.int32))
+        for attribute_name, values in (corner_vectors or {}).items():
+            mesh.attributes.new(attribute_name, "FLOAT_VECTOR", "CORNER").data.foreach_set(
+                "vector", np.ascontiguousarray(values, dtype=np.float32).ravel())
         polygons_smooth = np.ones(len(loop_starts), dtype=bool)
         mesh.polygons.foreach_set("use_smooth", polygons_smooth)
         fail_point("decal_mesh")
@@ -544,3 +548,23 @@ def read_face_ints(mesh, name):
     values = np.empty(len(attribute.data), dtype=np.int32)
     attribute.data.foreach_get("value", values)
     return values
+
+
+def read_polygon_layout(mesh):
+    """(loop_starts (F,), loop_totals (F,)) as int32."""
+    starts = read_indices(mesh.polygons, "loop_start", len(mesh.polygons)).astype(np.int32)
+    totals = read_indices(mesh.polygons, "loop_total", len(mesh.polygons)).astype(np.int32)
+    return starts, totals
+
+
+def read_corner_attribute(mesh, name, data_type):
+    """A CORNER attribute (FLOAT2 / FLOAT_VECTOR as (C, 2) / (C, 3) float32) or the UV map `name` (FLOAT2),
+    or None when missing or of another type."""
+    width = {"FLOAT2": 2, "FLOAT_VECTOR": 3}[data_type]
+    attribute = mesh.attributes.get(name)
+    if attribute is None or attribute.domain != "CORNER" or attribute.data_type != data_type:
+        layer = mesh.uv_layers.get(name) if data_type == "FLOAT2" else None
+        return None if layer is None else _uv_data(layer, len(mesh.loops)).reshape(-1, 2)
+    values = np.empty(len(mesh.loops) * width, dtype=np.float32)
+    attribute.data.foreach_get("vector", values)
+    return values.reshape(-1, width)

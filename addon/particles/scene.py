@@ -17,6 +17,12 @@ from ..shading import surface_material
 from . import core
 
 TAG, CLASS_TAG, KIND_TAG = "texsynth_particles", "texsynth_class", "texsynth_kind"
+# For baking (particles/baking.py): the class's layer order and the target's loop-triangle count at synthesis
+# (a different count: the target was edited, the source triangles no longer match).
+RANK_TAG, TRIANGLES_TAG = "texsynth_rank", "texsynth_target_triangles"
+# Per decal polygon its target loop triangle, per corner (b1, b2, 0) on it. A FLOAT_VECTOR, not a FLOAT2:
+# Blender 3.5+ lists every FLOAT2 corner attribute as a UV map.
+SOURCE_TRIANGLE_NAME, SOURCE_BARY_NAME = "TexSynth_SourceTriangle", "TexSynth_SourceBary"
 ATLAS_UV = "TexSynth Atlas"
 ATLAS_PREFIX, MATERIAL_PREFIX = "TexSynth Atlas: ", "TexSynth Particles: "
 PREVIEW_PREFIX = "TexSynth Segmentation: "
@@ -189,6 +195,7 @@ class ClassOutput:
 
     def __init__(self, class_id, rank, count):
         self.class_id, self.rank, self.count = class_id, rank, count
+        self.target_triangles = 0  # the target's loop triangles the decals' source triangles index
         self.decals = None
         self.points = None  # dict position, axis, normal, scale, particle
 
@@ -224,13 +231,18 @@ def write_outputs(target, outputs, atlas_pixels=None, atlas_size=None, collectio
         for out in outputs:
             if out.decals is not None:
                 d = out.decals
+                bary = np.zeros((len(d["corner_verts"]), 3), np.float32)
+                bary[:, :2] = d["source_barycentric"]
                 mesh = creation.add("meshes", mesh_io.new_polygon_mesh(
                     _TEMP + decal_name(target.name, out.class_id), local_points(target, d["positions"]),
                     d["loop_starts"], d["loop_totals"], d["corner_verts"], ATLAS_UV, d["corner_uvs"],
-                    {core.PARTICLE_ID_NAME: d["face_particle"]}))
+                    {core.PARTICLE_ID_NAME: d["face_particle"], SOURCE_TRIANGLE_NAME: d["source_triangle"]},
+                    {SOURCE_BARY_NAME: bary}))
                 mesh.materials.append(material)
                 obj = creation.add("objects", bpy.data.objects.new(mesh.name, mesh))
                 _tag(obj, target, out.class_id, "DECALS")
+                obj[RANK_TAG] = int(out.rank)
+                obj[TRIANGLES_TAG] = int(out.target_triangles)
                 _parent(obj, target, scene_collection)
                 made.append((obj, decal_name(target.name, out.class_id)))
             if out.points is not None:

@@ -224,6 +224,7 @@ class Job:
         for c in classes:
             rows = np.flatnonzero(placed["class"] == c)
             out = scene.ClassOutput(c, rank[c], int(rows.size))
+            out.target_triangles = int(item.triangles.shape[0])
             if rows.size == 0:
                 item.outputs.append(out)
                 continue
@@ -236,6 +237,9 @@ class Job:
                         walk_mesh, np.ascontiguousarray(part["triangle"], np.int32),
                         np.ascontiguousarray(part["barycentric"], np.float64), axes, rects, uv_rects,
                         offset=core.decal_offset(rank[c], diagonal), cancel=self.token))
+                if "source_triangle" not in out.decals:  # a build from before baking needed them
+                    raise pipeline.SettingsError("this build of texsynth_native's decal_mesh returns no source "
+                                                 "triangles: rebuild with scripts/build.sh")
                 item.stats["seconds_decal_mesh"] += time.perf_counter() - start
             if points:
                 rotation_axes = core.rotate_in_plane(

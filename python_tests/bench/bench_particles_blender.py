@@ -4,7 +4,11 @@ mesh (goal <= 1 s) and re-synthesizing one class (goal <= 0.5 s), with the parts
 sprites + atlas, decal_mesh) and bpy writes (meshes, UVs, particle_id, atlas image, material, objects).
 
   blender -b --factory-startup --python-exit-code 1 --python python_tests/bench/bench_particles_blender.py \\
-      [-- --segments 448 --rings 224 --particles 20000 --repeat 3]     (default: 100,352 quads)
+      [-- --segments 448 --rings 224 --particles 20000 --repeat 3 --bake 2048]     (default: 100,352 quads)
+
+--bake N also times compositing the decals of the full run into an N x N bake image (particles/baking.py:
+reading the decal layers, rasterising, sampling the atlas, the margin; Cycles' background bake excluded)
+through a Smart UV Project map.
 
 Without the native place_particles / decal_mesh (a build from before they landed) only the bpy half is
 measured, on decal geometry made here of the same size (a 6-triangle fan per particle, 4 classes), and the
@@ -53,7 +57,8 @@ def fan_decals(count, rng, radius=0.01):
     uv = rng.random((faces * 3, 2)).astype(np.float32)
     return {"positions": positions, "loop_starts": np.arange(faces, dtype=np.int32) * 3,
             "loop_totals": np.full(faces, 3, np.int32), "corner_verts": corner_verts, "corner_uvs": uv,
-            "face_particle": np.repeat(np.arange(count, dtype=np.int32), 6)}
+            "face_particle": np.repeat(np.arange(count, dtype=np.int32), 6),
+            "source_triangle": np.zeros(faces, np.int32), "source_barycentric": np.zeros((faces * 3, 2), np.float32)}
 
 
 def synthetic(args, obj):
@@ -122,7 +127,34 @@ def real(args, obj, texsynth):
         placement, atlas, decal = (statistics.median(p[k] for p in parts) for k in range(3))
         print("    native parts: placement %.3f s, sprites + atlas %.3f s, decal_mesh %.3f s; decal geometry written "
               "(decal_mesh + bpy writes) %.3f s" % (placement, atlas, decal, decal + statistics.median(writes)))
+        if args.bake and only is None:
+            bake_compositing(args, obj)
     print("  goals: write decal geometry of 20k particles <= 1 s; re-synthesize one class <= 0.5 s")
+
+
+def bake_compositing(args, obj):
+    """Times particles/baking.py's prepare + apply (the compositing) on an N x N image of a flat background."""
+    from texsynth.bake import baking
+    from texsynth.particles import baking as particle_baking
+    harness.select_only([obj])
+    bpy.context.view_layer.objects.active = obj
+    obj.data.uv_layers.new(name="Bake")
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.uv.smart_project(island_margin=0.002)
+    bpy.ops.object.mode_set(mode="OBJECT")
+    seconds = []
+    for _ in range(args.repeat):
+        image = baking.new_image("bench bake", args.bake, False)
+        image.pixels.foreach_set(np.tile(np.float32([0.3, 0.3, 0.25, 1.0]), args.bake * args.bake))
+        start = time.perf_counter()
+        layers = particle_baking.prepare(obj)
+        particle_baking.apply(layers, image, "Bake", 16)
+        seconds.append(time.perf_counter() - start)
+        bpy.data.images.remove(image)
+    faces = sum(len(layer.loop_starts) for layer in layers.layers)
+    print("    bake compositing into %d² (%d class layers, %d decal faces, margin 16): median %.3f s (min %.3f)"
+          % (args.bake, len(layers.layers), faces, statistics.median(seconds), min(seconds)))
 
 
 def main():
@@ -131,6 +163,7 @@ def main():
     parser.add_argument("--rings", type=int, default=224)
     parser.add_argument("--particles", type=int, default=20000)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--bake", type=int, default=0, help="also time the bake compositing at this image size")
     args = parser.parse_args(harness.script_args())
     texsynth = harness.load_addon()
     harness.reset_scene()

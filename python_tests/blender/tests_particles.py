@@ -257,7 +257,8 @@ def square_decals(centres, half, cell):
     n = len(centres)
     return {"positions": np.array(positions, np.float32), "loop_starts": np.arange(n, dtype=np.int32) * 4,
             "loop_totals": np.full(n, 4, np.int32), "corner_verts": np.arange(4 * n, dtype=np.int32),
-            "corner_uvs": np.array(corner_uvs, np.float32), "face_particle": np.arange(n, dtype=np.int32)}
+            "corner_uvs": np.array(corner_uvs, np.float32), "face_particle": np.arange(n, dtype=np.int32),
+            "source_triangle": np.zeros(n, np.int32), "source_barycentric": np.zeros((4 * n, 2), np.float32)}
 
 
 def red_atlas(size=64):
@@ -695,6 +696,159 @@ def test_cancel_leaves_nothing_behind():
     assert names() == before and harness.mesh_hash(target.data) == hashed
 
 
+
+# -- baking the particles with the background (particles/baking.py) --------------------------------
+
+def _bake(target, size, margin=2):
+    from texsynth.bake import baking, options
+    result = baking.bake(target, options.BakeRequest(uv_map="UVMap", size=size, margin=margin))
+    pixels = np.empty(size * size * 4, np.float32)
+    result.image.pixels.foreach_get(pixels)
+    return result, pixels.reshape(size, size, 4)
+
+
+def _uv_affine(target):
+    """(3, 2) A with bake UV = [x, y, 1] @ A on the grid (fitted from its UV map, exact for a grid)."""
+    mesh = target.data
+    loops = np.empty(len(mesh.loops), np.int64)
+    mesh.loops.foreach_get("vertex_index", loops)
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    uv = np.empty(len(mesh.loops) * 2, np.float32)
+    mesh.uv_layers["UVMap"].data.foreach_get("uv", uv)
+    xy1 = np.c_[co.reshape(-1, 3)[loops, :2], np.ones(len(loops))]
+    affine = np.linalg.lstsq(xy1, uv.reshape(-1, 2), rcond=None)[0]
+    assert np.abs(xy1 @ affine - uv.reshape(-1, 2)).max() < 1e-5
+    return affine
+
+
+def _expected_decal_texels(target, size):
+    """From the decal objects' own vertices (not their source triangles), texel centres in bake space:
+    (sure, atlas_uv, near): `sure` texels lie 0.75 texel inside one particle of the topmost class covering
+    them and near no other particle of it or of a class above; atlas_uv (size, size, 2) there; `near` any
+    texel within 1.5 texels of a decal."""
+    affine = _uv_affine(target)
+    sure = np.zeros((size, size), bool)
+    near = np.zeros((size, size), bool)
+    atlas_uv = np.zeros((size, size, 2))
+    layers = sorted(scene.owned_objects(target.name, ("DECALS",)), key=lambda o: o[scene.RANK_TAG])
+    for obj in layers:
+        mesh = obj.data
+        co = np.array([v.co[:2] for v in mesh.vertices])
+        pixel = (np.c_[co, np.ones(len(co))] @ affine) * size - 0.5  # texel (i, j) centre at (i, j)
+        uv = np.empty(len(mesh.loops) * 2, np.float32)
+        mesh.uv_layers[scene.ATLAS_UV].data.foreach_get("uv", uv)
+        uv = uv.reshape(-1, 2)
+        ids = texsynth.bridge.mesh_io.read_face_ints(mesh, core.PARTICLE_ID_NAME)
+        count = np.zeros((size, size), np.int32)  # particles of this class near each texel
+        layer_sure = np.zeros((size, size), bool)
+        for particle in np.unique(ids):
+            mine = np.zeros((size, size), bool)
+            for polygon in np.flatnonzero(ids == particle):
+                p = mesh.polygons[int(polygon)]
+                loops = list(range(p.loop_start, p.loop_start + p.loop_total))
+                for k in range(1, len(loops) - 1):
+                    corner = [loops[0], loops[k], loops[k + 1]]
+                    tri = pixel[[mesh.loops[c].vertex_index for c in corner]]
+                    lo, hi = np.floor(tri.min(0) - 2).astype(int), np.ceil(tri.max(0) + 2).astype(int)
+                    lo, hi = np.clip(lo, 0, size - 1), np.clip(hi, 0, size - 1)
+                    jj, ii = np.mgrid[lo[1]:hi[1] + 1, lo[0]:hi[0] + 1]
+                    q = np.stack([ii.ravel(), jj.ravel()], 1).astype(float)
+                    area = np.cross(tri[1] - tri[0], tri[2] - tri[0])
+                    if abs(area) < 1e-9:
+                        continue
+                    dist = np.stack([np.cross(tri[(e + 1) % 3] - tri[e], q - tri[e]) / np.linalg.norm(
+                        tri[(e + 1) % 3] - tri[e]) for e in range(3)], 1) * np.sign(area)
+                    b = np.stack([np.cross(tri[2] - tri[1], q - tri[1]), np.cross(tri[0] - tri[2], q - tri[2]),
+                                  np.cross(tri[1] - tri[0], q - tri[0])], 1) / area
+                    inner = (dist >= 0.75).all(1)
+                    mine[jj.ravel()[(dist >= -1.5).all(1)], ii.ravel()[(dist >= -1.5).all(1)]] = True
+                    layer_sure[jj.ravel()[inner], ii.ravel()[inner]] = True
+                    atlas_uv[jj.ravel()[inner], ii.ravel()[inner]] = b[inner] @ uv[corner]
+            count += mine
+        sure &= ~(count > 0)          # a class above covers (or nearly covers) it
+        sure |= layer_sure & (count == 1)
+        near |= count > 0
+    return sure, atlas_uv, near
+
+
+def test_baking_composites_the_decals_over_the_background():
+    clean()
+    size = 256
+    target = plane(size=4.0, cuts=40)
+    assert full_run(target, scale=1.5) == {"FINISHED"}
+    sure, atlas_uv, near = _expected_decal_texels(target, size)
+    result, baked = _bake(target, size)
+    assert any(note.startswith("particles: ") for note in result.notes), result.notes
+    atlas = bpy.data.images[scene.ATLAS_PREFIX + "Plane"]
+    width, height = atlas.size
+    atlas_px = np.empty(width * height * 4, np.float32)
+    atlas.pixels.foreach_get(atlas_px)
+    atlas_px = atlas_px.reshape(height, width, 4)
+    for obj in scene.owned_objects("Plane", ("DECALS",)):  # the background alone, for comparison
+        scene.remove_object(obj)
+    _, background = _bake(target, size)
+    # Away from the decals: exactly the background bake.
+    assert (~near).sum() > size * size // 4
+    np.testing.assert_array_equal(baked[~near], background[~near])
+    # Inside a decal where the sprite is opaque around the sampled point: the atlas colour there.
+    ax = np.floor(atlas_uv[..., 0] * width - 0.5).astype(int)
+    ay = np.floor(atlas_uv[..., 1] * height - 0.5).astype(int)
+    checked = 0
+    for j, i in zip(*np.nonzero(sure)):
+        x, y = ax[j, i], ay[j, i]
+        if x < 1 or y < 1 or x >= width - 2 or y >= height - 2:
+            continue
+        block = atlas_px[y - 1:y + 3, x - 1:x + 3]
+        if block[..., 3].min() < 1.0:
+            continue
+        lo, hi = block[..., :3].min((0, 1)), block[..., :3].max((0, 1))
+        assert (baked[j, i, :3] >= lo - 2 / 255).all() and (baked[j, i, :3] <= hi + 2 / 255).all(), (
+            (i, j), baked[j, i], lo, hi)
+        checked += 1
+    assert checked > 200, checked
+    print("checked %d decal texels, %d away from the decals" % (checked, (~near).sum()))
+    changed = np.abs(baked[sure] - background[sure])[:, :3].max(1)
+    assert (changed > 0.1).mean() > 0.3, "the decals' texels should mostly differ from the background"
+
+
+def test_baking_refuses_a_target_edited_since_its_particles_and_changes_nothing():
+    import bmesh
+    clean()
+    target = plane(size=4.0, cuts=20)
+    assert full_run(target, scale=1.5) == {"FINISHED"}
+    bm = bmesh.new()
+    bm.from_mesh(target.data)
+    bm.faces.ensure_lookup_table()
+    bmesh.ops.delete(bm, geom=[bm.faces[0]], context="FACES")
+    bm.to_mesh(target.data)
+    bm.free()
+    before = sorted(i.name for i in bpy.data.images)
+    from texsynth.bake import options
+    try:
+        _bake(target, 128)
+        raise AssertionError("a stale decal layer was baked")
+    except options.BakeError as error:
+        assert "'Plane' was edited" in str(error) and "synthesize the particles again" in str(error), error
+    assert sorted(i.name for i in bpy.data.images) == before
+
+
+def test_a_failed_particle_composite_leaves_no_image():
+    clean()
+    target = plane(size=4.0, cuts=20)
+    assert full_run(target, scale=1.5) == {"FINISHED"}
+    before = sorted(i.name for i in bpy.data.images)
+    hashed = harness.mesh_hash(target.data)
+    os.environ["TEXSYNTH_TEST_FAIL_AT"] = "particle_bake"
+    try:
+        _bake(target, 128)
+        raise AssertionError("the injected failure was not reported")
+    except RuntimeError as error:
+        assert "injected" in str(error), error
+    finally:
+        del os.environ["TEXSYNTH_TEST_FAIL_AT"]
+    assert sorted(i.name for i in bpy.data.images) == before and harness.mesh_hash(target.data) == hashed
+
 FULL_RUN_TESTS = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_placed_count",
                   "test_resynthesizing_one_class_gives_the_same_rows_and_leaves_the_others",
                   "test_undo_removes_what_synthesize_made", "test_cancel_leaves_nothing_behind",
@@ -704,7 +858,10 @@ FULL_RUN_TESTS = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_
                   "test_the_worker_thread_runs_the_job_as_the_modal_operator_does",
                   "test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_along_its_normal",
                   "test_a_failed_particle_write_leaves_the_scene_and_the_mesh_unchanged",
-                  "test_probability_from_a_vertex_group_thins_the_particles")
+                  "test_probability_from_a_vertex_group_thins_the_particles",
+                  "test_baking_composites_the_decals_over_the_background",
+                  "test_baking_refuses_a_target_edited_since_its_particles_and_changes_nothing",
+                  "test_a_failed_particle_composite_leaves_no_image")
 
 
 if __name__ == "__main__":
