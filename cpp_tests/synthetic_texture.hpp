@@ -25,13 +25,19 @@ inline float value_noise(float x, float y, float cell, uint64_t seed) {
   return (a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy;
 }
 
-inline texsynth::Image brick_texture(int width, int height, uint64_t seed = 1) {
+// An sRGB RGB image of the given size, pixels zero.
+inline texsynth::Image blank_rgb(int width, int height) {
   texsynth::Image image;
   image.width = width;
   image.height = height;
   image.channels = 3;
   image.encoding = texsynth::ColorEncoding::kSrgb;
   image.pixels.resize(size_t(width) * height * 3);
+  return image;
+}
+
+inline texsynth::Image brick_texture(int width, int height, uint64_t seed = 1) {
+  texsynth::Image image = blank_rgb(width, height);
   const int brick_w = 48, brick_h = 20, mortar = 3;
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x) {
@@ -59,12 +65,7 @@ inline texsynth::Image brick_texture(int width, int height, uint64_t seed = 1) {
 // sensor grain. `feature_px` is a pebble's typical diameter in pixels: scale it with the size to
 // mimic an upscaled photo (same content, more pixels).
 inline texsynth::Image gravel_texture(int width, int height, float feature_px = 18.0f, uint64_t seed = 5) {
-  texsynth::Image image;
-  image.width = width;
-  image.height = height;
-  image.channels = 3;
-  image.encoding = texsynth::ColorEncoding::kSrgb;
-  image.pixels.resize(size_t(width) * height * 3);
+  texsynth::Image image = blank_rgb(width, height);
   const float cell = feature_px;
   tbb::parallel_for(0, height, [&](int y) {
     for (int x = 0; x < width; ++x) {

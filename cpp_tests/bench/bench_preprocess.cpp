@@ -31,6 +31,22 @@ double peak_rss_mb() {
   return double(usage.ru_maxrss) / 1024.0;
 }
 
+// Where the time went: wall and CPU seconds per stage (CPU = all threads).
+void stage_counters(benchmark::State& state, const texsynth::Preprocessed& result,
+                    const texsynth::PreprocessStats& stats) {
+  state.counters["K"] = result.num_textons;
+  state.counters["features_s"] = stats.features_seconds;
+  state.counters["kmeans_s"] = stats.kmeans_seconds;
+  state.counters["tables_s"] = stats.tables_seconds;
+  state.counters["jumps_s"] = stats.jump_map_seconds;
+  state.counters["features_cpu"] = stats.features_cpu;
+  state.counters["kmeans_cpu"] = stats.kmeans_cpu;
+  state.counters["jumps_cpu"] = stats.jump_map_cpu;
+  state.counters["total_cpu"] =
+      stats.working_cpu + stats.features_cpu + stats.kmeans_cpu + stats.tables_cpu + stats.jump_map_cpu;
+  state.counters["km_iters"] = stats.kmeans_full_iterations;
+}
+
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -44,16 +60,7 @@ void BM_Preprocess(benchmark::State& state) {
   for (auto _ : state) result = texsynth::preprocess(image, params, nullptr, &stats);
   const auto path = std::filesystem::temp_directory_path() / "texsynth_bench.tscache";
   texsynth::save_preprocessed(result, path.string());
-  state.counters["K"] = result.num_textons;
-  state.counters["features_s"] = stats.features_seconds;
-  state.counters["kmeans_s"] = stats.kmeans_seconds;
-  state.counters["tables_s"] = stats.tables_seconds;
-  state.counters["jumps_s"] = stats.jump_map_seconds;
-  state.counters["features_cpu"] = stats.features_cpu;
-  state.counters["kmeans_cpu"] = stats.kmeans_cpu;
-  state.counters["jumps_cpu"] = stats.jump_map_cpu;
-  state.counters["total_cpu"] = stats.features_cpu + stats.kmeans_cpu + stats.tables_cpu + stats.jump_map_cpu;
-  state.counters["km_iters"] = stats.kmeans_full_iterations;
+  stage_counters(state, result, stats);
   state.counters["cache_B_per_px"] = double(std::filesystem::file_size(path)) / double(size * size);
   std::filesystem::remove(path);
 }
@@ -77,20 +84,10 @@ void BM_PhotoPreprocess(benchmark::State& state) {
   texsynth::PreprocessStats stats;
   texsynth::Preprocessed result;
   for (auto _ : state) result = texsynth::preprocess(image, params, nullptr, &stats, variant);
+  stage_counters(state, result, stats);
   state.counters["analysed_px"] = result.width;
-  state.counters["K"] = result.num_textons;
   state.counters["scale_s"] = stats.working_seconds;
-  state.counters["features_s"] = stats.features_seconds;
-  state.counters["kmeans_s"] = stats.kmeans_seconds;
-  state.counters["tables_s"] = stats.tables_seconds;
-  state.counters["jumps_s"] = stats.jump_map_seconds;
-  state.counters["total_cpu"] =
-      stats.working_cpu + stats.features_cpu + stats.kmeans_cpu + stats.tables_cpu + stats.jump_map_cpu;
-  state.counters["km_iters"] = stats.kmeans_full_iterations;
   state.counters["km_sub_iters"] = stats.kmeans_subsample_iterations;
-  state.counters["features_cpu"] = stats.features_cpu;
-  state.counters["kmeans_cpu"] = stats.kmeans_cpu;
-  state.counters["jumps_cpu"] = stats.jump_map_cpu;
   state.counters["peak_rss_MB"] = peak_rss_mb();
 }
 BENCHMARK(BM_PhotoPreprocess)
@@ -103,7 +100,7 @@ void BM_WriteSamples(benchmark::State& state) {
   const char* dir = std::getenv("TEXSYNTH_WRITE_SAMPLES");
   for (auto _ : state) {
     if (!dir) continue;
-    for (int size : {512, 1024, 2048, 4096}) {
+    for (int size : {512, 1024, 2048, 4096, 8192}) {
       const texsynth::Image image = texsynth_test::gravel_texture(size, size, 18.0f * float(size) / 512.0f);
       std::vector<uint8_t> bytes(image.pixels.size());
       for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = uint8_t(std::lround(image.pixels[i] * 255.0f));
