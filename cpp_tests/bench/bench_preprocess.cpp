@@ -15,8 +15,10 @@
 #include <cstdlib>
 #include <string>
 #include <filesystem>
+#include <thread>
 
 #include "../synthetic_texture.hpp"
+#include "texsynth/common/errors.hpp"
 #include "texsynth/preprocess/cache.hpp"
 #include "texsynth/preprocess/features.hpp"
 #include "texsynth/preprocess/jump_map.hpp"
@@ -169,6 +171,40 @@ void BM_WorkingSizeQuality(benchmark::State& state) {
 }
 BENCHMARK(BM_WorkingSizeQuality)->Arg(256)->Arg(512)->Arg(1024)->Arg(2048)->Unit(benchmark::kSecond)->Iterations(1)
     ->UseRealTime();
+
+// Cancel latency at every stage of an 8192² sample (validation, hash, scale-down, features, k-means,
+// jump map): cancel raised after each delay; latency = raise to throw. Prints the largest.
+void BM_CancelLatency(benchmark::State& state) {
+  static const texsynth::Image image = texsynth_test::gravel_texture(8192, 8192, 288.0f);
+  const texsynth::PreprocessParams params;
+  double worst = 0, total = 0;
+  for (auto _ : state) {
+    const auto whole = std::chrono::steady_clock::now();
+    texsynth::preprocess(image, params);
+    total = seconds_since(whole);
+    for (double fraction = 0.02; fraction < 1.0; fraction += 0.07) {
+      std::atomic<bool> cancel{false};
+      std::chrono::steady_clock::time_point raised;
+      std::thread raiser([&] {
+        std::this_thread::sleep_for(std::chrono::duration<double>(total * fraction));
+        raised = std::chrono::steady_clock::now();
+        cancel = true;
+      });
+      bool cancelled = false;
+      try {
+        texsynth::preprocess(image, params, &cancel);
+      } catch (const texsynth::Cancelled&) {
+        cancelled = true;
+      }
+      const auto finished = std::chrono::steady_clock::now();
+      raiser.join();
+      if (cancelled) worst = std::max(worst, std::chrono::duration<double>(finished - raised).count());
+    }
+  }
+  state.counters["uncancelled_s"] = total;
+  state.counters["worst_latency_ms"] = worst * 1000.0;
+}
+BENCHMARK(BM_CancelLatency)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 // Naive: full-D features, 20 Lloyd iterations with brute-force assignment, brute-force kNN jump search.
 // Timed on a subsample of points/queries and extrapolated to the whole sample.
