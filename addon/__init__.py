@@ -24,8 +24,8 @@ from . import compat  # noqa: E402
 UNSUPPORTED = compat.unsupported_version_message(bpy.app.version) or compat.missing_requirement_message()
 if not UNSUPPORTED:
     from .fields import overlay, tools  # noqa: E402
-    from .ui import operators, panels, properties  # noqa: E402
-    classes = properties.classes + operators.classes + tools.classes + panels.classes
+    from .ui import operators, panels, particle_operators, properties  # noqa: E402
+    classes = properties.classes + operators.classes + particle_operators.classes + tools.classes + panels.classes
 else:
     class TEXSYNTH_PT_unavailable(bpy.types.Panel):
         bl_label = "TexSynth"
@@ -69,6 +69,7 @@ def register():
     bpy.types.Scene.texsynth = bpy.props.PointerProperty(type=properties.TexSynthSettings)
     overlay.register()
     tools.register_tool()
+    particle_operators.register_header()
 
 
 def unregister():
@@ -76,6 +77,7 @@ def unregister():
         if getattr(classes[0], "is_registered", False):
             bpy.utils.unregister_class(classes[0])
         return
+    particle_operators.unregister_header()
     tools.unregister_tool()
     overlay.unregister()
     if hasattr(bpy.types.Scene, "texsynth"):

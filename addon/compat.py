@@ -173,3 +173,30 @@ def stroke_polylines(data, current_frame):
             stroke.points.foreach_get("co", points)
             polylines.append(points.reshape(-1, 3).astype(np.float64))
     return polylines
+
+
+def use_alpha_blend(material):
+    """Alpha-blended surface in Eevee: blend_method 'BLEND' up to 4.1, surface_render_method 'BLENDED'
+    from 4.2 (Eevee Next; blend_method is gone in 5.x). Cycles reads the Principled Alpha either way."""
+    if hasattr(material, "surface_render_method"):
+        material.surface_render_method = "BLENDED"
+    else:
+        material.blend_method = "BLEND"
+        if hasattr(material, "shadow_method"):
+            material.shadow_method = "HASHED"
+    if hasattr(material, "show_transparent_back"):
+        material.show_transparent_back = False  # decals of one class never sort against each other
+
+
+def mark_modifier_group(group):
+    """Geometry Nodes groups must be flagged as modifiers to be listed in the modifier (4.0+)."""
+    if hasattr(group, "is_modifier"):
+        group.is_modifier = True
+
+
+def named_attribute_output(node):
+    """The Named Attribute node's value output: one 'Attribute' socket in 4.x; in 3.x one per data type,
+    only the one of node.data_type enabled."""
+    outputs = [socket for socket in node.outputs if socket.name == "Attribute"]
+    enabled = [socket for socket in outputs if getattr(socket, "enabled", True)]
+    return (enabled or outputs)[0]

@@ -11,11 +11,17 @@
       [--target image|vertices] [--levels N] [--coarse-rings K] [--fine-rings K] [--candidates N]
       [--synthesis-resolution auto|full]
       [--mode sampling|optimisation] [--patch-size N] [--boundary-width N] [--tolerance T] [--iterations N]
+      [--classes K] [--blur SIGMA] [--min-area PX] [--background-class C] [--merges a>b,...] [--class-order c,...]
+      [--labels IMAGE] [--particle-output decals|instances|both] [--instances COLLECTION] [--size-jitter J]
+      [--density NAME] [--probability NAME] [--size NAME] [--background jumpmap|texton|none]
 
 --method round and --method patches synthesize a colour per texel of the --bake image through --bake-uv
 (default: the first UV map, or a new Smart UV Project map), or per vertex with --target vertices
 (attribute TexSynth_Colour). patches: vector-field patches (Chen, Liu & Dong), --mode sampling (default,
-fast) or optimisation (refines the sampled result).
+fast) or optimisation (refines the sampled result). particles: texture particles (Dischler et al.): the sample's
+elements placed whole as decal objects per class and/or points instancing --instances (a collection of the
+opened .blend, or "example" for the thorn collection of blend_samples/particle_instances.py), over the filled
+background synthesized by --background; --density/--probability/--size name a face attribute or vertex group.
 
 Exit 0 on success; bad arguments or inputs print one line "texsynth_cli: error: ..." and exit 2
 (arguments) or 1 (inputs, synthesis failures).
@@ -55,7 +61,7 @@ def parse_args(argv):
     target.add_argument("--object", action="append", metavar="NAME",
                         help="mesh object in the opened scene (repeatable)")
     target.add_argument("--mesh", metavar="FILE", help=".obj, .ply or .stl file to import")
-    parser.add_argument("--method", default="jumpmap", choices=["jumpmap", "texton", "round", "patches"])
+    parser.add_argument("--method", default="jumpmap", choices=["jumpmap", "texton", "round", "patches", "particles"])
     parser.add_argument("--target", choices=("image", "vertices"), default=None,
                         help="round, patches: colours per texel of the --bake image (default) or per vertex")
     parser.add_argument("--mode", choices=("sampling", "optimisation", "optimization"), default=None,
@@ -67,6 +73,24 @@ def parse_args(argv):
     parser.add_argument("--tolerance", type=float, default=None,
                         help="patches: candidates within this factor of the best match are equally likely (default 1.2)")
     parser.add_argument("--iterations", type=int, default=None, help="patches, optimisation: iterations (default 6)")
+    particles = parser.add_argument_group("particles")
+    particles.add_argument("--classes", type=int, default=None, help="particles: colour classes (2-12, default 4)")
+    particles.add_argument("--blur", type=float, default=None, help="particles: segmentation blur in pixels (1)")
+    particles.add_argument("--min-area", type=int, default=None, help="particles: smallest particle in pixels")
+    particles.add_argument("--background-class", type=int, default=None, help="particles: background class id")
+    particles.add_argument("--merges", default=None, metavar="a>b,...", help="particles: class merges")
+    particles.add_argument("--class-order", default=None, metavar="c,...", help="particles: classes to place, in order")
+    particles.add_argument("--labels", default=None, metavar="IMAGE",
+                           help="particles: label image of the sample's size, one colour per class")
+    particles.add_argument("--particle-output", choices=("decals", "instances", "both"), default=None)
+    particles.add_argument("--instances", default=None, metavar="COLLECTION",
+                           help="particles: collection instanced per class ('example': the thorn collection)")
+    particles.add_argument("--size-jitter", type=float, default=None, help="particles: size variation 0-0.9")
+    for name in ("density", "probability", "size"):
+        particles.add_argument("--" + name, default=None, metavar="NAME",
+                               help="particles: face attribute or vertex group giving the %s per face" % name)
+    particles.add_argument("--background", choices=("jumpmap", "texton", "none"), default=None,
+                           help="particles: how the filled background is synthesized (default jumpmap)")
     parser.add_argument("--levels", type=int, default=3, help="round: resolution levels on the surface (1-6)")
     parser.add_argument("--coarse-rings", type=int, default=4, help="round: neighbourhood rings, coarsest level")
     parser.add_argument("--fine-rings", type=int, default=2, help="round: neighbourhood rings, finer levels")
@@ -134,6 +158,7 @@ def parse_args(argv):
     args.tolerance = 1.2 if args.tolerance is None else args.tolerance
     args.iterations = 6 if args.iterations is None else args.iterations
     args.target = args.target or "image"
+    check_particle_args(args)
     if surface and args.bake_material:
         raise UsageError("--bake-material is for baking jump-map or texton results; --method %s uses --material"
                          % args.method)
@@ -147,6 +172,66 @@ def parse_args(argv):
             if not os.path.isdir(folder):
                 raise UsageError("--%s folder does not exist: %s" % (option, folder))
     return args
+
+
+PARTICLE_OPTIONS = ("classes", "blur", "min_area", "background_class", "merges", "class_order", "labels",
+                    "particle_output", "instances", "size_jitter", "density", "probability", "size", "background")
+
+
+def check_particle_args(args):
+    """Particle options only with --method particles; instances need a collection; defaults filled in."""
+    given = [name for name in PARTICLE_OPTIONS if getattr(args, name) is not None]
+    if given and args.method != "particles":
+        raise UsageError("--%s is for --method particles" % given[0].replace("_", "-"))
+    args.particle_output = args.particle_output or "decals"
+    if args.particle_output != "decals" and not args.instances:
+        raise UsageError("--particle-output %s needs --instances COLLECTION" % args.particle_output)
+    if args.method == "particles" and args.bake is not None:
+        raise UsageError("--bake is not available for --method particles")
+
+
+def particle_settings(args):
+    from texsynth.particles import core
+    if args.method != "particles":
+        return {}
+    try:
+        return dict(particle_classes=4 if args.classes is None else args.classes,
+                    particle_blur=1.0 if args.blur is None else args.blur,
+                    particle_min_area=args.min_area or 0,
+                    particle_background_class=-1 if args.background_class is None else args.background_class,
+                    particle_merges=core.parse_merges(args.merges or ""),
+                    particle_class_order=core.parse_class_list(args.class_order or ""),
+                    particle_output=args.particle_output.upper(), particle_collection=args.instances or "",
+                    particle_size_jitter=args.size_jitter or 0.0, particle_density_source=args.density or "",
+                    particle_probability_source=args.probability or "", particle_size_source=args.size or "",
+                    particle_background=(args.background or "jumpmap").upper())
+    except ValueError as error:
+        raise CliError(str(error))
+
+
+def run_particles(args, objects, sample, settings):
+    """--method particles: the label image read bottom row first (then removed), the example collection."""
+    from texsynth.bridge import mesh_io
+    from texsynth.particles import synthesis as particle_synthesis
+    from texsynth.uv_methods import synthesis
+    labels = None
+    if args.labels:
+        if not os.path.isfile(args.labels):
+            raise CliError("label image not found: %s" % args.labels)
+        image = bpy.data.images.load(os.path.abspath(args.labels))
+        try:
+            labels = mesh_io.read_image_pixels(image)[::-1]
+        finally:
+            bpy.data.images.remove(image)
+    if args.instances == "example" and bpy.data.collections.get("example") is None:
+        sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "blend_samples"))
+        try:
+            import particle_instances
+        except ImportError:
+            raise CliError("--instances example needs blend_samples/particle_instances.py (run from the repository)")
+        settings.particle_collection = particle_instances.make_collection().name
+    return particle_synthesis.synthesize(objects, sample, settings, args.cache_dir or synthesis.default_cache_dir(),
+                                         labels, material_mode=args.material.upper(), scene_=bpy.context.scene)
 
 
 def check_bake_args(args):
@@ -318,12 +403,14 @@ def main(argv):
                                  round_resolution=args.synthesis_resolution.upper(),
                                  patch_mode=args.mode.upper(), patch_size=args.patch_size,
                                  patch_boundary=args.boundary_width, patch_tolerance=args.tolerance,
-                                 patch_iterations=args.iterations)
+                                 patch_iterations=args.iterations, **particle_settings(args))
     sample = synthesis.Sample(path=os.path.abspath(args.sample))
     surface = settings.method in pipeline.SURFACE_METHODS
     try:
         settings.validate()
-        if surface:
+        if settings.method == "PARTICLES":
+            report = run_particles(args, objects, sample, settings)
+        elif surface:
             from texsynth.bake import options
             from texsynth.surface_colour import synthesis as surface_synthesis
             request = bake_request(args, options) if args.bake else options.BakeRequest(create_uv=True)

@@ -1,10 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Regenerates blend_samples/: procedural sample textures (CC0-1.0) and the small scene.
 
-Run: blender -b --factory-startup --python-exit-code 1 --python blend_samples/make_samples.py
+Run: blender -b --factory-startup --python-exit-code 1 --python blend_samples/make_samples.py [-- NAME ...]
 Deterministic (numpy Generator with fixed seeds, no external data).
 """
 import os
+import sys
 
 import bpy
 import numpy as np
@@ -71,6 +72,43 @@ def bark(width=128, height=256):
     return dark + (light - dark) * value[..., None]
 
 
+def pebbles(size=256):
+    """Texture particles: grey pebbles (shaded ellipses, jittered hexagonal layout) with a few red berries on
+    sand; tileable. Row 0 = top."""
+    rng = np.random.default_rng(4)
+    y, x = np.mgrid[0:size, 0:size] + 0.5
+    sand = np.array([0.74, 0.63, 0.44]) * (0.85 + 0.3 * fractal(rng, size, size, (4, 8, 16)))[..., None]
+    color = sand + 0.05 * rng.standard_normal((size, size, 1))
+    step = size / 8.0
+    for row in range(9):
+        for col in range(9):
+            cx = (col + 0.5 * (row % 2)) * step + rng.uniform(-3, 3)
+            cy = row * step * 0.866 + rng.uniform(-3, 3)
+            a = rng.uniform(0.30, 0.40) * step
+            b, t = a * rng.uniform(0.6, 0.85), rng.uniform(0, np.pi)
+            tone = np.array([0.42, 0.41, 0.43]) * rng.uniform(0.92, 1.08)
+            for ox in (-size, 0, size):  # tileable: every copy across the borders
+                for oy in (-size, 0, size):
+                    dx, dy = x - cx - ox, y - cy - oy
+                    u = (dx * np.cos(t) + dy * np.sin(t)) / a
+                    v = (-dx * np.sin(t) + dy * np.cos(t)) / b
+                    r2 = u * u + v * v
+                    inside = r2 <= 1.0
+                    if inside.any():
+                        # lit from the top left, darker rim: reads as a rounded stone
+                        shade = 0.88 + 0.17 * np.sqrt(np.clip(1 - r2, 0, 1))
+                        light = 1.0 + 0.08 * (-(dx + dy) / (a + b))
+                        color[inside] = (tone * (shade * light)[..., None])[inside]
+    for _ in range(30):
+        cx, cy = rng.uniform(0, size, 2)
+        for ox in (-size, 0, size):
+            for oy in (-size, 0, size):
+                d = np.hypot(x - cx - ox, y - cy - oy)
+                berry = (d <= 5.5) & (np.abs(color - sand).sum(-1) < 0.35)
+                color[berry] = np.array([0.62, 0.10, 0.07]) * (1.1 - 0.25 * d[berry, None] / 5.5)
+    return np.clip(color, 0, 1)
+
+
 def save_png(name, rgb):
     height, width, _ = rgb.shape
     rgba = np.concatenate([rgb, np.ones((height, width, 1))], axis=2).astype(np.float32)
@@ -134,11 +172,17 @@ def direction_to_euler(direction):
     return Vector(direction).to_track_quat("-Z", "Y").to_euler()
 
 
+MAKERS = {"bricks": bricks, "moss": moss, "bark": bark, "pebbles": pebbles}
+
+
 def main():
-    save_png("bricks", bricks())
-    save_png("moss", moss())
-    save_png("bark", bark())
-    make_scene()
+    # Names after "--" regenerate only those assets (e.g. -- pebbles); none: everything.
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    for name in argv or list(MAKERS) + ["scene"]:
+        if name == "scene":
+            make_scene()
+        else:
+            save_png(name, MAKERS[name]())
     print("blend_samples regenerated in", HERE)
 
 

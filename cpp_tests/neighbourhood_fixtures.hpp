@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <utility>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "mesh_fixtures.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/neighbourhood/round_rings.hpp"
+#include "texsynth/particles/surface_walk.hpp"
 
 namespace ring_fixtures {
 
@@ -50,6 +52,27 @@ struct TriMesh {
     return point(rp.triangle, rp.b1 / 65535.0, rp.b2 / 65535.0);
   }
 };
+
+// The point of the mesh nearest to x among faces whose plane projection of x falls inside them
+// (triangle -1 when none).
+inline texsynth::SurfacePoint locate(const TriMesh& m, texsynth::V3 x) {
+  texsynth::SurfacePoint best;
+  double best_d = std::numeric_limits<double>::infinity();
+  auto at = [&](int32_t t, int k) {
+    const auto p = m.corner(t, k);
+    return texsynth::V3{p[0], p[1], p[2]};
+  };
+  for (int32_t t = 0; t < m.num_triangles(); ++t) {
+    const texsynth::V3 p0 = at(t, 0), e1 = at(t, 1) - p0, e2 = at(t, 2) - p0, n = texsynth::cross(e1, e2);
+    const double n2 = texsynth::dot(n, n);
+    const texsynth::V3 q = x - p0;
+    const double b1 = texsynth::dot(texsynth::cross(q, e2), n) / n2, b2 = texsynth::dot(texsynth::cross(e1, q), n) / n2;
+    if (b1 < 0 || b2 < 0 || b1 + b2 > 1) continue;
+    const double d = std::fabs(texsynth::dot(q, n)) / std::sqrt(n2);
+    if (d < best_d) best_d = d, best = {t, b1, b2};
+  }
+  return best;
+}
 
 // Triangulated grid (fixtures::grid with triangles = true), corner order kept.
 inline TriMesh plane(int nx, int ny, double spacing, double jitter, uint64_t seed = 1) {

@@ -384,6 +384,57 @@ TEST(ParticlesAnalysis, OrientedBoxFollowsARotatedBar) {
   EXPECT_NEAR(b.cy, 64.0, 0.5);
 }
 
+// Bars at 30 deg in staggered rows, cut by every border: the cut ones' visible parts have other boxes.
+TEST(ParticlesAnalysis, EntriesTowardsCutNeighboursKeepTheClassAngle) {
+  Scene s = flat(200, 200);
+  const double t = 30 * 3.14159265358979 / 180, c = std::cos(t), sn = std::sin(t);
+  std::vector<std::pair<double, double>> centres;
+  for (int row = -12; row <= 12; ++row)
+    for (int col = -12; col <= 12; ++col) {
+      const double along = col * 34.0 + (row % 2 ? 17.0 : 0.0), across = row * 16.0;
+      centres.push_back({100 + along * c - across * sn, 100 + along * sn + across * c});
+    }
+  for (int y = 0; y < 200; ++y)
+    for (int x = 0; x < 200; ++x)
+      for (const auto& [cx, cy] : centres) {
+        const double dx = x + 0.5 - cx, dy = y + 0.5 - cy;
+        if (std::abs(dx * c + dy * sn) <= 13 && std::abs(-dx * sn + dy * c) <= 4) s.set(x, y, kStone);
+      }
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), two_classes(0.0));
+  int towards_cut = 0, total = 0;
+  for (size_t i = 0; i < a.particles.size(); ++i)
+    for (const CoOccurrence& e : entries(a, int32_t(i))) {
+      ++total;
+      if (e.neighbour >= 0 && !a.particles[size_t(e.neighbour)].complete) ++towards_cut;
+      EXPECT_NEAR(e.angle * 180 / 3.14159265358979, 0.0, 3.0) << "particle " << i;
+    }
+  EXPECT_GT(towards_cut, 10) << "the sample must have entries towards cut bars, of " << total;
+  EXPECT_FALSE(a.classes[size_t(a.particles[0].class_id)].random);
+}
+
+// Dots scattered far apart (>= 36 px, radius 4: the dilation cap is 13.5 px) are placed at random, not
+// packed at the gaps of the few close pairs; the lattice of discs is not.
+TEST(ParticlesAnalysis, ScatteredDotsAreARandomClassALatticeIsNot) {
+  Scene s = flat(320, 320);
+  texsynth::Rng rng(3);
+  std::vector<Disc> dots;
+  for (int tries = 0; tries < 4000 && dots.size() < 40; ++tries) {
+    const Disc d{12 + 296 * rng.uniform(), 12 + 296 * rng.uniform(), 4.0};
+    bool far = true;
+    for (const Disc& o : dots) far = far && std::hypot(d.cx - o.cx, d.cy - o.cy) >= 36;
+    if (far) dots.push_back(d);
+  }
+  ASSERT_GE(dots.size(), 30u);
+  for (const Disc& d : dots) paint_disc(s, d, kStone);
+  const ParticleAnalysis scattered = texsynth::analyse_particles(s.view(), two_classes());
+  ASSERT_EQ(scattered.particles.size(), dots.size());
+  EXPECT_TRUE(scattered.classes[size_t(scattered.particles[0].class_id)].random);
+
+  const DiscScene lattice = disc_scene(256, 192);
+  const ParticleAnalysis a = texsynth::analyse_particles(lattice.scene.view(), two_classes());
+  EXPECT_FALSE(a.classes[size_t(a.particles[0].class_id)].random);
+}
+
 double psnr(const std::vector<float>& a, const std::vector<float>& b) {
   double se = 0;
   for (size_t i = 0; i < a.size(); ++i) se += double(a[i] - b[i]) * double(a[i] - b[i]);

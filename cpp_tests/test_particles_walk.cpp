@@ -37,26 +37,7 @@ struct Prepared {
   texsynth::TriangleMeshInput input() const { return s.input(); }
 };
 
-V3 at(const TriMesh& m, int32_t t, int k) {
-  const auto p = m.corner(t, k);
-  return {p[0], p[1], p[2]};
-}
-
-// The point of the mesh nearest to x among faces whose plane projection of x falls inside them.
-SurfacePoint locate(const TriMesh& m, V3 x) {
-  SurfacePoint best;
-  double best_d = kInf;
-  for (int32_t t = 0; t < m.num_triangles(); ++t) {
-    const V3 p0 = at(m, t, 0), e1 = at(m, t, 1) - p0, e2 = at(m, t, 2) - p0, n = texsynth::cross(e1, e2);
-    const double n2 = texsynth::dot(n, n);
-    const V3 q = x - p0;
-    const double b1 = texsynth::dot(texsynth::cross(q, e2), n) / n2, b2 = texsynth::dot(texsynth::cross(e1, q), n) / n2;
-    if (b1 < 0 || b2 < 0 || b1 + b2 > 1) continue;
-    const double d = std::fabs(texsynth::dot(q, n)) / std::sqrt(n2);
-    if (d < best_d) best_d = d, best = {t, b1, b2};
-  }
-  return best;
-}
+using ring_fixtures::locate;
 
 double angle_deg(V3 a, V3 b) {
   return std::acos(std::clamp(texsynth::dot(a, b) / (texsynth::norm(a) * texsynth::norm(b)), -1.0, 1.0)) * 180 / kPi;

@@ -441,3 +441,106 @@ def write_colour_attribute(mesh, name, rgba):
         undo()
         raise MeshWriteError("writing colour attribute %r failed (mesh restored): %s" % (name, error)) from error
     return undo
+
+
+# ---------------------------------------------------------------------------------------------
+# Texture particles (particles/): per-triangle overrides, decal and point meshes built in bulk
+
+
+def read_triangle_polygons(obj):
+    """Polygon index of every loop triangle of obj's base mesh (same order as read_loop_triangles)."""
+    mesh = obj.data
+    mesh.calc_loop_triangles()
+    return read_indices(mesh.loop_triangles, "polygon_index", len(mesh.loop_triangles))
+
+
+def read_face_values(obj, name, triangles, triangle_polygons):
+    """Per-triangle float values named `name`: a FLOAT FACE attribute (the triangle's polygon), a FLOAT
+    POINT attribute or a vertex group (mean of the triangle's three vertices). SettingsError when the mesh
+    has none of these or values are not finite and >= 0."""
+    mesh = obj.data
+    attribute = mesh.attributes.get(name)
+    if attribute is not None and attribute.data_type == "FLOAT" and attribute.domain in ("FACE", "POINT"):
+        values = np.empty(len(attribute.data), dtype=np.float32)
+        attribute.data.foreach_get("value", values)
+        values = values[triangle_polygons] if attribute.domain == "FACE" else values[triangles].mean(axis=1)
+    elif attribute is not None:
+        raise pipeline.SettingsError("attribute %r must be a FLOAT face or vertex attribute, it is %s on %s"
+                                     % (name, attribute.data_type, attribute.domain))
+    elif obj.vertex_groups.get(name) is not None:
+        values = read_vertex_group(obj, name)[triangles].mean(axis=1)
+    else:
+        raise pipeline.SettingsError("object %r has no face attribute or vertex group %r" % (obj.name, name))
+    values = np.ascontiguousarray(values, dtype=np.float32)
+    if not pipeline.all_finite(values) or (values.size and values.min() < 0.0):
+        raise pipeline.SettingsError("override %r must hold finite values >= 0" % name)
+    return values
+
+
+def check_polygons(num_vertices, loop_starts, loop_totals, corner_verts):
+    """Blender-layout polygons that Blender can take as they are (mesh.validate costs seconds on decal meshes
+    of 100k faces): contiguous corners, at least 3 per polygon, vertex indices in range."""
+    starts, totals = np.asarray(loop_starts, np.int64), np.asarray(loop_totals, np.int64)
+    corners = np.asarray(corner_verts, np.int64)
+    if starts.shape != totals.shape or (totals.size and totals.min() < 3) or \
+            not np.array_equal(starts, np.concatenate([[0], np.cumsum(totals)[:-1]])[:starts.size]) or \
+            int(totals.sum()) != corners.size or (corners.size and (corners.min() < 0 or corners.max() >= num_vertices)):
+        raise pipeline.SettingsError("decal geometry is inconsistent (polygon offsets, sizes or vertex indices)")
+
+
+def new_polygon_mesh(name, positions, loop_starts, loop_totals, corner_verts, uv_name="", corner_uvs=None,
+                     face_ints=None):
+    """A new mesh from Blender-layout arrays (positions (P, 3) in the object's space), with an optional UV
+    map and INT FACE attributes {name: (F,) int32}; removed again if anything fails."""
+    check_polygons(len(positions), loop_starts, loop_totals, corner_verts)
+    mesh = bpy.data.meshes.new(name)
+    try:
+        mesh.vertices.add(len(positions))
+        mesh.vertices.foreach_set("co", np.ascontiguousarray(positions, dtype=np.float32).ravel())
+        # Blender's own index type (uint32 before 3.6): foreach_set then copies in one block (checked >= 0 above).
+        mesh.loops.add(len(corner_verts))
+        mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(corner_verts, dtype=INDEX_READ_DTYPE))
+        mesh.polygons.add(len(loop_starts))
+        mesh.polygons.foreach_set("loop_start", np.ascontiguousarray(loop_starts, dtype=INDEX_READ_DTYPE))
+        mesh.polygons.foreach_set("loop_total", np.ascontiguousarray(loop_totals, dtype=INDEX_READ_DTYPE))
+        if uv_name:
+            layer = mesh.uv_layers.new(name=uv_name, do_init=False)
+            layer.data.foreach_set("uv", np.ascontiguousarray(corner_uvs, dtype=np.float32).ravel())
+        for attribute_name, values in (face_ints or {}).items():
+            mesh.attributes.new(attribute_name, "INT", "FACE").data.foreach_set(
+                "value", np.ascontiguousarray(values, dtype=np.int32))
+        polygons_smooth = np.ones(len(loop_starts), dtype=bool)
+        mesh.polygons.foreach_set("use_smooth", polygons_smooth)
+        fail_point("decal_mesh")
+        mesh.update(calc_edges=True)
+    except Exception:
+        bpy.data.meshes.remove(mesh)
+        raise
+    return mesh
+
+
+def new_point_mesh(name, positions, attributes):
+    """A mesh of loose points with POINT attributes {name: (data_type, values)}, data_type INT, FLOAT or
+    FLOAT_VECTOR; removed again if anything fails."""
+    mesh = bpy.data.meshes.new(name)
+    try:
+        mesh.vertices.add(len(positions))
+        mesh.vertices.foreach_set("co", np.ascontiguousarray(positions, dtype=np.float32).ravel())
+        for attribute_name, (data_type, values) in attributes.items():
+            key, width, dtype = _POINT_KEYS[data_type]
+            mesh.attributes.new(attribute_name, data_type, "POINT").data.foreach_set(
+                key, np.ascontiguousarray(values, dtype=dtype).ravel())
+        fail_point("point_mesh")
+        mesh.update()
+    except Exception:
+        bpy.data.meshes.remove(mesh)
+        raise
+    return mesh
+
+
+def read_face_ints(mesh, name):
+    """An INT FACE attribute as (F,) int32 (tests, re-synthesis)."""
+    attribute = mesh.attributes[name]
+    values = np.empty(len(attribute.data), dtype=np.int32)
+    attribute.data.foreach_get("value", values)
+    return values

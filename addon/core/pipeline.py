@@ -14,8 +14,8 @@ import numpy as np
 
 from .. import native
 
-METHODS = ("JUMPMAP", "TEXTON", "ROUND", "PATCHES")
-IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON", "ROUND", "PATCHES")
+METHODS = ("JUMPMAP", "TEXTON", "ROUND", "PATCHES", "PARTICLES")
+IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON", "ROUND", "PATCHES", "PARTICLES")
 UV_METHODS = ("JUMPMAP", "TEXTON")   # write coordinates into the sample + blend data (uv_methods/)
 SURFACE_METHODS = ("ROUND", "PATCHES")  # write a colour per surface sample (surface_colour/)
 SURFACE_TARGETS = ("IMAGE", "VERTICES")
@@ -29,6 +29,12 @@ ROUND_RESOLUTIONS = ("AUTO", "FULL")
 PATCH_MODES = ("SAMPLING", "OPTIMISATION")
 PATCH_SIZE_RANGE, PATCH_BOUNDARY_RANGE = (8, 64), (1, 16)
 PATCH_TOLERANCE_RANGE, PATCH_ITERATION_RANGE = (1.0, 4.0), (1, 50)
+# Texture particles (particles/): the analysis' limits (particles/analysis.hpp) and what Synthesize makes.
+PARTICLE_CLASS_RANGE = (2, 12)
+PARTICLE_MAX_BLUR = 10.0
+PARTICLE_OUTPUTS = ("DECALS", "INSTANCES", "BOTH")
+PARTICLE_BACKGROUNDS = ("JUMPMAP", "TEXTON", "NONE")   # how the filled background sample is synthesized
+PARTICLE_MAX_JITTER = 0.9
 ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
 SCALE_SOURCES = ("NONE", "ATTRIBUTE", "VERTEX_GROUP")
 BLEND_MODES = ("AUTO", "HISTOGRAM", "VARIANCE", "LINEAR")  # see blend_groups.py
@@ -115,6 +121,21 @@ class Settings:
     patch_boundary: int = 4         # W_E: the boundary zone matched and cross-faded
     patch_tolerance: float = 1.2    # candidates within this factor of the best match are equally likely
     patch_iterations: int = 6       # OPTIMISATION: EM iterations (the last one a discrete vote)
+    # PARTICLES (particles/core.py): segmentation, then placement and output.
+    particle_classes: int = 4        # k-means classes (ignored with a label image)
+    particle_blur: float = 1.0       # Gaussian sigma in sample pixels before k-means
+    particle_min_area: int = 0       # smaller components join the background; 0 = max(16 px, 0.02 %)
+    particle_background_class: int = -1  # -1: the largest class
+    particle_merges: tuple = ()      # ((a, b), ...): k-means class a joins class b, applied in order
+    particle_class_order: tuple = () # placement order of class ids; () = by decreasing particle count
+    particle_output: str = "DECALS"
+    particle_collection: str = ""    # INSTANCES / BOTH: the collection whose objects are instanced per class
+    particle_size_jitter: float = 0.0
+    # Per-face overrides: a FLOAT face attribute or a vertex group of that name ('' = none).
+    particle_density_source: str = ""
+    particle_probability_source: str = ""
+    particle_size_source: str = ""
+    particle_background: str = "JUMPMAP"
 
     def validate(self):
         """Raises SettingsError naming the first bad setting; returns self."""
@@ -171,7 +192,42 @@ class Settings:
                                         % (name.replace("_", " "), low, high, value))
         if self.method == "PATCHES":
             self._validate_patches()
+        if self.method == "PARTICLES":
+            self._validate_particles()
         return self
+
+    def _validate_particles(self):
+        low, high = PARTICLE_CLASS_RANGE
+        if not _is_int(self.particle_classes) or not low <= self.particle_classes <= high:
+            raise SettingsError("particle classes must be an integer in [%d, %d], got %r"
+                                % (low, high, self.particle_classes))
+        if not (_finite(self.particle_blur) and 0.0 <= self.particle_blur <= PARTICLE_MAX_BLUR):
+            raise SettingsError("segmentation blur must be a number in [0, %g] pixels, got %r"
+                                % (PARTICLE_MAX_BLUR, self.particle_blur))
+        if not _is_int(self.particle_min_area) or self.particle_min_area < 0:
+            raise SettingsError("minimum particle area must be an integer >= 0 pixels (0 = automatic), got %r"
+                                % (self.particle_min_area,))
+        if not _is_int(self.particle_background_class) or self.particle_background_class < -1:
+            raise SettingsError("background class must be a class id or -1 (largest class), got %r"
+                                % (self.particle_background_class,))
+        for pair in self.particle_merges:
+            if (len(pair) != 2 or not all(_is_int(c) and c >= 0 for c in pair) or pair[0] == pair[1]):
+                raise SettingsError("a class merge must be two different class ids, got %r" % (pair,))
+        order = list(self.particle_class_order)
+        if not all(_is_int(c) and c >= 0 for c in order) or len(set(order)) != len(order):
+            raise SettingsError("class order must list distinct class ids, got %r" % (tuple(order),))
+        if self.particle_output not in PARTICLE_OUTPUTS:
+            raise SettingsError("unknown particle output %r (choose one of %s)"
+                                % (self.particle_output, ", ".join(PARTICLE_OUTPUTS)))
+        if self.particle_output != "DECALS" and not self.particle_collection:
+            raise SettingsError("particle output %s needs an instance collection (the objects placed per class)"
+                                % self.particle_output)
+        if not (_finite(self.particle_size_jitter) and 0.0 <= self.particle_size_jitter <= PARTICLE_MAX_JITTER):
+            raise SettingsError("size jitter must be a number in [0, %g], got %r"
+                                % (PARTICLE_MAX_JITTER, self.particle_size_jitter))
+        if self.particle_background not in PARTICLE_BACKGROUNDS:
+            raise SettingsError("unknown particle background %r (choose one of %s)"
+                                % (self.particle_background, ", ".join(PARTICLE_BACKGROUNDS)))
 
     def _validate_patches(self):
         if self.patch_mode not in PATCH_MODES:

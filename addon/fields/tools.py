@@ -95,7 +95,7 @@ def live_update(context, obj):
         settings.orientation, settings.direction_attribute = "FIELD", authoring.DIRECTION_NAME
     if settings.method == "PATCHES":
         return _patch_preview(context, obj, props, settings)
-    if settings.method in pipeline.SURFACE_METHODS:
+    if settings.method in pipeline.SURFACE_METHODS + ("PARTICLES",):
         raise pipeline.SettingsError("live update is not available for %s: press Synthesize"
                                      % props.bl_rna.properties["method"].enum_items[settings.method].name)
     settings.validate()

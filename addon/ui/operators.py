@@ -52,7 +52,7 @@ class TEXSYNTH_OT_preprocess(bpy.types.Operator):
 
     def execute(self, context):
         props = context.scene.texsynth
-        if props.method in pipeline.SURFACE_METHODS:
+        if props.method in pipeline.SURFACE_METHODS + ("PARTICLES",):
             self.report({"INFO"}, "TexSynth: %s works on the sample directly; nothing to preprocess"
                         % props.bl_rna.properties["method"].enum_items[props.method].name)
             return {"FINISHED"}
@@ -92,27 +92,16 @@ class TEXSYNTH_OT_check_cache(bpy.types.Operator):
         return {"FINISHED"}
 
 
-class TEXSYNTH_OT_synthesize(bpy.types.Operator):
-    """Synthesize the sample texture on every selected mesh object (Esc cancels, changing nothing)"""
-    bl_idname = "texsynth.synthesize"
-    bl_label = "Synthesize"
-    bl_options = {"REGISTER", "UNDO"}
+class JobOperator:
+    """An operator running a Job (prepare / compute / apply): blocking from scripts, in a worker thread with
+    Esc from the UI. Subclasses give _job(context)."""
 
     @classmethod
     def poll(cls, context):
         return context.mode == "OBJECT"
 
     def _job(self, context):
-        props = context.scene.texsynth
-        objects = sorted(context.selected_objects, key=lambda obj: obj.name)
-        settings = props.to_settings()
-        if settings.method in pipeline.SURFACE_METHODS:
-            from ..surface_colour import synthesis as surface_synthesis
-            return surface_synthesis.Job(objects, sample_from_settings(props), settings, props.to_bake_request(),
-                                         props.material_mode, context,
-                                         properties.cache_dir(context) or synthesis.default_cache_dir())
-        return synthesis.Job(objects, sample_from_settings(props), settings, properties.cache_dir(context),
-                             props.material_mode, context.scene)
+        raise NotImplementedError
 
     def _finish(self, job):
         cache_status_by_sample[job.sample.describe()] = "fresh"
@@ -180,6 +169,27 @@ class TEXSYNTH_OT_synthesize(bpy.types.Operator):
         return self._finish(state.job)
 
 
+class TEXSYNTH_OT_synthesize(JobOperator, bpy.types.Operator):
+    """Synthesize the sample texture on every selected mesh object (Esc cancels, changing nothing)"""
+    bl_idname = "texsynth.synthesize"
+    bl_label = "Synthesize"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def _job(self, context):
+        props = context.scene.texsynth
+        objects = sorted(context.selected_objects, key=lambda obj: obj.name)
+        settings = props.to_settings()
+        if settings.method == "PARTICLES":
+            from .particle_operators import particle_job
+            return particle_job(context, objects)
+        if settings.method in pipeline.SURFACE_METHODS:
+            from ..surface_colour import synthesis as surface_synthesis
+            return surface_synthesis.Job(objects, sample_from_settings(props), settings, props.to_bake_request(),
+                                         props.material_mode, context,
+                                         properties.cache_dir(context) or synthesis.default_cache_dir())
+        return synthesis.Job(objects, sample_from_settings(props), settings, properties.cache_dir(context),
+                             props.material_mode, context.scene)
+
 class ModalSynthesis:
     """Runs Job.compute in a worker thread; the modal operator polls it (and the tests drive it)."""
     POLL_SECONDS = 0.05
@@ -222,7 +232,7 @@ class ModalSynthesis:
 
 
 class TEXSYNTH_OT_clear(bpy.types.Operator):
-    """Remove every UV map and attribute TexSynth wrote from the selected mesh objects"""
+    """Remove every UV map and attribute TexSynth wrote from the selected mesh objects, and their particle decals and instances"""
     bl_idname = "texsynth.clear"
     bl_label = "Clear"
     bl_options = {"REGISTER", "UNDO"}
@@ -232,7 +242,8 @@ class TEXSYNTH_OT_clear(bpy.types.Operator):
         return context.mode == "OBJECT"
 
     def execute(self, context):
-        changed, removed = synthesis.clear(context.selected_objects)
+        from ..particles import synthesis as particle_synthesis
+        changed, removed = particle_synthesis.clear(context.selected_objects)
         self.report({"INFO"}, "TexSynth: removed %d layer(s) from %d object(s)" % (removed, changed))
         return {"FINISHED"}
 

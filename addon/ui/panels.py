@@ -50,7 +50,7 @@ class TEXSYNTH_PT_sample(_SubPanel, bpy.types.Panel):
         else:
             layout.template_ID(props, "sample_image", open="image.open")
             key = props.sample_image.name if props.sample_image else "<none>"
-        if props.method in pipeline.SURFACE_METHODS:
+        if props.method in pipeline.SURFACE_METHODS + ("PARTICLES",):
             layout.label(text="No preprocessing needed", icon="INFO")
             return
         row = layout.row(align=True)
@@ -74,6 +74,15 @@ class TEXSYNTH_PT_method(_SubPanel, bpy.types.Panel):
             column = layout.column(align=True)
             column.prop(props, "working_size")
             column.prop(props, "neighbourhood")
+        if props.method == "PARTICLES":
+            column = layout.column(align=True)
+            column.prop(props, "particle_classes")
+            column.prop(props, "particle_blur")
+            column.prop(props, "particle_min_area")
+            layout.label(text="Label Image (optional):")
+            layout.template_ID(props, "particle_label_image", open="image.open")
+            layout.operator("texsynth.particle_analyse", icon="VIEWZOOM")
+            return
         if props.method == "PATCHES":
             layout.prop(props, "patch_mode", text="")
             column = layout.column(align=True)
@@ -143,6 +152,8 @@ class TEXSYNTH_PT_output(_SubPanel, bpy.types.Panel):
         props = context.scene.texsynth
         layout.label(text="Material:")
         layout.prop(props, "material_mode", text="")
+        if props.method == "PARTICLES":
+            return  # the particles' own outputs are in the Particles panel
         surface = props.method in pipeline.SURFACE_METHODS
         if surface:
             layout.label(text="Target:")
@@ -212,6 +223,59 @@ class TEXSYNTH_PT_field(bpy.types.Panel):
                 1000 * tools.last_timings["live_update"], 1000 * tools.last_timings["live_native"]))
 
 
+class TEXSYNTH_PT_particles(_SubPanel, bpy.types.Panel):
+    """Texture Particles: the analysis view (classes, segmentation), the artist's edits, the outputs."""
+    bl_label = "Particles"
+    bl_idname = "TEXSYNTH_PT_particles"
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene.texsynth.method == "PARTICLES"
+
+    def draw(self, context):
+        layout = self.layout
+        props = context.scene.texsynth
+        if props.particle_preview is not None:
+            layout.template_icon(icon_value=layout.icon(props.particle_preview), scale=8.0)
+            layout.operator("texsynth.particle_show_segmentation", icon="IMAGE_DATA")
+        if not props.particle_rows:
+            layout.label(text="Analyse the sample first", icon="INFO")
+        for item in props.particle_rows:
+            row = layout.row(align=True)
+            row.prop(item, "colour", text="")
+            flags = "bg" if item.background else ("rnd" if item.random else "")
+            row.label(text="%d: %dpx %d/%d %s" % (item.class_id, item.pixels, item.complete, item.particles, flags))
+        row = layout.row(align=True)
+        row.prop(props, "particle_active_class")
+        row.operator("texsynth.particle_pick_class", text="", icon="EYEDROPPER")
+        row = layout.row(align=True)
+        row.operator("texsynth.particle_merge", text="Merge")
+        row.prop(props, "particle_merge_into", text="")
+        layout.operator("texsynth.particle_set_background")
+        layout.label(text="Merges (a>b):")
+        layout.prop(props, "particle_merges", text="")
+        layout.label(text="Class Order:")
+        layout.prop(props, "particle_class_order", text="")
+        layout.label(text="Output:")
+        layout.prop(props, "particle_output", text="")
+        if props.particle_output != "DECALS":
+            layout.label(text="Instance Collection:")
+            layout.prop(props, "particle_collection", text="")
+        layout.prop(props, "particle_size_jitter")
+        layout.label(text="Background:")
+        layout.prop(props, "particle_background", text="")
+        obj = context.active_object
+        for name, label in (("particle_density_source", "Density Override:"),
+                            ("particle_probability_source", "Probability Override:"),
+                            ("particle_size_source", "Size Override:")):
+            layout.label(text=label)  # a face attribute or a vertex group (searched among the groups)
+            if obj is not None and obj.type == "MESH":
+                layout.prop_search(props, name, obj, "vertex_groups", text="")
+            else:
+                layout.prop(props, name, text="")
+        layout.operator("texsynth.particle_resynthesize", icon="FILE_REFRESH")
+
+
 def _wrap(text, width):
     words, lines, line = text.split(), [], ""
     for word in words:
@@ -225,4 +289,4 @@ def _wrap(text, width):
 
 # Registration order is the sidebar order.
 classes = (TEXSYNTH_PT_main, TEXSYNTH_PT_sample, TEXSYNTH_PT_method, TEXSYNTH_PT_orientation, TEXSYNTH_PT_field,
-           TEXSYNTH_PT_output)
+           TEXSYNTH_PT_particles, TEXSYNTH_PT_output)

@@ -8,6 +8,17 @@ from ..core import pipeline
 ADDON_ID = __package__
 
 
+class TexSynthParticleClass(bpy.types.PropertyGroup):
+    """One row of the particle analysis view (filled by Analyse Sample)."""
+    class_id: bpy.props.IntProperty(name="Class")
+    colour: bpy.props.FloatVectorProperty(name="Colour", subtype="COLOR", size=3, min=0.0, max=1.0)
+    pixels: bpy.props.IntProperty(name="Pixels")
+    particles: bpy.props.IntProperty(name="Particles")
+    complete: bpy.props.IntProperty(name="Complete")
+    background: bpy.props.BoolProperty(name="Background")
+    random: bpy.props.BoolProperty(name="Random")
+
+
 class TexSynthSettings(bpy.types.PropertyGroup):
     sample_source: bpy.props.EnumProperty(
         name="Sample", items=(("FILE", "File", "An image file on disk"),
@@ -28,8 +39,64 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                ("PATCHES", "Vector-Field Patches", "Whole sample patches resampled along the direction field "
                                                    "(Chen, Liu & Dong): large, structured samples (bricks, weaves, "
                                                    "scales) follow the field without distortion; colours per texel "
-                                                   "or per vertex")),
+                                                   "or per vertex"),
+               ("PARTICLES", "Texture Particles", "Cut the sample into its elements (pebbles, leaves, spots) and "
+                                                  "scatter them whole over the surface as decals or 3D instances, "
+                                                  "keeping their arrangement (Dischler et al.)")),
         default="JUMPMAP")
+    particle_classes: bpy.props.IntProperty(
+        name="Classes", default=4, min=pipeline.PARTICLE_CLASS_RANGE[0], max=pipeline.PARTICLE_CLASS_RANGE[1],
+        description="Colour classes the sample is segmented into (background included)")
+    particle_blur: bpy.props.FloatProperty(
+        name="Blur", default=1.0, min=0.0, max=pipeline.PARTICLE_MAX_BLUR, subtype="PIXEL",
+        description="Smoothing before segmentation (sample pixels): higher ignores fine texture inside elements")
+    particle_min_area: bpy.props.IntProperty(
+        name="Min Area", default=0, min=0, subtype="PIXEL",
+        description="Smaller regions join the background (0: automatic, max(16 px, 0.02 % of the sample))")
+    particle_background_class: bpy.props.IntProperty(
+        name="Background Class", default=-1, min=-1, max=pipeline.PARTICLE_CLASS_RANGE[1] - 1,
+        description="Class synthesized as texture under the particles (-1: the largest)")
+    particle_merges: bpy.props.StringProperty(
+        name="Merges", default="", description="Class merges a>b (class a joins b), comma separated")
+    particle_class_order: bpy.props.StringProperty(
+        name="Class Order", default="",
+        description="Classes to place, in order, comma separated (empty: by decreasing particle count)")
+    particle_label_image: bpy.props.PointerProperty(
+        name="Labels", type=bpy.types.Image,
+        description="Optional label image of the sample's size: one flat colour per class, replaces the automatic "
+                    "segmentation")
+    particle_output: bpy.props.EnumProperty(
+        name="Output",
+        items=(("DECALS", "Decals", "Per class a decal mesh on the surface showing the particles' sprites"),
+               ("INSTANCES", "Instances", "Per class points instancing objects of a collection (Geometry Nodes)"),
+               ("BOTH", "Both", "Decals and instances")),
+        default="DECALS")
+    particle_collection: bpy.props.PointerProperty(
+        name="Instances", type=bpy.types.Collection,
+        description="Objects placed per class (child i for class i, wrapping): any objects, e.g. a thorn")
+    particle_size_jitter: bpy.props.FloatProperty(
+        name="Size Jitter", default=0.0, min=0.0, max=pipeline.PARTICLE_MAX_JITTER, subtype="FACTOR",
+        description="Each particle's size varies by up to this fraction")
+    particle_density_source: bpy.props.StringProperty(
+        name="Density", default="",
+        description="Face attribute or vertex group: density factor per face (0 = none there)")
+    particle_probability_source: bpy.props.StringProperty(
+        name="Probability", default="",
+        description="Face attribute or vertex group: chance (0..1) that a particle is kept")
+    particle_size_source: bpy.props.StringProperty(
+        name="Size", default="", description="Face attribute or vertex group: size factor per face")
+    particle_background: bpy.props.EnumProperty(
+        name="Background",
+        items=(("JUMPMAP", "Jump Map", "The filled background sample through the jump-map method"),
+               ("TEXTON", "Texton Strings", "The filled background sample through texton strings"),
+               ("NONE", "None", "Leave the object's own material under the particles")),
+        default="JUMPMAP")
+    particle_rows: bpy.props.CollectionProperty(type=TexSynthParticleClass)
+    particle_active_class: bpy.props.IntProperty(name="Class", default=0, min=0,
+                                                 description="Class picked in the analysis view")
+    particle_merge_into: bpy.props.IntProperty(name="Into", default=0, min=0,
+                                               description="Class the picked class joins")
+    particle_preview: bpy.props.PointerProperty(name="Segmentation", type=bpy.types.Image)
     surface_target: bpy.props.EnumProperty(
         name="Target",
         items=(("IMAGE", "Image", "Texels of an image through a UV map (see Output): export and painting ready"),
@@ -207,7 +274,27 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                  round_resolution=self.round_resolution, patch_mode=self.patch_mode,
                                  patch_size=int(self.patch_size) // 4 * 4, patch_boundary=int(self.patch_boundary),
                                  patch_tolerance=float(self.patch_tolerance),
-                                 patch_iterations=int(self.patch_iterations))
+                                 patch_iterations=int(self.patch_iterations),
+                                 **self.particle_settings())
+
+    def particle_settings(self):
+        """The Texture Particles fields of pipeline.Settings (parsed only for that method: a typo in the
+        merges never blocks another method)."""
+        from ..particles import core as particle_core
+        if self.method != "PARTICLES":
+            return {}
+        return dict(particle_classes=int(self.particle_classes), particle_blur=float(self.particle_blur),
+                    particle_min_area=int(self.particle_min_area),
+                    particle_background_class=int(self.particle_background_class),
+                    particle_merges=particle_core.parse_merges(self.particle_merges),
+                    particle_class_order=particle_core.parse_class_list(self.particle_class_order),
+                    particle_output=self.particle_output,
+                    particle_collection=self.particle_collection.name if self.particle_collection else "",
+                    particle_size_jitter=float(self.particle_size_jitter),
+                    particle_density_source=self.particle_density_source.strip(),
+                    particle_probability_source=self.particle_probability_source.strip(),
+                    particle_size_source=self.particle_size_source.strip(),
+                    particle_background=self.particle_background)
 
 
 class TexSynthPreferences(bpy.types.AddonPreferences):
@@ -233,4 +320,4 @@ def cache_dir(context):
     return bpy.path.abspath(addon.preferences.cache_dir) if addon.preferences.cache_dir else ""
 
 
-classes = (TexSynthSettings, TexSynthPreferences)
+classes = (TexSynthParticleClass, TexSynthSettings, TexSynthPreferences)

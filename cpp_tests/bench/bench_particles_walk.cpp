@@ -10,7 +10,7 @@
 #include <cmath>
 #include <vector>
 
-#include "../neighbourhood_fixtures.hpp"
+#include "bumpy_sphere.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/particles/surface_walk.hpp"
 
@@ -29,14 +29,7 @@ struct Scene {
 const Scene& scene() {
   static Scene sc = [] {
     Scene s;
-    const fixtures::TestMesh uv = fixtures::uv_sphere(160, 320, 1.0, 1e-5);  // noise > 0: all triangles
-    s.mesh.positions = uv.positions;
-    s.mesh.triangles = uv.corner_verts;
-    for (int32_t v = 0; v < s.mesh.num_vertices(); ++v) {
-      float* p = &s.mesh.positions[3 * size_t(v)];
-      const double bump = 1 + 0.03 * std::sin(5 * p[0]) * std::sin(4 * p[1] + 1) * std::sin(3 * p[2] + 2);
-      for (int k = 0; k < 3; ++k) p[k] = float(p[k] * bump);
-    }
+    s.mesh = bench_fixtures::bumpy_sphere();
     s.s = texsynth::build_surface_walk_mesh(s.mesh.input());
     std::vector<double> cdf;
     double acc = 0, diam = 0;

@@ -43,13 +43,8 @@ void synthesize_on_grid(const texsynth::Preprocessed& pre) {
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
-  std::vector<uint8_t> body(data + 1, data + size);
-  if (data[0] & 1) {
-    const uint64_t checksum = texsynth::cache_checksum(body.data(), body.size());
-    const size_t at = body.size();
-    body.resize(at + 8);
-    std::memcpy(body.data() + at, &checksum, 8);
-  }
+  const std::vector<uint8_t> body =
+      fuzz::cache_body(data, size, [](const void* d, size_t n) { return texsynth::cache_checksum(d, n); });
   const std::string& path = fuzz::scratch_path(".tscache");
   fuzz::write_file(path, body.data(), body.size());
   texsynth::Preprocessed loaded;

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <string>
@@ -60,6 +61,20 @@ inline double hostile_double(FuzzedDataProvider& in, double lo, double hi) {
 
 inline void require(bool ok, const char* what) {
   if (!ok) fail(what);
+}
+
+// Cache targets' input: byte 0 = mode, the rest = file body. Mode bit 0 set: the body gets its right
+// trailing checksum (`checksum(data, size)`), so mutations get past it to the validation behind it.
+template <class Checksum>
+std::vector<uint8_t> cache_body(const uint8_t* data, size_t size, Checksum&& checksum) {
+  std::vector<uint8_t> body(data + 1, data + size);
+  if (data[0] & 1) {
+    const uint64_t sum = checksum(body.data(), body.size());
+    const size_t at = body.size();
+    body.resize(at + 8);
+    std::memcpy(body.data() + at, &sum, 8);
+  }
+  return body;
 }
 
 }  // namespace fuzz

@@ -27,8 +27,22 @@ def put(target, name, data):
         f.write(data)
 
 
+def particle_cache_seeds(tmp):
+    """A tileable 16 x 12 sample with two squares (one across the border), analysed and cached."""
+    img = np.tile(np.array([0.2, 0.3, 0.25], np.float32), (12, 16, 1))
+    img[2:6, 3:7] = (0.8, 0.7, 0.3)
+    img[6:10, 13:16] = img[6:10, 0:2] = (0.8, 0.7, 0.3)
+    analysis = texsynth_native.particle_analysis(img, classes=2, blur=0.0, min_area=4, tileable=True)
+    path = os.path.join(tmp, "p.tspart")
+    texsynth_native.save_particle_analysis(analysis, path, 1234)
+    data = open(path, "rb").read()
+    put("fuzz_particle_cache", "valid_checksum_appended", b"\x01" + data[:-8])
+    put("fuzz_particle_cache", "valid_raw", b"\x00" + data)
+
+
 def main():
     tmp = tempfile.mkdtemp()
+    particle_cache_seeds(tmp)
     pixels = make_corpus.sample_pixels(size=8)
     png = os.path.join(tmp, "s.png")
     open(png, "wb").write(make_corpus.png_from_array(pixels))

@@ -11,34 +11,13 @@
 
 #include "array_args.hpp"
 #include "cancel_arg.hpp"
+#include "surface_args.hpp"
 #include "texsynth/particles/surface_walk.hpp"
 
 namespace py = pybind11;
 using namespace texsynth_py;
 
 namespace {
-
-using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
-
-// Barycentrics and lengths stay double: particles chain walks.
-DoubleArray double_array(py::handle obj, const char* name) {
-  py::array raw = py::array::ensure(obj);
-  if (!raw) throw std::invalid_argument(std::string(name) + " must be array-like");
-  const char kind = raw.dtype().kind();
-  if (kind == 'O' || kind == 'U' || kind == 'S') throw std::invalid_argument(std::string(name) + " must be numeric");
-  return DoubleArray::ensure(raw);
-}
-
-std::vector<texsynth::SurfacePoint> points(py::handle triangles, py::handle barycentrics, const char* tname,
-                                           const char* bname, py::ssize_t n) {
-  IntArray t = int_array(triangles, tname);
-  DoubleArray b = double_array(barycentrics, bname);
-  require_shape(t, {n}, tname);
-  require_shape(b, {t.shape(0), 2}, bname);
-  std::vector<texsynth::SurfacePoint> out(size_t(t.shape(0)));
-  for (size_t i = 0; i < out.size(); ++i) out[i] = {t.data()[i], b.data()[2 * i], b.data()[2 * i + 1]};
-  return out;
-}
 
 texsynth::SectionWalkOptions options(int32_t max_faces, double max_length_factor) {
   texsynth::SectionWalkOptions o;
@@ -87,7 +66,7 @@ void bind_particles_walk(py::module_& m) {
       "walk_normal_sections",
       [](const texsynth::SurfaceWalkMesh& mesh, py::object triangles, py::object barycentrics, py::object directions,
          py::object lengths, int32_t max_faces, py::object cancel) {
-        std::vector<texsynth::SurfacePoint> starts = points(triangles, barycentrics, "triangles", "barycentrics", -1);
+        std::vector<texsynth::SurfacePoint> starts = surface_points(triangles, barycentrics, "triangles", "barycentrics", -1);
         const py::ssize_t n = py::ssize_t(starts.size());
         DoubleArray dirs = double_array(directions, "directions");
         DoubleArray lens = double_array(lengths, "lengths");
@@ -137,9 +116,9 @@ void bind_particles_walk(py::module_& m) {
       "pseudo_geodesic_distances",
       [](const texsynth::SurfaceWalkMesh& mesh, py::object triangles1, py::object barycentrics1, py::object triangles2,
          py::object barycentrics2, int32_t max_faces, double max_length_factor, py::object cancel) {
-        std::vector<texsynth::SurfacePoint> a = points(triangles1, barycentrics1, "triangles1", "barycentrics1", -1);
+        std::vector<texsynth::SurfacePoint> a = surface_points(triangles1, barycentrics1, "triangles1", "barycentrics1", -1);
         std::vector<texsynth::SurfacePoint> b =
-            points(triangles2, barycentrics2, "triangles2", "barycentrics2", py::ssize_t(a.size()));
+            surface_points(triangles2, barycentrics2, "triangles2", "barycentrics2", py::ssize_t(a.size()));
         const std::atomic<bool>* flag = cancel_flag(cancel);
         std::vector<texsynth::PseudoGeodesic> r;
         {

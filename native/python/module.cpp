@@ -22,6 +22,8 @@ void bind_round(py::module_& m);
 void bind_patches(py::module_& m);
 void bind_particles(py::module_& m);
 void bind_particles_walk(py::module_& m);
+void bind_particles_place(py::module_& m);
+void bind_particles_decals(py::module_& m);
 
 PYBIND11_MODULE(texsynth_native, m) {
   m.doc() = "TexSynth native core: sample preprocessing and texture synthesis on meshes.";
@@ -56,4 +58,6 @@ PYBIND11_MODULE(texsynth_native, m) {
   bind_patches(m);
   bind_particles(m);
   bind_particles_walk(m);
+  bind_particles_place(m);
+  bind_particles_decals(m);
 }

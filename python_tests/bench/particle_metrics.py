@@ -13,6 +13,10 @@ import math
 
 import numpy as np
 
+# Gaps and distances are compared to 0.01 px: positions placed on a surface are float32 (1e-4 px at a
+# 3-unit plane of 448 px per unit), and a KS statistic on an exact lattice jumps from 0 to 1 on such noise.
+RESOLUTION_DIGITS = 2
+
 
 class Boxes:
     """Particles as boxes in local charts: positions (n, 3), normals (n, 3), chart x axes (n, 3) (the sample's x
@@ -102,8 +106,9 @@ def neighbour_gaps(boxes, cls, radius):
         for qq in range(4):
             m = np.flatnonzero(q == qq)
             if len(m):
-                j = m[np.lexsort((dist[m], np.round(gap[m], 6)))[0]]  # least gap (to 1e-6 px), then the nearer centre
-                rows.append((qq, dx[j], dy[j], nearest, idx[local]))
+                j = m[np.lexsort((dist[m], np.round(gap[m], RESOLUTION_DIGITS)))[0]]  # least gap, then the nearer centre
+                rows.append((qq, round(dx[j], RESOLUTION_DIGITS), round(dy[j], RESOLUTION_DIGITS),
+                             round(nearest, RESOLUTION_DIGITS), idx[local]))
     return np.asarray(rows, np.float64).reshape(-1, 5)
 
 

@@ -93,6 +93,19 @@ def mesh_from_arrays(name, positions, corner_verts, poly_starts, poly_sizes):
     return obj
 
 
+def save_png(path, rgba_bottom_first):
+    """Writes an (H, W, 4) float RGBA array (row 0 = bottom, Blender's order) as a PNG file; returns path."""
+    height, width = rgba_bottom_first.shape[:2]
+    image = bpy.data.images.new("save_png", width, height, alpha=True)
+    try:
+        image.pixels.foreach_set(np.ascontiguousarray(rgba_bottom_first, dtype=np.float32).ravel())
+        image.filepath_raw, image.file_format = path, "PNG"
+        image.save()
+    finally:
+        bpy.data.images.remove(image)
+    return path
+
+
 def mixed_grid(name="Mixed"):
     """A flat mesh mixing quads, triangles and a pentagon that share edges."""
     verts = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0), (0, 1, 0), (1, 1, 0), (2, 1, 0), (3, 1, 0),

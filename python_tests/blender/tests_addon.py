@@ -610,8 +610,10 @@ class RecordingLayout:
             return row
         if name in ("column", "box", "split"):
             return lambda *a, **k: RecordingLayout(self.log, None)
-        if name in ("prop", "label", "operator", "template_ID", "separator"):
+        if name in ("prop", "label", "operator", "template_ID", "separator", "template_icon"):
             return lambda *a, **k: self._record(name, *a, **k)
+        if name == "icon":  # UILayout.icon(data): an icon id
+            return lambda *a, **k: 0
         if name == "prop_search":  # (data, property, search_data, search_property): shows the property
             return lambda *a, **k: self._record("prop", *a, **k)
         raise AttributeError(name)
@@ -648,10 +650,13 @@ def test_panel_labels_fit_the_default_sidebar_width():
     # a full-width field shows about 26 characters; a label drawn beside a text or enum field gets a
     # quarter of the row ("UV M..."), so those are drawn under a label line; items of one row share it.
     props = bpy.context.scene.texsynth
-    for method in ("JUMPMAP", "TEXTON", "ROUND"):
+    for method in ("JUMPMAP", "TEXTON", "ROUND", "PARTICLES"):
         for target in ("IMAGE", "VERTICES"):
             configure(method=method, surface_target=target, scale_source="VERTEX_GROUP", orientation="FIELD")
+            props.particle_output = "BOTH"
             log = draw_panels() + draw_panel(texsynth.ui.panels.TEXSYNTH_PT_field)
+            if method == "PARTICLES":
+                log += draw_panel(texsynth.ui.panels.TEXSYNTH_PT_particles)
             per_row = {}
             for kind, args, kw in log:
                 if kw["_row"] is not None and kind in ("prop", "operator"):

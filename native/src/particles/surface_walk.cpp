@@ -249,8 +249,18 @@ void validate_options(const SectionWalkOptions& o, const char* who) {
     throw std::invalid_argument(std::string(who) + ": max_length_factor must be finite and >= 1");
 }
 
-// Checks a point and clamps barycentrics within the tolerance into the triangle.
-SurfacePoint checked_point(const SurfacePoint& p, int32_t num_triangles, const char* who, const char* what, int64_t i) {
+
+template <class Body>
+void parallel_items(int64_t count, const std::atomic<bool>* cancel, Body&& body) {
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, count, 64), [&](const tbb::blocked_range<int64_t>& r) {
+    throw_if_cancelled(cancel);
+    for (int64_t i = r.begin(); i < r.end(); ++i) body(i);
+  });
+}
+
+}  // namespace
+
+SurfacePoint checked_surface_point(const SurfacePoint& p, int32_t num_triangles, const char* who, const char* what, int64_t i) {
   if (p.triangle < 0 || p.triangle >= num_triangles)
     throw std::invalid_argument(std::string(who) + ": " + what + " " + std::to_string(i) + " is in triangle " +
                                 std::to_string(p.triangle) + " (mesh has " + std::to_string(num_triangles) +
@@ -270,16 +280,6 @@ SurfacePoint checked_point(const SurfacePoint& p, int32_t num_triangles, const c
   return c;
 }
 
-template <class Body>
-void parallel_items(int64_t count, const std::atomic<bool>* cancel, Body&& body) {
-  tbb::parallel_for(tbb::blocked_range<int64_t>(0, count, 64), [&](const tbb::blocked_range<int64_t>& r) {
-    throw_if_cancelled(cancel);
-    for (int64_t i = r.begin(); i < r.end(); ++i) body(i);
-  });
-}
-
-}  // namespace
-
 std::vector<SectionWalkResult> walk_normal_sections(const WalkMesh& walk, const TriangleMeshInput& mesh,
                                                     const SectionWalkRequest* walks, int64_t count,
                                                     const SectionWalkOptions& options,
@@ -292,7 +292,7 @@ std::vector<SectionWalkResult> walk_normal_sections(const WalkMesh& walk, const 
   std::vector<SectionWalkRequest> in(walks, walks + count);
   for (int64_t i = 0; i < count; ++i) {
     SectionWalkRequest& w = in[size_t(i)];
-    w.start = checked_point(w.start, mesh.num_triangles, who, "walk", i);
+    w.start = checked_surface_point(w.start, mesh.num_triangles, who, "walk", i);
     const V3 d = w.direction;
     if (!std::isfinite(d.x) || !std::isfinite(d.y) || !std::isfinite(d.z) || dot(d, d) == 0)
       throw std::invalid_argument("normal section walks: direction of walk " + std::to_string(i) + " is NaN or zero");
@@ -322,8 +322,8 @@ std::vector<PseudoGeodesic> pseudo_geodesic_distances(const WalkMesh& walk, cons
     throw std::invalid_argument("pseudo-geodesic distances: the walk mesh was built for another mesh");
   std::vector<SurfacePoint> a(static_cast<size_t>(count)), b(static_cast<size_t>(count));
   for (int64_t i = 0; i < count; ++i) {
-    a[size_t(i)] = checked_point(p1[i], mesh.num_triangles, who, "first point", i);
-    b[size_t(i)] = checked_point(p2[i], mesh.num_triangles, who, "second point", i);
+    a[size_t(i)] = checked_surface_point(p1[i], mesh.num_triangles, who, "first point", i);
+    b[size_t(i)] = checked_surface_point(p2[i], mesh.num_triangles, who, "second point", i);
   }
   throw_if_cancelled(cancel);
   std::vector<PseudoGeodesic> out(static_cast<size_t>(count));

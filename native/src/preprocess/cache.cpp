@@ -9,8 +9,10 @@
 #include <fstream>
 #include <unistd.h>
 
+#include "texsynth/common/byte_reader.hpp"
 #include "texsynth/common/byte_writer.hpp"
 #include "texsynth/common/errors.hpp"
+#include "texsynth/common/file_bytes.hpp"
 #include "texsynth/common/hash.hpp"
 #include "texsynth/image/image.hpp"
 #include "texsynth/preprocess/kmeans.hpp"
@@ -27,37 +29,6 @@ constexpr uint64_t kChecksumSeed = 0x747363616368ull;
 // magic + version + params(4*4 + 4 + 8 + 8 + 4 + 4) + hash + 8*4
 constexpr size_t kHeaderSize = 8 + 4 + 44 + 8 + 32;
 
-class Reader {
- public:
-  Reader(const std::vector<uint8_t>& bytes, const std::string& path) : bytes_(bytes), path_(path) {}
-  template <typename T>
-  T get() {
-    T value;
-    need(sizeof(T));
-    std::memcpy(&value, bytes_.data() + at_, sizeof(T));
-    at_ += sizeof(T);
-    return value;
-  }
-  template <typename T>
-  void get_array(T* data, size_t count) {
-    need(count * sizeof(T));
-    if (count) std::memcpy(data, bytes_.data() + at_, count * sizeof(T));
-    at_ += count * sizeof(T);
-  }
-  void skip(size_t size) {
-    need(size);
-    at_ += size;
-  }
-
- private:
-  void need(size_t size) {
-    if (size > bytes_.size() - at_) throw CacheError("cache '" + path_ + "': truncated");
-  }
-  const std::vector<uint8_t>& bytes_;
-  std::string path_;
-  size_t at_ = 0;
-};
-
 void put_params(ByteWriter& w, const PreprocessParams& p) {
   w.put<int32_t>(p.neighbourhood);
   w.put<int32_t>(p.num_textons);
@@ -72,19 +43,6 @@ void put_params(ByteWriter& w, const PreprocessParams& p) {
 
 size_t payload_size(int64_t pixels, int64_t k, int64_t dims, int64_t jump_k) {
   return size_t(pixels) * 2 + size_t(k * dims) * 4 + size_t(pixels * jump_k) * (4 + 2);
-}
-
-// Reads the first min(file size, max_bytes) bytes; reports the whole file's size.
-std::vector<uint8_t> read_file(const std::string& path, uint64_t max_bytes, uint64_t& file_size) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw CacheError("cache '" + path + "': missing or not a regular file");
-  file_size = fs::file_size(path, ec);
-  if (ec) throw CacheError("cache '" + path + "': cannot read size");
-  std::vector<uint8_t> bytes(std::min(file_size, max_bytes));
-  std::ifstream in(path, std::ios::binary);
-  if (!in || !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size())))
-    throw CacheError("cache '" + path + "': cannot read file");
-  return bytes;
 }
 
 }  // namespace
@@ -134,37 +92,16 @@ void save_preprocessed(const Preprocessed& r, const std::string& path) {
   for (float weight : r.jump_map.weights) w.put<uint16_t>(uint16_t(std::lround(double(weight) * 65535.0)));
   w.put<uint64_t>(cache_checksum(w.bytes.data(), w.bytes.size()));
 
-  // Atomic: a reader sees either the old file, or the complete new one.
-  static std::atomic<uint64_t> counter{0};
-  const fs::path target(path);
-  const fs::path temp = target.parent_path() / ("." + target.filename().string() + ".tmp." +
-                                                std::to_string(::getpid()) + "." + std::to_string(counter++));
-  {
-    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error("cannot write cache '" + temp.string() + "'");
-    out.write(reinterpret_cast<const char*>(w.bytes.data()), std::streamsize(w.bytes.size()));
-    out.flush();
-    if (!out) {
-      std::error_code ec;
-      fs::remove(temp, ec);
-      throw std::runtime_error("cannot write cache '" + temp.string() + "' (disk full?)");
-    }
-  }
-  std::error_code ec;
-  fs::rename(temp, target, ec);
-  if (ec) {
-    fs::remove(temp, ec);
-    throw std::runtime_error("cannot move cache into place at '" + path + "'");
-  }
+  write_file_atomically(path, w.bytes, "cache");
 }
 
 Preprocessed load_preprocessed(const std::string& path, std::optional<uint64_t> expected_hash) {
   // Header first: nothing is sized from the file until the header has been validated.
   uint64_t file_size = 0;
-  const std::vector<uint8_t> head = read_file(path, kHeaderSize, file_size);
+  const std::vector<uint8_t> head = read_file_bytes(path, kHeaderSize, file_size);
   auto bad = [&](const std::string& what) -> CacheError { return CacheError("cache '" + path + "': " + what); };
   if (file_size < kHeaderSize + 8) throw bad("truncated (" + std::to_string(file_size) + " bytes)");
-  Reader in(head, path);
+  ByteReader in(head.data(), head.size(), "cache '" + path + "'");
   char magic[8];
   in.get_array(magic, 8);
   if (std::memcmp(magic, kMagic, 8) != 0) throw bad("not a TexSynth preprocessing cache (bad magic)");
@@ -220,7 +157,7 @@ Preprocessed load_preprocessed(const std::string& path, std::optional<uint64_t> 
   if (file_size < expected)
     throw bad("truncated (" + std::to_string(file_size) + " of " + std::to_string(expected) + " bytes)");
   if (file_size > expected) throw bad("unexpected trailing bytes");
-  const std::vector<uint8_t> bytes = read_file(path, expected, file_size);
+  const std::vector<uint8_t> bytes = read_file_bytes(path, expected, file_size);
   if (bytes.size() != expected) throw bad("file changed while reading");
   uint64_t stored_checksum;
   std::memcpy(&stored_checksum, bytes.data() + expected - 8, 8);
@@ -228,7 +165,7 @@ Preprocessed load_preprocessed(const std::string& path, std::optional<uint64_t> 
   if (expected_hash && *expected_hash != r.sample_hash) throw bad("made from a different sample (hash mismatch)");
 
   const int k = r.num_textons;
-  Reader payload(bytes, path);
+  ByteReader payload(bytes.data(), bytes.size(), "cache '" + path + "'");
   payload.skip(kHeaderSize);
   r.texton_map.resize(size_t(n));
   for (int64_t i = 0; i < n; ++i) {

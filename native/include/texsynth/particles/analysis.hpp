@@ -30,11 +30,14 @@
 //    Per quadrant, the neighbours at its least distance are kept, at most 2 (nearest centres first,
 //    then lower id). Entry (dx, dy) = signed gaps between P's and the neighbour's extents along P's
 //    x and y axes on the quadrant's side (negative = overlap along that axis): the neighbour's near
-//    edges lie at P's far edges + (dx, dy). angle = neighbour box angle - P's, in (-pi/2, pi/2].
+//    edges lie at P's far edges + (dx, dy). angle = neighbour box angle - P's, in (-pi/2, pi/2]; towards an
+//    incomplete neighbour (its box is that of its visible part) the class's median angle towards complete
+//    neighbours in that quadrant, 0 when there is none.
 //  - Empty quadrants (note "Mirroring"): the opposite quadrant's entries (point reflection: same dx,
 //    dy, angle); when it is empty too, the class-wide median of the measured entries of that quadrant;
 //    else the x-flipped adjacent quadrant (q ^ 1), else the y-flipped one (3 - q) (angle negated).
-//  - Classes with 1-3 particles are "random": density = particles / (W x H), min distance = 0.7 x the
+//  - Classes with 1-3 particles are "random", and so are scattered classes (fewer than half of their
+//    complete particles' quadrants have a measured neighbour): density = particles / (W x H), min distance = 0.7 x the
 //    mean nearest-neighbour centre distance (one particle: 0.7 x min(W, H)); both are filled in for
 //    every class. Overlap tolerance = 95th percentile of the observed box overlaps (intersection /
 //    smaller box area, over co-occurring pairs that overlap) + 0.05, 0.1 if none, capped at 0.5.
@@ -63,6 +66,9 @@ constexpr double kParticleOrientedRatio = 1.5;
 constexpr double kParticleDilationFactor = 1.5;
 constexpr int kParticleMaxPerQuadrant = 2;
 constexpr int kParticleHalo = 2;  // background-fill dilation and sprite alpha ramp, px
+// A class is scattered (placed at random) when fewer than this share of its complete particles'
+// quadrants found a neighbour within the dilation cap (lattices 0.98-1.00, scattered berries 0.28).
+constexpr double kParticleScatteredFraction = 0.5;
 
 // Borrowed sample pixels (see conventions).
 struct ParticleSample {
@@ -112,7 +118,7 @@ struct ParticleClass {
   std::array<float, 4> colour{};  // mean sample colour of its pixels (channels used)
   bool background = false;
   bool has_complete = false;      // false for a class with particles but no complete one
-  bool random = false;            // 1-3 particles
+  bool random = false;            // 1-3 particles, or scattered (kParticleScatteredFraction)
   double density = 0;             // particles / (W x H)
   double min_distance = 0;        // 0.7 x mean nearest-neighbour centre distance (see conventions)
   double tolerance = 0.1;         // overlap tolerance

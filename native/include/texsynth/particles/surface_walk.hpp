@@ -87,6 +87,11 @@ V3 surface_position(const TriangleMeshInput& mesh, const SurfacePoint& p);
 // std::invalid_argument naming the first bad item: triangle out of range, barycentrics NaN or outside
 // the triangle (beyond 1e-4), direction NaN or zero, length NaN or <= 0, a bad option. Barycentrics
 // within the tolerance are clamped into the triangle. texsynth::Cancelled when *cancel is raised.
+// A point from the caller, checked as the batches check theirs (std::invalid_argument naming `who`,
+// `what` and item i) and clamped into its triangle.
+SurfacePoint checked_surface_point(const SurfacePoint& p, int32_t num_triangles, const char* who, const char* what,
+                                   int64_t i);
+
 struct SectionWalkRequest {
   SurfacePoint start;
   V3 direction;

@@ -1,0 +1,473 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""bpy-free core of texture particles (Dischler et al. 2002; note 002-texture-particles.md, section 3):
+the analysis with its caches and the artist's edits (label image, merges, background, class order), the
+analysis view (class rows, segmentation preview), the particle atlas, and the arrays that decal_mesh and
+the instance points need from a place_particles result.
+
+Frames: sample x right, y up, row 0 at the bottom (Blender's pixel order); a pixel (i, j) covers
+[i, i + 1] x [j, j + 1], as the analysis' centroids and boxes do.
+"""
+import hashlib
+import os
+
+import numpy as np
+
+from .. import native
+from ..core import pipeline
+from ..surface_colour import core as surface_core
+
+ATLAS_MAX_SIDE = 4096
+ATLAS_PADDING = 2            # transparent pixels around every sprite (no bleeding under mipmaps or Linear)
+DECAL_OFFSET_FACTOR = 1e-4   # x bbox diagonal x (class rank + 1): decals above the surface, classes ordered
+MAX_LABEL_COLOURS = pipeline.PARTICLE_CLASS_RANGE[1]
+MIN_BACKGROUND_SHARE = 0.02  # a sample whose background class holds less is "all particles"
+PARTICLE_ID_NAME = "particle_id"
+ROTATION_NAME, SCALE_NAME, CLASS_NAME = "rotation", "scale", "class"
+ANALYSIS_CACHE_PREFIX = "particles-"
+
+
+def sample_for_analysis(pixels_top_first):
+    """The add-on's H x W x C (row 0 = top) pixels as the analysis wants them: float32 RGB(A), row 0 = bottom
+    (the surface-colour methods' convention)."""
+    return surface_core.synthesis_sample(pixels_top_first)
+
+
+def digest(*arrays):
+    hasher = hashlib.blake2b(digest_size=16)
+    for array in arrays:
+        if array is None:
+            hasher.update(b"none")
+            continue
+        array = np.ascontiguousarray(array)
+        hasher.update(repr((array.shape, array.dtype.str)).encode())
+        hasher.update(array.tobytes())
+    return hasher.hexdigest()
+
+
+def labels_from_image(rgba_bottom_first, sample_width, sample_height, name="label image"):
+    """An artist's label image (one flat colour per class) -> (H, W) int32 class ids, classes numbered by
+    first appearance from the bottom row. Clear errors for a wrong size or too many colours."""
+    pixels = np.asarray(rgba_bottom_first)
+    if pixels.ndim != 3 or pixels.shape[:2] != (sample_height, sample_width):
+        got = "%d x %d" % (pixels.shape[1], pixels.shape[0]) if pixels.ndim == 3 else str(pixels.shape)
+        raise pipeline.SettingsError("%s is %s pixels but the sample is %d x %d: paint the labels on an image of "
+                                     "the sample's size" % (name, got, sample_width, sample_height))
+    colour = np.round(np.clip(pixels[:, :, :3], 0.0, 1.0) * 255.0).astype(np.int32)
+    key = (colour[:, :, 0] << 16) | (colour[:, :, 1] << 8) | colour[:, :, 2]
+    values, first, inverse = np.unique(key.ravel(), return_index=True, return_inverse=True)
+    if values.size > MAX_LABEL_COLOURS:
+        raise pipeline.SettingsError("%s has %d colours; at most %d classes (one flat colour each, no "
+                                     "antialiasing)" % (name, values.size, MAX_LABEL_COLOURS))
+    if values.size < 2:
+        raise pipeline.SettingsError("%s has one colour: paint at least a background and one particle class" % name)
+    rank = np.empty(values.size, np.int32)
+    rank[np.argsort(first, kind="stable")] = np.arange(values.size, dtype=np.int32)
+    return np.ascontiguousarray(rank[inverse].reshape(key.shape))
+
+
+def merged_ids(count, merges):
+    """old -> new class id (-1: merged away) after merges, for `count` classes before them."""
+    return merge_labels(np.arange(count, dtype=np.int32)[None, :], merges)[1] if count else np.zeros(0, np.int32)
+
+
+def original_id(shown, count, merges):
+    """The first pre-merge class id that became class `shown` (the view lists classes after merges)."""
+    matches = np.flatnonzero(merged_ids(count, merges) == shown)
+    if matches.size == 0:
+        raise pipeline.SettingsError("class %d does not exist after the merges" % shown)
+    return int(matches[0])
+
+
+def merge_labels(labels, merges):
+    """Applies merges ((a, b): class a joins b, in order) and renumbers the classes 0..k-1 in order of
+    their old ids; returns (labels, old -> new id array (-1: merged away))."""
+    labels = np.array(labels, dtype=np.int32, copy=True)
+    count = int(labels.max()) + 1 if labels.size else 0
+    target = np.arange(count, dtype=np.int32)
+    for a, b in merges:
+        if not (0 <= a < count and 0 <= b < count):
+            raise pipeline.SettingsError("class merge %d -> %d names a class the analysis does not have "
+                                         "(classes 0..%d)" % (a, b, count - 1))
+        target[target == a] = target[b]
+    kept = np.unique(target)
+    renumber = np.full(count, -1, np.int32)
+    renumber[kept] = np.arange(kept.size, dtype=np.int32)
+    mapping = renumber[target]
+    return np.ascontiguousarray(mapping[labels]), mapping
+
+
+class AnalysisCache(surface_core.ContextCache):
+    """The last few analyses in memory (most recent last), keyed by analysis_key; the disk copy goes
+    through the native save/load_particle_analysis when the module has them (see analyse)."""
+
+    def __init__(self, capacity=4):
+        super().__init__(capacity)
+
+
+analyses = AnalysisCache()
+
+
+def analysis_key(sample, settings, labels=None):
+    params = (int(settings.particle_classes) if labels is None else 0, float(settings.particle_blur),
+              int(settings.particle_min_area), int(settings.particle_background_class),
+              tuple(tuple(int(c) for c in pair) for pair in settings.particle_merges),
+              bool(settings.tileable), int(settings.seed))
+    return digest(sample, labels) + "-" + hashlib.blake2b(repr(params).encode(), digest_size=8).hexdigest()
+
+
+def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=analyses):
+    """(ParticleAnalysis, source 'memory' | 'disk' | 'built') of a sample from sample_for_analysis.
+    Merges are applied to the first segmentation's labels, which are then analysed again as a label image."""
+    module = native.require()
+    key = analysis_key(sample, settings, labels)
+    found = cache.get(key)
+    if found is not None:
+        return found, "memory"
+    path = os.path.join(cache_dir, ANALYSIS_CACHE_PREFIX + key + ".bin") if cache_dir else ""
+    can_store = hasattr(module, "load_particle_analysis") and hasattr(module, "save_particle_analysis")
+    file_key = int(hashlib.blake2b(key.encode(), digest_size=8).hexdigest(), 16)  # the native cache's u64
+    if path and can_store and os.path.isfile(path):
+        try:
+            found = module.load_particle_analysis(path, file_key)
+        except ValueError:
+            found = None  # corrupt: rebuilt and overwritten below
+        if found is not None:
+            cache.put(key, found)
+            return found, "disk"
+    kwargs = dict(blur=float(settings.particle_blur), tileable=bool(settings.tileable), seed=int(settings.seed))
+    if settings.particle_min_area:
+        kwargs["min_area"] = int(settings.particle_min_area)
+    if cancel is not None:
+        kwargs["cancel"] = cancel
+    background = int(settings.particle_background_class)
+    if labels is None:
+        kwargs["classes"] = int(settings.particle_classes)
+    if settings.particle_merges:
+        first = module.particle_analysis(sample, labels=labels, **kwargs)
+        labels, mapping = merge_labels(first.labels, settings.particle_merges)
+        kwargs.pop("classes", None)
+    if labels is not None:
+        kwargs["labels"] = labels
+    if background >= 0:
+        count = int(labels.max()) + 1 if labels is not None else int(settings.particle_classes)
+        if background >= count:
+            raise pipeline.SettingsError("background class %d does not exist (classes 0..%d)" % (background, count - 1))
+        kwargs["background"] = background
+    analysis = module.particle_analysis(sample, **kwargs)
+    cache.put(key, analysis)
+    if path and can_store:
+        os.makedirs(cache_dir, exist_ok=True)
+        module.save_particle_analysis(analysis, path, file_key)
+    return analysis, "built"
+
+
+def class_rows(analysis):
+    """One dict per class for the analysis view: id, colour (RGB 0..1), pixels, particles, complete,
+    background, random, has_complete."""
+    table = analysis.classes
+    rows = []
+    for index in range(table.shape[0]):
+        colour = np.asarray(table["colour"][index], dtype=np.float64).ravel()
+        rgb = np.repeat(colour[:1], 3) if colour.size < 3 else colour[:3]
+        rows.append(dict(id=index, colour=tuple(float(c) for c in np.clip(rgb, 0.0, 1.0)),
+                         pixels=int(table["pixels"][index]), particles=int(table["particles"][index]),
+                         complete=int(table["complete"][index]), background=bool(table["background"][index]),
+                         random=bool(table["random"][index]), has_complete=bool(table["has_complete"][index])))
+    return rows
+
+
+def check_usable(analysis):
+    """Raises SettingsError when the sample cannot give particles: one colour, all particles, no complete
+    particle. Returns notes for what was bounded (merged tiny components)."""
+    rows = class_rows(analysis)
+    total = analysis.width * analysis.height
+    particles = sum(row["particles"] for row in rows if not row["background"])
+    if particles == 0:
+        raise pipeline.SettingsError(
+            "the sample has no particles: it is one colour, or every component is smaller than the minimum area "
+            "(%d px); use a sample of distinct elements or lower the minimum area" % analysis.min_area)
+    background = sum(row["pixels"] for row in rows if row["background"])
+    if background < MIN_BACKGROUND_SHARE * total:
+        raise pipeline.SettingsError(
+            "the sample is all particles: the background class covers %.1f %% of it (at least %.0f %% needed); "
+            "choose another background class or fewer classes" % (100.0 * background / total, 100 * MIN_BACKGROUND_SHARE))
+    if not any(row["has_complete"] for row in rows if not row["background"]):
+        raise pipeline.SettingsError(
+            "no class has a complete particle (every particle is cut by the sample's border or joined into one "
+            "region): use a sample where whole elements lie inside, or mark it tileable")
+    notes = []
+    if analysis.merged_components:
+        notes.append("%d tiny components joined the background%s" % (
+            analysis.merged_components, " (beyond the cap of 20,000 particles: %d)" % analysis.merged_over_cap
+            if analysis.merged_over_cap else ""))
+    return notes
+
+
+def segmentation_preview(analysis):
+    """(H, W, 4) float32 RGBA, row 0 = bottom: each pixel in its class colour, particle outlines in black or
+    white (whichever contrasts with the class), incomplete particles' outlines grey."""
+    rows = class_rows(analysis)
+    colours = np.array([row["colour"] for row in rows], np.float32)
+    labels = analysis.labels
+    components = analysis.components
+    image = np.ones(labels.shape + (4,), np.float32)
+    image[:, :, :3] = colours[np.clip(labels, 0, len(rows) - 1)]
+    padded = np.pad(components, 1, mode="edge")
+    edge = np.zeros(components.shape, bool)
+    for dy, dx in ((0, 1), (2, 1), (1, 0), (1, 2)):
+        edge |= padded[dy:dy + components.shape[0], dx:dx + components.shape[1]] != components
+    edge &= components >= 0
+    luminance = colours @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    outline = np.where(luminance > 0.5, 0.0, 1.0).astype(np.float32)[np.clip(labels, 0, len(rows) - 1)]
+    complete = np.asarray(analysis.particles["complete"], bool)
+    incomplete = np.zeros(components.shape, bool)
+    if complete.size:
+        incomplete = ~complete[np.maximum(components, 0)] & (components >= 0)
+    outline = np.where(incomplete, 0.5, outline)
+    image[edge, :3] = outline[edge][:, None]
+    return image
+
+
+def class_at(analysis, x, y):
+    """Class id of sample pixel (x, y) (x right, y up from the bottom row); SettingsError outside."""
+    if not (0 <= x < analysis.width and 0 <= y < analysis.height):
+        raise pipeline.SettingsError("(%d, %d) is outside the %d x %d sample" % (x, y, analysis.width, analysis.height))
+    return int(analysis.labels[int(y), int(x)])
+
+
+def class_order(analysis, settings):
+    """The classes to place, in order: the artist's order (checked), else every non-background class with a
+    complete particle by decreasing particle count (the native default, written out so ranks are known)."""
+    rows = class_rows(analysis)
+    if settings.particle_class_order:
+        order = [int(c) for c in settings.particle_class_order]
+        for c in order:
+            if not 0 <= c < len(rows):
+                raise pipeline.SettingsError("class order names class %d; the analysis has classes 0..%d"
+                                             % (c, len(rows) - 1))
+            if rows[c]["background"]:
+                raise pipeline.SettingsError("class %d is the background: it is synthesized as texture, not placed" % c)
+            if not rows[c]["has_complete"]:
+                raise pipeline.SettingsError("class %d has no complete particle to place" % c)
+        return order
+    usable = [row for row in rows if not row["background"] and row["has_complete"]]
+    return [row["id"] for row in sorted(usable, key=lambda row: (-row["particles"], row["id"]))]
+
+
+def parse_class_list(text):
+    """'2, 0 1' -> (2, 0, 1); SettingsError for anything but integers."""
+    items = [item for item in text.replace(",", " ").split() if item]
+    try:
+        return tuple(int(item) for item in items)
+    except ValueError:
+        raise pipeline.SettingsError("class order must be class numbers separated by commas, got %r" % text)
+
+
+def parse_merges(text):
+    """'3>1, 2>0' -> ((3, 1), (2, 0))."""
+    merges = []
+    for item in [item.strip() for item in text.split(",") if item.strip()]:
+        parts = item.split(">")
+        try:
+            merges.append((int(parts[0]), int(parts[1])) if len(parts) == 2 else None)
+        except ValueError:
+            merges.append(None)
+        if merges[-1] is None:
+            raise pipeline.SettingsError("class merges are written a>b (class a joins b), got %r" % item)
+    return tuple(merges)
+
+
+def format_merges(merges):
+    return ", ".join("%d>%d" % (a, b) for a, b in merges)
+
+
+# ---------------------------------------------------------------------------------------------
+# Atlas
+
+
+class Atlas:
+    """Sprites packed into one RGBA image: cells[i] = (x, y, w, h) pixel rectangle (bottom-left origin) of
+    sprite ids[i]; `dropped` = sprites per class left out to stay within the size limit."""
+
+    def __init__(self, width, height, ids, cells, dropped, classes):
+        self.width, self.height = width, height
+        self.ids = np.asarray(ids, np.int32)
+        self.classes = np.asarray(classes, np.int32)
+        self.cells = np.asarray(cells, np.int32).reshape(-1, 4)
+        self.dropped = dropped
+        self.index = {int(s): i for i, s in enumerate(self.ids)}
+
+    def uv_rects(self, sprite_ids):
+        """(n, 4) float32 (s0, t0, s1, t1) of each sprite's cell, in [0, 1] atlas coordinates."""
+        rows = np.array([self.index[int(s)] for s in sprite_ids], np.int64)
+        cells = self.cells[rows].astype(np.float64) if rows.size else np.zeros((0, 4))
+        scale = np.array([self.width, self.height, self.width, self.height], np.float64)
+        return np.ascontiguousarray(np.column_stack([cells[:, 0], cells[:, 1], cells[:, 0] + cells[:, 2],
+                                                     cells[:, 1] + cells[:, 3]]) / scale, dtype=np.float32)
+
+
+def _shelf_pack(sizes, side, padding):
+    """Positions (n, 2) of (w, h) boxes on shelves in a side x side square (tallest first), or None."""
+    order = np.lexsort((-sizes[:, 0], -sizes[:, 1]))
+    positions = np.zeros((sizes.shape[0], 2), np.int32)
+    x = y = shelf = 0
+    for i in order:
+        w, h = int(sizes[i, 0]) + 2 * padding, int(sizes[i, 1]) + 2 * padding
+        if w > side:
+            return None
+        if x + w > side:
+            x, y, shelf = 0, y + shelf, 0
+        if y + h > side:
+            return None
+        positions[i] = (x + padding, y + padding)
+        x += w
+        shelf = max(shelf, h)
+    return positions
+
+
+def pack_atlas(sprite_ids, sizes, classes, seed=0, max_side=ATLAS_MAX_SIDE, padding=ATLAS_PADDING):
+    """Packs sprites (sizes (n, 2) = (w, h)) into the smallest power-of-two square <= max_side that holds
+    them; beyond it, a random subset per class (seeded; every class keeps at least one sprite)."""
+    ids = np.asarray(sprite_ids, np.int32)
+    sizes = np.asarray(sizes, np.int64).reshape(-1, 2)
+    classes = np.asarray(classes, np.int32)
+    if ids.size == 0:
+        raise pipeline.SettingsError("no sprite to put in the atlas")
+    if np.any(sizes + 2 * padding > max_side):
+        raise pipeline.SettingsError("a particle is larger than the %d px atlas" % max_side)
+    keep = np.ones(ids.size, bool)
+    rng = np.random.default_rng(seed)
+    priority = rng.random(ids.size)  # lower = dropped first
+    while True:
+        kept = np.flatnonzero(keep)
+        area = float(np.prod(sizes[kept] + 2 * padding, axis=1).sum())
+        side = 64
+        while side < max_side and side * side < area:
+            side *= 2
+        while side <= max_side:
+            positions = _shelf_pack(sizes[kept], side, padding)
+            if positions is not None:
+                cells = np.column_stack([positions, sizes[kept]])
+                dropped = {}
+                for c in np.unique(classes[~keep]):
+                    dropped[int(c)] = int(np.count_nonzero(~keep & (classes == c)))
+                return Atlas(side, side, ids[kept], cells, dropped, classes[kept])
+            side *= 2
+        # Drop a tenth of each class's remaining sprites (lowest priority first), keeping one per class.
+        changed = False
+        for c in np.unique(classes):
+            members = np.flatnonzero(keep & (classes == c))
+            drop = members.size // 10 if members.size > 10 else (1 if members.size > 1 else 0)
+            if drop:
+                keep[members[np.argsort(priority[members])[:drop]]] = False
+                changed = True
+        if not changed:
+            raise pipeline.SettingsError("the particles do not fit into a %d px atlas" % max_side)
+
+
+def atlas_pixels(atlas, sprites):
+    """(H, W, 4) float32 RGBA, row 0 = bottom: sprites[i] (h, w, 4, row 0 = bottom) in cell i; transparent
+    elsewhere."""
+    image = np.zeros((atlas.height, atlas.width, 4), np.float32)
+    for (x, y, w, h), rgba in zip(atlas.cells, sprites):
+        image[y:y + h, x:x + w] = rgba
+    return image
+
+
+def substitute_sprites(placed_sprites, placed_classes, atlas, angles_by_sprite):
+    """Sprite per placed particle that is in the atlas: dropped sprites are replaced by a kept sprite of
+    the same class (chosen by id). Returns (sprites, extra rotation in radians theta_s - theta_s' that keeps
+    the particle's box direction)."""
+    sprites = np.asarray(placed_sprites, np.int32).copy()
+    turn = np.zeros(sprites.size, np.float64)
+    if not atlas.dropped:
+        return sprites, turn
+    in_atlas = np.isin(sprites, atlas.ids)
+    kept_by_class = {}
+    for index in np.flatnonzero(~in_atlas):
+        c = int(placed_classes[index])
+        if c not in kept_by_class:
+            kept_by_class[c] = np.sort(atlas.ids[atlas.classes == c])
+        kept = kept_by_class[c]
+        replacement = int(kept[int(sprites[index]) % kept.size])
+        turn[index] = angles_by_sprite[sprites[index]] - angles_by_sprite[replacement]
+        sprites[index] = replacement
+    return sprites, turn
+
+
+def rotate_in_plane(vectors, normals, angles):
+    """Rotates tangent vectors about the normals by angles (radians, counter-clockwise seen from n)."""
+    vectors = np.asarray(vectors, np.float64)
+    normals = np.asarray(normals, np.float64)
+    cos, sin = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    return vectors * cos + np.cross(normals, vectors) * sin
+
+
+def decal_inputs(placed, analysis, atlas, sprite_boxes):
+    """axes (n, 3), rects (n, 4) in world units around the anchor, uv_rects (n, 4) for decal_mesh.
+
+    sprite_boxes: {particle id: (x0, y0, w, h)} of every atlas sprite (origin and size from particle_sprite).
+    The anchor is the particle's box centre: a sprite covering sample x in [x0, x0 + w] around a box
+    centre cx spans u in [(x0 - cx), (x0 + w - cx)] x pixel size along its axis."""
+    classes = np.asarray(placed["class"], np.int32)
+    angles = np.asarray(analysis.particles["box_angle"], np.float64)
+    sprites, turn = substitute_sprites(placed["sprite"], classes, atlas, angles)
+    axes = np.asarray(placed["sprite_axis"], np.float64)
+    if np.any(turn):
+        axes = rotate_in_plane(axes, placed["normal"], turn)
+        axes /= np.maximum(np.linalg.norm(axes, axis=1, keepdims=True), 1e-30)
+    centres = np.asarray(analysis.particles["box_centre"], np.float64)
+    boxes = np.array([sprite_boxes[int(s)] for s in sprites], np.float64).reshape(-1, 4)
+    size = np.asarray(placed["pixel_size"], np.float64)[:, None]
+    c = centres[sprites] if sprites.size else np.zeros((0, 2))
+    rects = np.column_stack([boxes[:, 0] - c[:, 0], boxes[:, 1] - c[:, 1], boxes[:, 0] + boxes[:, 2] - c[:, 0],
+                             boxes[:, 1] + boxes[:, 3] - c[:, 1]]) * size
+    return (np.ascontiguousarray(axes, np.float32), np.ascontiguousarray(rects, np.float32),
+            atlas.uv_rects(sprites), sprites)
+
+
+def decal_offset(rank, bbox_diagonal):
+    return (rank + 1) * DECAL_OFFSET_FACTOR * float(bbox_diagonal)
+
+
+def euler_xyz(x_axes, z_axes):
+    """Blender XYZ Euler angles (n, 3) of the frames with columns X, Y = Z x X, Z (X re-orthogonalised)."""
+    z = np.asarray(z_axes, np.float64)
+    z = z / np.maximum(np.linalg.norm(z, axis=1, keepdims=True), 1e-30)
+    x = np.asarray(x_axes, np.float64)
+    x = x - np.sum(x * z, axis=1, keepdims=True) * z
+    x = x / np.maximum(np.linalg.norm(x, axis=1, keepdims=True), 1e-30)
+    y = np.cross(z, x)
+    # R = Rz(c) Ry(b) Rx(a); columns x, y, z: R[2,0] = x.z = -sin b, R[2,1] = y.z, R[2,2] = z.z.
+    b = np.arcsin(np.clip(-x[:, 2], -1.0, 1.0))
+    cos_b = np.cos(b)
+    regular = cos_b > 1e-6
+    a = np.where(regular, np.arctan2(y[:, 2], z[:, 2]), np.arctan2(-z[:, 1], y[:, 1]))
+    c = np.where(regular, np.arctan2(x[:, 1], x[:, 0]), 0.0)
+    return np.ascontiguousarray(np.column_stack([a, b, c]), dtype=np.float32)
+
+
+def instance_frames(placed, analysis):
+    """rotation (n, 3) Euler XYZ with X along the particle's box axis and Z along the normal, and scale
+    (n, 3) = box width, box height (world units) and their geometric mean (an instance of unit size covers
+    the particle's box)."""
+    sprites = np.asarray(placed["sprite"], np.int64)
+    theta_s = np.asarray(analysis.particles["box_angle"], np.float64)[sprites] if sprites.size else np.zeros(0)
+    box_axes = rotate_in_plane(placed["sprite_axis"], placed["normal"], theta_s)
+    rotation = euler_xyz(box_axes, placed["normal"])
+    half = np.asarray(analysis.particles["box_half"], np.float64)[sprites] if sprites.size else np.zeros((0, 2))
+    size = np.asarray(placed["pixel_size"], np.float64)[:, None] * 2.0 * half
+    scale = np.column_stack([size, np.sqrt(np.maximum(size[:, 0] * size[:, 1], 0.0))])
+    return rotation, np.ascontiguousarray(scale, dtype=np.float32)
+
+
+def bbox_diagonal(positions):
+    positions = np.asarray(positions, np.float64)
+    if positions.size == 0:
+        return 0.0
+    return float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0)))
+
+
+def triangle_areas(positions, triangles):
+    p = np.asarray(positions, np.float64)[np.asarray(triangles, np.int64)]
+    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)

@@ -1,0 +1,715 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Texture Particles inside Blender (addon/particles/, method PARTICLES):
+
+  blender -b --factory-startup --python-exit-code 1 --python python_tests/blender/tests_particles.py [-- test_name ...]
+
+The analysis view and the outputs' Blender side (decal objects, atlas, material, points, Geometry Nodes,
+Clear, atomic failure) run on any build; the end-to-end runs (FULL_RUN_TESTS) need the native
+place_particles and decal_mesh and are selected by python_tests/test_blender_particles.py only when the
+module has them. Expected values come from the drawn sample and the hand-made geometry, not from the add-on.
+"""
+import os
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+import harness  # noqa: E402
+
+texsynth = harness.load_addon()
+texsynth.register()
+from texsynth import native  # noqa: E402
+from texsynth.core import pipeline  # noqa: E402
+from texsynth.particles import core, scene, synthesis  # noqa: E402
+from texsynth.uv_methods.synthesis import Sample  # noqa: E402
+
+sys.path.insert(0, harness.SAMPLES_DIR)
+import particle_instances  # noqa: E402
+
+GROUND = (0.2, 0.3, 0.25)
+STONE = (0.9, 0.2, 0.1)
+LEAF = (0.1, 0.6, 0.1)
+FOLDER = tempfile.mkdtemp(prefix="texsynth_particles_")
+
+
+def pebbles_path(name="pebbles.png", kind="pebbles", size=(96, 64)):
+    """A PNG drawn here: ground, four 10 px stones and two 6 x 14 leaves (rows from the bottom); or 'flat'."""
+    path = os.path.join(FOLDER, name)
+    width, height = size
+    pixels = np.ones((height, width, 4), np.float32)
+    pixels[..., :3] = GROUND
+    if kind == "pebbles":
+        for x0, y0 in [(8, 8), (40, 8), (70, 30), (20, 40)]:
+            pixels[y0:y0 + 10, x0:x0 + 10, :3] = STONE
+        for x0, y0 in [(55, 6), (82, 40)]:
+            pixels[y0:y0 + 14, x0:x0 + 6, :3] = LEAF
+    return harness.save_png(path, pixels)
+
+
+def clean():
+    harness.reset_scene()
+    core.analyses.clear()
+
+
+def configure(**values):
+    props = bpy.context.scene.texsynth
+    props.sample_source, props.sample_path, props.method = "FILE", pebbles_path(), "PARTICLES"
+    props.particle_classes, props.particle_blur, props.scale = 3, 0.0, 1.0
+    for key, value in values.items():
+        setattr(props, key, value)
+    return props
+
+
+def plane(name="Plane", size=2.0, cuts=8):
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=cuts, y_subdivisions=cuts, size=size)
+    obj = bpy.context.active_object
+    obj.name = obj.data.name = name
+    return obj
+
+
+def names():
+    """Every datablock name a run could create or remove."""
+    return {kind: sorted(item.name for item in getattr(bpy.data, kind))
+            for kind in ("objects", "meshes", "images", "materials", "node_groups", "collections")}
+
+
+def class_ids():
+    rows = bpy.context.scene.texsynth.particle_rows
+    stone = next(r.class_id for r in rows if abs(r.colour[0] - STONE[0]) < 0.05 and abs(r.colour[1] - STONE[1]) < 0.05)
+    leaf = next(r.class_id for r in rows if abs(r.colour[1] - LEAF[1]) < 0.05 and abs(r.colour[0] - LEAF[0]) < 0.05)
+    return stone, leaf
+
+
+# -- analysis view --------------------------------------------------------------------------------
+
+def test_analyse_lists_the_classes_and_writes_the_segmentation_image():
+    clean()
+    configure()
+    assert bpy.ops.texsynth.particle_analyse() == {"FINISHED"}
+    props = bpy.context.scene.texsynth
+    rows = props.particle_rows
+    assert len(rows) == 3
+    stone, leaf = class_ids()
+    assert (rows[stone].pixels, rows[stone].particles, rows[stone].complete) == (400, 4, 4)
+    assert (rows[leaf].pixels, rows[leaf].particles) == (168, 2)
+    assert sum(r.background for r in rows) == 1 and not rows[stone].background
+    image = bpy.data.images["TexSynth Segmentation: pebbles.png"]
+    assert props.particle_preview == image and tuple(image.size) == (96, 64)
+    pixels = np.array(image.pixels[:], np.float32).reshape(64, 96, 4)
+    assert np.allclose(pixels[13, 13, :3], STONE, atol=0.02)       # inside a stone, in its class colour
+    # Its outline: white, as the red's luminance (0.34) is below one half.
+    assert np.allclose(pixels[8, 12, :3], 1.0, atol=0.02) and np.allclose(pixels[12, 17, :3], 1.0, atol=0.02)
+
+
+def test_the_view_and_the_sidebar_draw_the_particle_section():
+    clean()
+    configure()
+    bpy.ops.texsynth.particle_analyse()
+    panel = texsynth.ui.panels.TEXSYNTH_PT_particles
+    assert panel.poll(bpy.context)
+    bpy.context.scene.texsynth.method = "JUMPMAP"
+    assert not panel.poll(bpy.context)
+    assert "PARTICLES" in bpy.context.scene.texsynth.bl_rna.properties["method"].enum_items.keys()
+
+
+def test_show_in_image_editor_puts_the_segmentation_there():
+    clean()
+    configure()
+    bpy.ops.texsynth.particle_analyse()
+    image = bpy.context.scene.texsynth.particle_preview
+    window = bpy.context.window_manager.windows[0] if bpy.context.window_manager.windows else None
+    if window is None:  # background mode without a window: nothing to show in, a clear refusal
+        try:
+            bpy.ops.texsynth.particle_show_segmentation()
+            raise AssertionError("showed an image without an Image Editor")
+        except RuntimeError as error:
+            assert "Image Editor" in str(error)
+        return
+    area = window.screen.areas[0]
+    area.type = "IMAGE_EDITOR"
+    with_area = {"window": window, "screen": window.screen, "area": area}
+    if hasattr(bpy.context, "temp_override"):
+        with bpy.context.temp_override(**with_area):
+            assert bpy.ops.texsynth.particle_show_segmentation() == {"FINISHED"}
+    else:
+        assert bpy.ops.texsynth.particle_show_segmentation(with_area) == {"FINISHED"}
+    assert area.spaces.active.image == image
+
+
+def test_live_field_update_is_refused_for_particles():
+    clean()
+    configure()
+    obj = plane()
+    try:
+        texsynth.fields.tools.live_update(bpy.context, obj)
+        raise AssertionError("live update ran the UV path for Texture Particles")
+    except pipeline.SettingsError as error:
+        assert "not available for Texture Particles" in str(error), error
+    assert "TexSynth" not in obj.data.uv_layers
+
+
+def test_settings_persist_in_the_blend_file():
+    clean()
+    props = configure(particle_classes=5, particle_blur=2.0, particle_merges="3>1", particle_class_order="1, 2",
+                      particle_output="BOTH", particle_size_jitter=0.3, particle_density_source="Dens",
+                      particle_background="TEXTON")
+    props.particle_collection = particle_instances.make_collection()
+    props.particle_collection.use_fake_user = True
+    path = os.path.join(FOLDER, "particles.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    s = bpy.context.scene.texsynth.to_settings().validate()
+    assert (s.method, s.particle_classes, s.particle_merges, s.particle_class_order, s.particle_output) == \
+        ("PARTICLES", 5, ((3, 1),), (1, 2), "BOTH")
+    assert (s.particle_collection, s.particle_density_source, s.particle_background) == \
+        (particle_instances.NAME, "Dens", "TEXTON")
+    assert abs(s.particle_blur - 2.0) < 1e-6 and abs(s.particle_size_jitter - 0.3) < 1e-6
+
+
+def test_pick_class_selects_the_class_of_a_pixel():
+    clean()
+    configure()
+    bpy.ops.texsynth.particle_analyse()
+    stone, leaf = class_ids()
+    assert bpy.ops.texsynth.particle_pick_class(x=12, y=12) == {"FINISHED"}
+    assert bpy.context.scene.texsynth.particle_active_class == stone
+    bpy.ops.texsynth.particle_pick_class(x=57, y=10)
+    assert bpy.context.scene.texsynth.particle_active_class == leaf
+
+
+def test_pick_class_reads_the_image_editor_cursor():
+    from types import SimpleNamespace
+    clean()
+    configure()
+    bpy.ops.texsynth.particle_analyse()
+    image = bpy.context.scene.texsynth.particle_preview
+    # The 2D cursor in image coordinates (0..1): (12.5 / 96, 12.5 / 64) is inside the first stone.
+    space = SimpleNamespace(type="IMAGE_EDITOR", image=image, cursor_location=(12.5 / 96, 12.5 / 64))
+    picker = texsynth.ui.particle_operators.TEXSYNTH_OT_particle_pick_class
+    assert picker._cursor(SimpleNamespace(space_data=space)) == (12, 12)
+    try:
+        picker._cursor(SimpleNamespace(space_data=None))
+        raise AssertionError("picked a class without an Image Editor")
+    except pipeline.SettingsError as error:
+        assert "Image Editor" in str(error)
+
+
+def test_merge_and_background_edit_the_analysis():
+    clean()
+    props = configure()
+    bpy.ops.texsynth.particle_analyse()
+    stone, leaf = class_ids()
+    props.particle_active_class, props.particle_merge_into = leaf, stone
+    assert bpy.ops.texsynth.particle_merge() == {"FINISHED"}
+    rows = props.particle_rows
+    assert len(rows) == 2
+    merged = next(r for r in rows if not r.background)
+    assert (merged.pixels, merged.particles) == (568, 6)
+    props.particle_active_class = merged.class_id
+    try:  # the merged stones and leaves as background leave the ground as one border-cut region
+        bpy.ops.texsynth.particle_set_background()
+        raise AssertionError("a background leaving no complete particle was accepted")
+    except RuntimeError as error:
+        assert "complete particle" in str(error), error
+    assert props.particle_background_class == -1 and len(props.particle_rows) == 2
+
+
+def test_label_image_of_the_wrong_size_is_refused_and_changes_nothing():
+    clean()
+    props = configure()
+    props.particle_label_image = bpy.data.images.new("Labels", 32, 32)
+    before = names()
+    try:
+        bpy.ops.texsynth.particle_analyse()
+        raise AssertionError("accepted a 32 x 32 label image for a 96 x 64 sample")
+    except RuntimeError as error:
+        assert "32 x 32 pixels but the sample is 96 x 64" in str(error), error
+    assert names() == before
+
+
+def test_label_image_replaces_the_segmentation():
+    clean()
+    props = configure()
+    labels = bpy.data.images.new("Labels", 96, 64)
+    pixels = np.zeros((64, 96, 4), np.float32)
+    pixels[..., 3] = 1.0
+    pixels[8:18, 8:18, 0] = 1.0   # one red square label: a single particle
+    labels.pixels.foreach_set(pixels.ravel())
+    props.particle_label_image = labels
+    assert bpy.ops.texsynth.particle_analyse() == {"FINISHED"}
+    rows = props.particle_rows
+    assert len(rows) == 2 and sorted(r.particles for r in rows) == [0, 1]
+    assert next(r for r in rows if not r.background).pixels == 100
+
+
+# -- outputs (Blender side, hand-made geometry) ----------------------------------------------------
+
+def square_decals(centres, half, cell):
+    """decal_mesh-like dict: one quad per centre on z = 0.01, UVs the atlas cell (s0, t0, s1, t1)."""
+    positions, corner_uvs = [], []
+    for x, y in centres:
+        positions += [(x - half, y - half, 0.01), (x + half, y - half, 0.01), (x + half, y + half, 0.01),
+                      (x - half, y + half, 0.01)]
+        corner_uvs += [(cell[0], cell[1]), (cell[2], cell[1]), (cell[2], cell[3]), (cell[0], cell[3])]
+    n = len(centres)
+    return {"positions": np.array(positions, np.float32), "loop_starts": np.arange(n, dtype=np.int32) * 4,
+            "loop_totals": np.full(n, 4, np.int32), "corner_verts": np.arange(4 * n, dtype=np.int32),
+            "corner_uvs": np.array(corner_uvs, np.float32), "face_particle": np.arange(n, dtype=np.int32)}
+
+
+def red_atlas(size=64):
+    """A red disc of radius 24 px (alpha 1) on transparent pixels."""
+    pixels = np.zeros((size, size, 4), np.float32)
+    yy, xx = np.mgrid[0:size, 0:size]
+    disc = (xx - size / 2 + 0.5) ** 2 + (yy - size / 2 + 0.5) ** 2 < 24 ** 2
+    pixels[disc] = (1.0, 0.0, 0.0, 1.0)
+    return pixels
+
+
+def hand_outputs(target, collection=None, classes=(1, 2)):
+    outputs = []
+    for rank, c in enumerate(classes):
+        out = scene.ClassOutput(c, rank, 3)
+        out.decals = square_decals([(-0.5 + 0.5 * i, 0.2 * rank) for i in range(3)], 0.2, (0.0, 0.0, 1.0, 1.0))
+        if collection is not None:
+            out.points = dict(position=np.array([[0.3 * i, 0.0, 0.0] for i in range(3)], np.float32),
+                              axis=np.tile([1.0, 0.0, 0.0], (3, 1)), normal=np.tile([0.0, 0.0, 1.0], (3, 1)),
+                              scale=np.full((3, 3), 0.1, np.float32))
+        outputs.append(out)
+    return scene.write_outputs(target, outputs, red_atlas(), (64, 64), collection)
+
+
+def test_decal_objects_per_class_with_particle_ids_uvs_and_an_alpha_material():
+    clean()
+    target = plane()
+    made = hand_outputs(target)
+    assert made == [scene.decal_name("Plane", 1), scene.decal_name("Plane", 2)]
+    for name in made:
+        obj = bpy.data.objects[name]
+        assert obj.parent == target and obj[scene.TAG] == "Plane"
+        ids = texsynth.bridge.mesh_io.read_face_ints(obj.data, core.PARTICLE_ID_NAME)
+        assert ids.tolist() == [0, 1, 2]
+        uv = np.empty(len(obj.data.loops) * 2, np.float32)
+        obj.data.uv_layers[scene.ATLAS_UV].data.foreach_get("uv", uv)
+        assert uv.min() >= 0.0 and uv.max() <= 1.0
+    material = bpy.data.materials["TexSynth Particles: Plane"]
+    texture = next(n for n in material.node_tree.nodes if n.type == "TEX_IMAGE")
+    assert texture.extension == "CLIP" and texture.image.name == "TexSynth Atlas: Plane"
+    principled = next(n for n in material.node_tree.nodes if n.type == "BSDF_PRINCIPLED")
+    assert principled.inputs["Alpha"].is_linked
+    blended = getattr(material, "surface_render_method", None) == "BLENDED" or \
+        getattr(material, "blend_method", None) == "BLEND"
+    assert blended
+    atlas = np.array(texture.image.pixels[:], np.float32).reshape(64, 64, 4)
+    assert atlas[32, 32, 3] == 1.0 and atlas[0, 0, 3] == 0.0
+
+
+def test_moving_the_target_moves_its_decals():
+    clean()
+    target = plane()
+    target.location = (5.0, 0.0, 0.0)
+    bpy.context.view_layer.update()
+    outputs = [scene.ClassOutput(1, 0, 1)]
+    outputs[0].decals = square_decals([(5.0, 0.0)], 0.2, (0, 0, 1, 1))  # world space, as decal_mesh gives
+    scene.write_outputs(target, outputs, red_atlas(), (64, 64))
+    decal = bpy.data.objects[scene.decal_name("Plane", 1)]
+    bpy.context.view_layer.update()
+    world = decal.matrix_world @ decal.data.vertices[0].co
+    assert abs(world.x - 4.8) < 1e-5, world
+
+
+def test_instances_follow_the_points_through_geometry_nodes():
+    clean()
+    target = plane()
+    collection = particle_instances.make_collection()
+    hand_outputs(target, collection)
+    points = bpy.data.objects[scene.points_name("Plane", 1)]
+    mesh = points.data
+    assert len(mesh.vertices) == 3 and len(mesh.polygons) == 0
+    for name, kind in ((core.ROTATION_NAME, "FLOAT_VECTOR"), (core.SCALE_NAME, "FLOAT_VECTOR"), (core.CLASS_NAME, "INT")):
+        assert mesh.attributes[name].data_type == kind and mesh.attributes[name].domain == "POINT"
+    modifier = points.modifiers[scene.MODIFIER_NAME]
+    assert modifier.node_group.name == "TexSynth Instances: " + collection.name
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    # Read while iterating: the instance structs do not outlive the iteration.
+    instanced = [i.object.original.name for i in depsgraph.object_instances
+                 if i.is_instance and i.parent is not None and i.parent.original == points]
+    # class 1 picks the collection's child 1 in name order (Bead, Thorn)
+    assert instanced == ["Thorn"] * 3, instanced
+
+
+def test_clear_removes_every_particle_output_and_keeps_the_rest():
+    clean()
+    target = plane()
+    collection = particle_instances.make_collection()
+    before = names()
+    hand_outputs(target, collection)
+    assert names() != before
+    harness.select_only([target])
+    assert bpy.ops.texsynth.clear() == {"FINISHED"}
+    assert names() == before, (names(), before)
+
+
+def test_a_failure_while_creating_leaves_the_scene_unchanged():
+    clean()
+    target = plane()
+    collection = particle_instances.make_collection()
+    hand_outputs(target, collection, classes=(1,))
+    before = names()
+    first = bpy.data.objects[scene.decal_name("Plane", 1)].data.vertices[0].co.copy()
+    os.environ["TEXSYNTH_TEST_FAIL_AT"] = "particle_outputs"
+    try:
+        hand_outputs(target, collection, classes=(1, 2))
+        raise AssertionError("the injected failure did not stop the write")
+    except RuntimeError as error:
+        assert "injected" in str(error)
+    finally:
+        del os.environ["TEXSYNTH_TEST_FAIL_AT"]
+    assert names() == before, (names(), before)
+    assert bpy.data.objects[scene.decal_name("Plane", 1)].data.vertices[0].co == first
+
+
+def test_rewriting_one_class_replaces_only_its_objects():
+    clean()
+    target = plane()
+    hand_outputs(target, classes=(1, 2))
+    other = bpy.data.objects[scene.decal_name("Plane", 2)]
+    other_mesh = other.data.name
+    atlas = bpy.data.images["TexSynth Atlas: Plane"]
+    out = scene.ClassOutput(1, 0, 2)
+    out.decals = square_decals([(0.0, 0.0), (0.5, 0.5)], 0.1, (0, 0, 1, 1))
+    scene.write_outputs(target, [out], red_atlas(), (64, 64), keep_atlas=True)
+    assert len(bpy.data.objects[scene.decal_name("Plane", 1)].data.polygons) == 2
+    assert bpy.data.objects[scene.decal_name("Plane", 2)] == other and other.data.name == other_mesh
+    assert len([o for o in bpy.data.objects if o.get(scene.TAG) == "Plane"]) == 2
+    assert bpy.data.materials["TexSynth Particles: Plane"].users >= 2
+    assert bpy.data.images["TexSynth Atlas: Plane"] == atlas, "the same atlas is kept, not packed again"
+    # A full run (no keep_atlas) replaces every earlier output of the target: class 2 placed nothing now.
+    scene.write_outputs(target, [out], red_atlas(), (64, 64))
+    assert [o.name for o in bpy.data.objects if o.get(scene.TAG) == "Plane"] == [scene.decal_name("Plane", 1)]
+    assert len([image for image in bpy.data.images if image.name.startswith("TexSynth Atlas")]) == 1
+
+
+def test_eevee_render_shows_the_decal_sprites():
+    # A grey plane seen from above with one decal quad over its middle showing the red disc: the rendered
+    # centre turns red, the corners keep the plane's grey.
+    decal_render_check("EEVEE")
+
+
+def test_cycles_render_shows_the_decal_sprites():
+    decal_render_check("CYCLES")
+
+
+def decal_render_check(engine):
+    clean()
+    target = plane(size=2.0, cuts=2)
+    grey = harness.emission_material("Grey", lambda nodes, links: _rgb(nodes, (0.5, 0.5, 0.5)))
+    target.data.materials.append(grey)
+    out = scene.ClassOutput(1, 0, 1)
+    out.decals = square_decals([(0.0, 0.0)], 0.6, (0.0, 0.0, 1.0, 1.0))
+    scene.write_outputs(target, [out], red_atlas(), (64, 64))
+    top_camera(2.0)
+    pixels = render_pixels("decal_%s.png" % engine.lower(), engine=engine)
+    centre, corner = pixels[28:36, 28:36].mean(axis=(0, 1)), pixels[:6, :6].mean(axis=(0, 1))
+    # Chromaticity, not brightness: the decal is lit (Principled), the plane emits its grey.
+    assert centre[0] / max(centre.sum(), 1e-6) > 0.6, (centre, corner)
+    assert abs(corner[0] - corner[1]) < 0.05 and corner[0] > 0.2, corner
+
+
+def top_camera(ortho_scale):
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.type = "ORTHO"
+    camera.data.ortho_scale = ortho_scale
+    camera.location = (0.0, 0.0, 3.0)
+    bpy.context.scene.collection.objects.link(camera)
+    bpy.context.scene.camera = camera
+    bpy.context.scene.world = bpy.data.worlds.new("W")
+    bpy.context.scene.world.color = (1.0, 1.0, 1.0)
+
+
+def render_pixels(name, pixels=64, engine="EEVEE"):
+    scene_ = harness.flat_render_settings(bpy.context.scene, pixels, samples=4)
+    if engine == "CYCLES":
+        scene_.render.engine = "CYCLES"
+        scene_.cycles.samples = 4
+        scene_.cycles.device = "CPU"
+        scene_.cycles.use_denoising = False  # Debian's Blender has no OpenImageDenoise
+    scene_.render.filepath = os.path.join(FOLDER, name)
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(scene_.render.filepath)
+    values = np.array(image.pixels[:], np.float32).reshape(pixels, pixels, 4)[..., :3]
+    bpy.data.images.remove(image)
+    return values
+
+
+def _rgb(nodes, colour):
+    node = nodes.new("ShaderNodeRGB")
+    node.outputs[0].default_value = tuple(colour) + (1.0,)
+    return node.outputs[0]
+
+
+# -- refusals that change nothing ------------------------------------------------------------------
+
+def expect_error(fragment, **props):
+    before = names()
+    try:
+        result = bpy.ops.texsynth.synthesize()
+        raise AssertionError("Synthesize accepted it: %s" % result)
+    except RuntimeError as error:
+        assert fragment in str(error), str(error)
+    assert names() == before
+
+
+def test_one_colour_sample_is_refused_and_changes_nothing():
+    clean()
+    configure(sample_path=pebbles_path("flat.png", "flat"))
+    harness.select_only([plane()])
+    expect_error("no particles")
+
+
+def test_a_mesh_with_no_area_is_refused():
+    clean()
+    configure()
+    mesh = bpy.data.meshes.new("Flat")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (2, 0, 0)], [], [(0, 1, 2)])
+    obj = bpy.data.objects.new("Flat", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    harness.select_only([obj])
+    expect_error("has no area")
+
+
+def test_a_missing_or_empty_instance_collection_is_refused():
+    clean()
+    configure(particle_output="INSTANCES")
+    harness.select_only([plane()])
+    expect_error("needs an instance collection")
+    empty = bpy.data.collections.new("Empty")
+    configure(particle_output="INSTANCES", particle_collection=empty)
+    expect_error("is empty")
+
+
+def test_label_image_of_the_wrong_size_stops_synthesize():
+    clean()
+    props = configure()
+    props.particle_label_image = bpy.data.images.new("Labels", 10, 10)
+    harness.select_only([plane()])
+    expect_error("but the sample is 96 x 64")
+
+
+# -- end to end (native place_particles and decal_mesh) -------------------------------------------
+
+def full_run(target, **values):
+    configure(**values)
+    harness.select_only([target])
+    return bpy.ops.texsynth.synthesize("EXEC_DEFAULT", True)
+
+
+def test_synthesize_makes_decals_per_class_with_ids_matching_the_placed_count():
+    clean()
+    target = plane(size=4.0, cuts=40)
+    collection = particle_instances.make_collection()
+    props = configure(scale=1.5, particle_output="BOTH", particle_collection=collection)
+    report = synthesis.synthesize([target], Sample(path=props.sample_path), props.to_settings(), FOLDER)
+    per_class = report.native_stats["Plane"]["per_class"]
+    assert sum(per_class.values()) == report.native_stats["Plane"]["placed"] > 0, report.summary()
+    decals = scene.owned_objects("Plane", ("DECALS",))
+    assert sorted(o[scene.CLASS_TAG] for o in decals) == sorted(c for c, n in per_class.items() if n)
+    for obj in decals:
+        ids = texsynth.bridge.mesh_io.read_face_ints(obj.data, core.PARTICLE_ID_NAME)
+        # every placed particle of the class has faces, numbered 0..n-1
+        assert np.array_equal(np.unique(ids), np.arange(per_class[obj[scene.CLASS_TAG]])), obj.name
+        uv = np.empty(len(obj.data.loops) * 2, np.float32)
+        obj.data.uv_layers[scene.ATLAS_UV].data.foreach_get("uv", uv)
+        assert uv.min() >= 0.0 and uv.max() <= 1.0
+    assert "TexSynth" in target.data.uv_layers, "the background went through the jump map"
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for points in scene.owned_objects("Plane", ("POINTS",)):
+        count = sum(1 for i in depsgraph.object_instances if i.is_instance and i.parent is not None
+                    and i.parent.original == points)
+        assert count == per_class[points[scene.CLASS_TAG]] == len(points.data.vertices), points.name
+
+
+def test_resynthesizing_one_class_gives_the_same_rows_and_leaves_the_others():
+    clean()
+    target = plane(size=4.0, cuts=40)
+    full_run(target, scale=1.5)
+    stone, leaf = class_ids() if bpy.context.scene.texsynth.particle_rows else (None, None)
+    decals = {o.get(scene.CLASS_TAG): o for o in scene.owned_objects("Plane", ("DECALS",))}
+    c = sorted(decals)[0]
+    before = {k: harness.mesh_hash(o.data) for k, o in decals.items()}
+    bpy.context.scene.texsynth.particle_active_class = c
+    assert bpy.ops.texsynth.particle_resynthesize() == {"FINISHED"}
+    after = {o.get(scene.CLASS_TAG): harness.mesh_hash(o.data) for o in scene.owned_objects("Plane", ("DECALS",))}
+    assert after == before, "one class placed alone gives exactly its rows of the full run"
+
+
+def test_undo_removes_what_synthesize_made():
+    clean()
+    target = plane(size=4.0, cuts=20)
+    bpy.ops.ed.undo_push(message="before particles")
+    before = names()
+    assert full_run(target, scale=1.5) == {"FINISHED"}
+    assert names() != before
+    bpy.ops.ed.undo()
+    assert names() == before
+
+
+def test_density_override_of_zero_keeps_particles_off_those_faces():
+    # FLOAT face attribute 'Dens': 0 on the faces left of x = 0, 1 elsewhere: every placed particle's anchor
+    # (a point's position) lies on the right half.
+    clean()
+    target = plane(size=4.0, cuts=40)
+    centres = np.empty(len(target.data.polygons) * 3, np.float32)
+    target.data.polygons.foreach_get("center", centres)
+    dens = target.data.attributes.new("Dens", "FLOAT", "FACE")
+    dens.data.foreach_set("value", (centres.reshape(-1, 3)[:, 0] > 0).astype(np.float32))
+    collection = particle_instances.make_collection()
+    assert full_run(target, scale=1.5, particle_output="INSTANCES", particle_collection=collection,
+                    particle_density_source="Dens") == {"FINISHED"}
+    xs = np.concatenate([np.array([v.co.x for v in o.data.vertices]) for o in scene.owned_objects("Plane", ("POINTS",))])
+    assert xs.size > 10 and xs.min() >= -1e-5, (xs.size, xs.min())
+    configure(particle_density_source="NoSuchGroup")
+    try:
+        bpy.ops.texsynth.synthesize()
+        raise AssertionError("a missing override was accepted")
+    except RuntimeError as error:
+        assert "no face attribute or vertex group 'NoSuchGroup'" in str(error), error
+
+
+def test_probability_from_a_vertex_group_thins_the_particles():
+    # Weight 1 on the vertices right of x = 0.5, 0 elsewhere: probability (mean of the triangle's weights) 0 on
+    # most faces, so far fewer particles are output than with no override, and none far left.
+    clean()
+    target = plane(size=4.0, cuts=40)
+    assert full_run(target, scale=1.5, particle_background="NONE") == {"FINISHED"}
+    full = sum(np.unique(texsynth.bridge.mesh_io.read_face_ints(o.data, core.PARTICLE_ID_NAME)).size
+               for o in scene.owned_objects("Plane", ("DECALS",)))
+    group = target.vertex_groups.new(name="Keep")
+    group.add([v.index for v in target.data.vertices if v.co.x > 0.5], 1.0, "REPLACE")
+    collection = particle_instances.make_collection()
+    assert full_run(target, scale=1.5, particle_background="NONE", particle_output="INSTANCES",
+                    particle_collection=collection, particle_probability_source="Keep") == {"FINISHED"}
+    xs = np.concatenate([np.array([v.co.x for v in o.data.vertices]) for o in scene.owned_objects("Plane", ("POINTS",))])
+    assert 0 < xs.size < full / 2 and xs.min() > 0.4, (xs.size, full, xs.min())
+
+
+def test_texton_background_writes_the_texton_layers():
+    clean()
+    target = plane(size=4.0, cuts=20)
+    assert full_run(target, scale=1.5, particle_background="TEXTON") == {"FINISHED"}
+    assert "TexSynth" in target.data.uv_layers and pipeline.EDGE_BLENDED_NAME in target.data.attributes
+    assert scene.owned_objects("Plane", ("DECALS",))
+
+
+def test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour():
+    # The same view with the decals hidden and shown: the stones' red raises the red share of the image.
+    clean()
+    target = plane(size=4.0, cuts=40)
+    assert full_run(target, scale=1.5) == {"FINISHED"}
+    top_camera(4.0)
+    decals = scene.owned_objects("Plane", ("DECALS",))
+    for obj in decals:
+        obj.hide_render = True
+    without = render_pixels("without.png").mean(axis=(0, 1))
+    for obj in decals:
+        obj.hide_render = False
+    with_decals = render_pixels("with.png").mean(axis=(0, 1))
+    share = lambda rgb: rgb[0] / max(rgb.sum(), 1e-6)  # noqa: E731
+    assert share(with_decals) > share(without) + 0.02, (with_decals, without)
+
+
+def test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_along_its_normal():
+    # The plane turned 90 degrees about x (its normal becomes -y... in world: (0, -1, 0) or (0, 1, 0)) and
+    # scaled by 1.5: decal vertices lie within the class offsets of the plane y = 0, and every instance's
+    # local Z axis is the plane's world normal.
+    import math
+    clean()
+    target = plane(size=3.0, cuts=30)
+    target.rotation_euler = (math.pi / 2, 0.0, 0.0)
+    target.scale = (1.5, 1.5, 1.5)
+    bpy.context.view_layer.update()
+    normal = (target.matrix_world.to_3x3() @ target.data.polygons[0].normal).normalized()
+    collection = particle_instances.make_collection()
+    assert full_run(target, scale=1.5, particle_output="BOTH", particle_collection=collection,
+                    particle_background="NONE") == {"FINISHED"}
+    diagonal = 4.5 * math.sqrt(2.0)
+    for obj in scene.owned_objects("Plane", ("DECALS",)):
+        world = np.array([obj.matrix_world @ v.co for v in obj.data.vertices])
+        assert np.abs(world[:, 1]).max() <= 3 * core.DECAL_OFFSET_FACTOR * diagonal + 1e-5, np.abs(world[:, 1]).max()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    axes = [np.array(i.matrix_world.to_3x3().normalized().col[2]) for i in depsgraph.object_instances
+            if i.is_instance and i.parent is not None and i.parent.original.get(scene.TAG) == "Plane"]
+    assert axes and all(abs(float(np.dot(a, normal))) > 0.999 for a in axes), len(axes)
+
+
+def test_a_failed_particle_write_leaves_the_scene_and_the_mesh_unchanged():
+    clean()
+    target = plane(size=4.0, cuts=20)
+    configure(scale=1.5)
+    harness.select_only([target])
+    before, hashed = names(), harness.mesh_hash(target.data)
+    os.environ["TEXSYNTH_TEST_FAIL_AT"] = "particle_outputs"
+    try:
+        bpy.ops.texsynth.synthesize()
+        raise AssertionError("the injected failure was not reported")
+    except RuntimeError as error:
+        assert "injected" in str(error), error
+    finally:
+        del os.environ["TEXSYNTH_TEST_FAIL_AT"]
+    # the background image file may be loaded by nothing: no datablock, no layer, no material changed
+    assert names() == before and harness.mesh_hash(target.data) == hashed and not target.material_slots
+
+
+def test_the_worker_thread_runs_the_job_as_the_modal_operator_does():
+    import time
+    clean()
+    target = plane(size=4.0, cuts=20)
+    props = configure(scale=1.5)
+    job = synthesis.Job([target], Sample(path=props.sample_path), props.to_settings()).prepare()
+    state = texsynth.ui.operators.ModalSynthesis(job).start()
+    while state.running():
+        time.sleep(0.02)
+        assert 0.0 <= state.live_fraction() <= 1.0
+    state.finish().apply()
+    assert scene.owned_objects("Plane", ("DECALS",)) and job.report.objects == ["Plane"]
+
+
+def test_cancel_leaves_nothing_behind():
+    clean()
+    target = plane(size=4.0, cuts=20)
+    configure(scale=1.5)
+    before = names()
+    hashed = harness.mesh_hash(target.data)
+    props = bpy.context.scene.texsynth
+    job = synthesis.Job([target], Sample(path=props.sample_path), props.to_settings()).prepare()
+    job.cancel()
+    try:
+        job.compute()
+        raise AssertionError("compute() did not raise after cancel()")
+    except texsynth.uv_methods.synthesis.Cancelled:
+        pass
+    job.discard()
+    assert names() == before and harness.mesh_hash(target.data) == hashed
+
+
+FULL_RUN_TESTS = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_placed_count",
+                  "test_resynthesizing_one_class_gives_the_same_rows_and_leaves_the_others",
+                  "test_undo_removes_what_synthesize_made", "test_cancel_leaves_nothing_behind",
+                  "test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour",
+                  "test_density_override_of_zero_keeps_particles_off_those_faces",
+                  "test_texton_background_writes_the_texton_layers",
+                  "test_the_worker_thread_runs_the_job_as_the_modal_operator_does",
+                  "test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_along_its_normal",
+                  "test_a_failed_particle_write_leaves_the_scene_and_the_mesh_unchanged",
+                  "test_probability_from_a_vertex_group_thins_the_particles")
+
+
+if __name__ == "__main__":
+    only = harness.script_args()
+    if not only:  # without a selection: everything this build can run
+        full = hasattr(native.require(), "place_particles") and hasattr(native.require(), "decal_mesh")
+        only = [name for name in globals() if name.startswith("test_") and (full or name not in FULL_RUN_TESTS)]
+    harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")], only=only)

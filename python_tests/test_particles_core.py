@@ -1,0 +1,284 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""bpy-free part of Texture Particles (addon/particles/core.py) under plain pytest: settings ranges, label
+images, merges, the analysis cache and the refusals of unusable samples, the segmentation preview, atlas
+packing, decal rectangles and instance frames. Expected values are worked out from the inputs."""
+import math
+
+import numpy as np
+import pytest
+
+import addon_package
+
+pipeline = addon_package.load("core.pipeline")
+core = addon_package.load("particles.core")
+
+GROUND = np.array([0.2, 0.3, 0.25], np.float32)
+STONE = np.array([0.9, 0.8, 0.3], np.float32)
+LEAF = np.array([0.1, 0.6, 0.1], np.float32)
+
+
+def settings(**changes):
+    values = dict(method="PARTICLES", particle_classes=3, particle_blur=0.0)
+    values.update(changes)
+    return pipeline.Settings(**values)
+
+
+def pebbles(width=96, height=64):
+    """Ground with four 10 px stones and two 6 x 14 px leaves, rows bottom-first."""
+    img = np.tile(GROUND, (height, width, 1))
+    for x0, y0 in [(8, 8), (40, 8), (70, 30), (20, 40)]:
+        img[y0:y0 + 10, x0:x0 + 10] = STONE
+    for x0, y0 in [(55, 6), (82, 40)]:
+        img[y0:y0 + 14, x0:x0 + 6] = LEAF
+    return img
+
+
+# -- settings -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("changes, fragment", [
+    (dict(particle_classes=1), "particle classes"), (dict(particle_classes=13), "particle classes"),
+    (dict(particle_blur=-1.0), "blur"), (dict(particle_blur=float("nan")), "blur"),
+    (dict(particle_min_area=-2), "minimum particle area"), (dict(particle_background_class=-2), "background class"),
+    (dict(particle_merges=((1, 1),)), "merge"), (dict(particle_class_order=(1, 1)), "class order"),
+    (dict(particle_output="SPRITES"), "particle output"),
+    (dict(particle_output="INSTANCES"), "instance collection"),
+    (dict(particle_size_jitter=0.95), "size jitter"), (dict(particle_background="ROUND"), "particle background"),
+])
+def test_particle_settings_are_checked(changes, fragment):
+    with pytest.raises(pipeline.SettingsError, match=fragment):
+        settings(**changes).validate()
+
+
+def test_particle_defaults_validate_and_other_methods_ignore_them():
+    assert settings().validate().method == "PARTICLES"
+    assert "PARTICLES" in pipeline.METHODS
+    pipeline.Settings(method="JUMPMAP", particle_classes=99).validate()  # not checked for other methods
+    settings(particle_output="BOTH", particle_collection="Thorns", particle_size_jitter=0.9).validate()
+
+
+def test_class_lists_and_merges_parse():
+    assert core.parse_class_list("2, 0 1") == (2, 0, 1) and core.parse_class_list("") == ()
+    assert core.parse_merges("3>1, 2>0") == ((3, 1), (2, 0)) and core.format_merges(((3, 1),)) == "3>1"
+    with pytest.raises(pipeline.SettingsError, match="class numbers"):
+        core.parse_class_list("a, 1")
+    with pytest.raises(pipeline.SettingsError, match="a>b"):
+        core.parse_merges("3-1")
+
+
+# -- labels and merges --------------------------------------------------------------------------
+
+def test_label_image_gives_one_class_per_colour_by_first_appearance():
+    rgba = np.zeros((4, 5, 4), np.float32)
+    rgba[..., :3] = (1.0, 0.0, 0.0)      # class 0: the first pixel (bottom-left)
+    rgba[2:, 3:, :3] = (0.0, 0.0, 1.0)   # appears in row 2
+    rgba[1, 1, :3] = (0.0, 1.0, 0.0)     # appears in row 1: class 1
+    labels = core.labels_from_image(rgba, 5, 4)
+    assert labels.dtype == np.int32 and labels.shape == (4, 5)
+    assert labels[0, 0] == 0 and labels[1, 1] == 1 and labels[3, 4] == 2 and np.count_nonzero(labels == 2) == 4
+
+
+def test_label_image_of_the_wrong_size_or_colours_is_refused():
+    with pytest.raises(pipeline.SettingsError, match="is 5 x 4 pixels but the sample is 6 x 4"):
+        core.labels_from_image(np.zeros((4, 5, 4), np.float32), 6, 4)
+    noisy = np.random.default_rng(0).random((8, 8, 4)).astype(np.float32)
+    with pytest.raises(pipeline.SettingsError, match="at most 12 classes"):
+        core.labels_from_image(noisy, 8, 8)
+    with pytest.raises(pipeline.SettingsError, match="one colour"):
+        core.labels_from_image(np.ones((8, 8, 4), np.float32), 8, 8)
+
+
+def test_merges_join_classes_in_order_and_renumber():
+    labels = np.array([[0, 1, 2, 3]], np.int32)
+    merged, mapping = core.merge_labels(labels, ((3, 1), (1, 0)))
+    assert merged.tolist() == [[0, 0, 1, 0]] and mapping.tolist() == [0, 0, 1, 0]
+    assert core.original_id(1, 4, ((3, 1), (1, 0))) == 2
+    with pytest.raises(pipeline.SettingsError, match="does not have"):
+        core.merge_labels(labels, ((5, 0),))
+
+
+# -- analysis (native) ----------------------------------------------------------------------------
+
+native = pytest.importorskip("texsynth_native")
+addon_native = addon_package.load("native")
+addon_native._module, addon_native._reason, addon_native._tried = native, None, True  # one copy of the module
+
+
+def test_analysis_is_cached_in_memory_by_sample_and_parameters():
+    cache = core.AnalysisCache()
+    sample = pebbles()
+    first, source = core.analyse(sample, settings(), cache=cache)
+    assert source == "built"
+    again, source = core.analyse(sample, settings(), cache=cache)
+    assert source == "memory" and again is first
+    _, source = core.analyse(sample, settings(particle_blur=0.5), cache=cache)
+    assert source == "built"
+    changed = sample.copy()
+    changed[0, 0] = STONE
+    assert core.analyse(changed, settings(), cache=cache)[1] == "built"
+
+
+@pytest.mark.skipif(not hasattr(native, "save_particle_analysis"), reason="no save/load_particle_analysis yet")
+def test_analysis_is_cached_on_disk_and_a_corrupt_file_is_rebuilt(tmp_path):
+    sample = pebbles()
+    first, source = core.analyse(sample, settings(), cache_dir=str(tmp_path), cache=core.AnalysisCache())
+    assert source == "built"
+    files = list(tmp_path.iterdir())
+    assert len(files) == 1 and files[0].name.startswith(core.ANALYSIS_CACHE_PREFIX)
+    loaded, source = core.analyse(sample, settings(), cache_dir=str(tmp_path), cache=core.AnalysisCache())
+    assert source == "disk" and np.array_equal(loaded.labels, first.labels)
+    data = bytearray(files[0].read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    files[0].write_bytes(bytes(data))
+    _, source = core.analyse(sample, settings(), cache_dir=str(tmp_path), cache=core.AnalysisCache())
+    assert source == "built"
+
+
+def test_class_rows_count_the_drawn_particles():
+    analysis, _ = core.analyse(pebbles(), settings(), cache=core.AnalysisCache())
+    rows = core.class_rows(analysis)
+    def by_colour(colour):
+        return min(rows, key=lambda row: np.abs(np.array(row["colour"]) - colour).sum())
+    stones, leaves, ground = by_colour(STONE), by_colour(LEAF), by_colour(GROUND)
+    assert (stones["particles"], stones["complete"], stones["pixels"]) == (4, 4, 400)
+    assert (leaves["particles"], leaves["pixels"]) == (2, 2 * 84)
+    assert ground["background"] and not stones["background"]
+    assert core.class_order(analysis, settings()) == [stones["id"], leaves["id"]]  # more particles first
+    assert core.class_order(analysis, settings(particle_class_order=(leaves["id"],))) == [leaves["id"]]
+    with pytest.raises(pipeline.SettingsError, match="is the background"):
+        core.class_order(analysis, settings(particle_class_order=(ground["id"],)))
+    assert core.class_at(analysis, 12, 12) == stones["id"] and core.class_at(analysis, 0, 0) == ground["id"]
+    with pytest.raises(pipeline.SettingsError, match="outside"):
+        core.class_at(analysis, 96, 0)
+
+
+def test_merging_two_classes_leaves_one_class_with_both_particle_sets():
+    analysis, _ = core.analyse(pebbles(), settings(), cache=core.AnalysisCache())
+    rows = core.class_rows(analysis)
+    stone = next(r["id"] for r in rows if r["pixels"] == 400)
+    leaf = next(r["id"] for r in rows if r["pixels"] == 168)
+    merged, _ = core.analyse(pebbles(), settings(particle_merges=((leaf, stone),)), cache=core.AnalysisCache())
+    rows = core.class_rows(merged)
+    assert len(rows) == 2
+    assert sorted((r["pixels"], r["particles"]) for r in rows if not r["background"]) == [(568, 6)]
+
+
+def test_segmentation_preview_shows_class_colours_and_outlines():
+    analysis, _ = core.analyse(pebbles(), settings(), cache=core.AnalysisCache())
+    preview = core.segmentation_preview(analysis)
+    assert preview.shape == (64, 96, 4) and np.all(preview[..., 3] == 1.0)
+    np.testing.assert_allclose(preview[13, 13, :3], STONE, atol=0.02)   # inside a stone
+    np.testing.assert_allclose(preview[30, 5, :3], GROUND, atol=0.02)   # ground
+    # The stone at x 8..17, y 8..17: its boundary pixels are outlined (stone is bright: black).
+    np.testing.assert_allclose(preview[8, 12, :3], 0.0)
+    np.testing.assert_allclose(preview[12, 17, :3], 0.0)
+
+
+def test_unusable_samples_get_clear_errors():
+    flat = np.tile(GROUND, (64, 64, 1))
+    with pytest.raises((pipeline.SettingsError, ValueError), match="no particles|one colour|class"):
+        analysis, _ = core.analyse(flat, settings(particle_classes=2), cache=core.AnalysisCache())
+        core.check_usable(analysis)
+    # A checkerboard of two colours: one 8-connected region cut by the border, no complete particle.
+    checker = np.where(((np.arange(64)[:, None] // 8 + np.arange(64)[None, :] // 8) % 2)[..., None] == 1,
+                       STONE, GROUND).astype(np.float32)
+    analysis, _ = core.analyse(checker, settings(particle_classes=2), cache=core.AnalysisCache())
+    with pytest.raises(pipeline.SettingsError, match="complete particle"):
+        core.check_usable(analysis)
+
+
+def test_thousands_of_tiny_components_are_bounded_and_reported():
+    rng = np.random.default_rng(3)
+    noise = np.where((rng.random((256, 256)) < 0.3)[..., None], STONE, GROUND).astype(np.float32)
+    noise[100:120, 100:120] = LEAF  # one real particle
+    analysis, _ = core.analyse(noise, settings(particle_classes=3), cache=core.AnalysisCache())
+    notes = core.check_usable(analysis)
+    assert analysis.merged_components > 1000
+    assert any("tiny components" in note for note in notes), notes
+
+
+# -- atlas, decals, instances ---------------------------------------------------------------------
+
+def test_atlas_packs_every_sprite_with_padding_in_a_power_of_two():
+    rng = np.random.default_rng(1)
+    sizes = rng.integers(4, 40, size=(60, 2))
+    atlas = core.pack_atlas(np.arange(60), sizes, np.zeros(60, np.int32))
+    assert atlas.width == atlas.height and atlas.width & (atlas.width - 1) == 0 and not atlas.dropped
+    cells = atlas.cells
+    padded = np.column_stack([cells[:, 0] - 2, cells[:, 1] - 2, cells[:, 0] + cells[:, 2] + 2,
+                              cells[:, 1] + cells[:, 3] + 2])
+    assert padded.min() >= 0 and padded[:, 2].max() <= atlas.width and padded[:, 3].max() <= atlas.height
+    for i in range(60):
+        for j in range(i + 1, 60):  # padded cells never overlap
+            a, b = padded[i], padded[j]
+            assert a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]
+    uv = atlas.uv_rects([5])
+    np.testing.assert_allclose(uv[0] * atlas.width, [cells[5, 0], cells[5, 1], cells[5, 0] + cells[5, 2],
+                                                     cells[5, 1] + cells[5, 3]])
+
+
+def test_atlas_beyond_the_limit_keeps_a_subset_of_every_class():
+    sizes = np.full((300, 2), 30)
+    classes = np.repeat([0, 1, 2], 100)
+    atlas = core.pack_atlas(np.arange(300), sizes, classes, max_side=256)
+    assert atlas.width <= 256 and len(atlas.ids) <= (256 // 34) ** 2
+    assert set(atlas.dropped) == {0, 1, 2} and sum(atlas.dropped.values()) == 300 - len(atlas.ids)
+    assert set(atlas.classes.tolist()) == {0, 1, 2}
+    sprites, turn = core.substitute_sprites([atlas.ids[0], 299], [0, 2], atlas, np.linspace(0, 1, 300))
+    assert sprites[0] == atlas.ids[0] and turn[0] == 0.0
+    assert sprites[1] in atlas.ids[atlas.classes == 2] or 299 in atlas.ids
+
+
+def test_atlas_pixels_put_each_sprite_in_its_cell():
+    atlas = core.pack_atlas([7, 9], [(3, 2), (2, 4)], [0, 0])
+    a = np.full((2, 3, 4), 0.5, np.float32)
+    b = np.full((4, 2, 4), 1.0, np.float32)
+    pixels = core.atlas_pixels(atlas, [a if s == 7 else b for s in atlas.ids])
+    assert pixels.shape == (atlas.height, atlas.width, 4)
+    assert pixels[..., 3].sum() == pytest.approx(0.5 * 6 + 8)
+
+
+class _Analysis:
+    """The parts of a ParticleAnalysis decal_inputs and instance_frames read."""
+
+    def __init__(self):
+        self.particles = {"box_centre": np.array([[10.0, 20.0], [5.0, 5.0]]), "box_angle": np.array([0.0, 0.5]),
+                          "box_half": np.array([[4.0, 2.0], [1.0, 1.0]])}
+
+
+def test_decal_rectangles_are_the_sprite_around_its_box_centre_in_world_units():
+    atlas = core.pack_atlas([0, 1], [(12, 8), (4, 4)], [0, 0])
+    placed = {"class": np.array([0]), "sprite": np.array([0]), "sprite_axis": np.array([[1.0, 0.0, 0.0]]),
+              "normal": np.array([[0.0, 0.0, 1.0]]), "pixel_size": np.array([0.5])}
+    boxes = {0: (4, 16, 12, 8), 1: (3, 3, 4, 4)}
+    axes, rects, uv_rects, sprites = core.decal_inputs(placed, _Analysis(), atlas, boxes)
+    # Sprite x 4..16, y 16..24 around the centre (10, 20), at 0.5 world units per pixel.
+    np.testing.assert_allclose(rects[0], [-3.0, -2.0, 3.0, 2.0])
+    np.testing.assert_allclose(axes[0], [1, 0, 0])
+    np.testing.assert_allclose(uv_rects[0], atlas.uv_rects([0])[0])
+    assert core.decal_offset(0, 10.0) == pytest.approx(1e-3) and core.decal_offset(2, 10.0) == pytest.approx(3e-3)
+
+
+def test_instance_frames_point_x_along_the_box_and_z_along_the_normal():
+    # Sprite axis +x, box angle 0.5 rad: the box axis is +x turned by 0.5 rad about the normal +z.
+    placed = {"sprite": np.array([1]), "sprite_axis": np.array([[1.0, 0.0, 0.0]]),
+              "normal": np.array([[0.0, 0.0, 1.0]]), "pixel_size": np.array([2.0])}
+    rotation, scale = core.instance_frames(placed, _Analysis())
+    np.testing.assert_allclose(rotation[0], [0.0, 0.0, 0.5], atol=1e-6)
+    np.testing.assert_allclose(scale[0], [4.0, 4.0, 4.0])
+
+
+def test_euler_angles_rebuild_the_frame():
+    rng = np.random.default_rng(5)
+    z = rng.normal(size=(50, 3))
+    x = np.cross(z, rng.normal(size=(50, 3)))
+    angles = core.euler_xyz(x, z).astype(np.float64)
+
+    def matrix(a, b, c):  # Blender's XYZ Euler: Rz(c) Ry(b) Rx(a)
+        rx = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])
+        ry = np.array([[math.cos(b), 0, math.sin(b)], [0, 1, 0], [-math.sin(b), 0, math.cos(b)]])
+        rz = np.array([[math.cos(c), -math.sin(c), 0], [math.sin(c), math.cos(c), 0], [0, 0, 1]])
+        return rz @ ry @ rx
+    for i in range(50):
+        m = matrix(*angles[i])
+        np.testing.assert_allclose(m[:, 0], x[i] / np.linalg.norm(x[i]), atol=1e-5)
+        np.testing.assert_allclose(m[:, 2], z[i] / np.linalg.norm(z[i]), atol=1e-5)

@@ -1,0 +1,193 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""texsynth_native.place_particles: the output dict of the plan (names, dtypes, shapes), a grid of squares
+reproduced on a plane in world units and turned by the field, shapes and values checked at the boundary,
+cancel and progress through a CancelToken, the GIL released while it runs."""
+import math
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from test_neighbourhood_binding import plane
+
+tn = pytest.importorskip("texsynth_native")
+
+STEP = 0.28  # 20 px squares 8 px apart at 0.01 world units per pixel
+
+
+def square_grid(n=6, side=20, gap=8):
+    """Labels (row 0 = bottom) of n x n squares of class 1, 14 px from the edges; the sample follows them."""
+    w = 28 + n * side + (n - 1) * gap
+    labels = np.zeros((w, w), np.int32)
+    for j in range(n):
+        for i in range(n):
+            x, y = 14 + i * (side + gap), 14 + j * (side + gap)
+            labels[y:y + side, x:x + side] = 1
+    sample = np.where(labels[..., None] == 1, [0.8, 0.7, 0.3], [0.2, 0.3, 0.25]).astype(np.float32)
+    return tn.particle_analysis(sample, labels=labels, background=0)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    pos, tris = plane(n=60, spacing=0.1, jitter=0.0)  # 6 x 6 world units, exact border
+    return square_grid(), tn.surface_walk_mesh(pos, tris), pos, tris
+
+
+def field(pos, degrees):
+    """'up' turned by `degrees` from +y at every vertex."""
+    a = math.radians(90 + degrees)
+    return np.tile(np.array([math.cos(a), math.sin(a), 0], np.float32), (len(pos), 1))
+
+
+def place(scene, degrees=0.0, **kwargs):
+    a, mesh, pos, _ = scene
+    return tn.place_particles(a, mesh, field(pos, degrees), sample_world_width=0.01 * a.width, **kwargs)
+
+
+@pytest.mark.parametrize("degrees", [0.0, 30.0])
+def test_plane_reproduces_the_grid_turned_by_the_field(scene, degrees):
+    out = place(scene, degrees)
+    n = len(out["class"])
+    want = {"class": (np.int32, (n,)), "sprite": (np.int32, (n,)), "parent": (np.int32, (n,)),
+            "triangle": (np.int32, (n,)), "barycentric": (np.float64, (n, 2)), "position": (np.float32, (n, 3)),
+            "normal": (np.float32, (n, 3)), "sprite_axis": (np.float32, (n, 3)), "pixel_size": (np.float32, (n,)),
+            "angle": (np.float32, (n,)), "origin": (np.uint8, (n,))}
+    for key, (dtype, shape) in want.items():
+        assert out[key].dtype == dtype and out[key].shape == shape, key
+    assert n > 300
+    # Centres on the lattice of step 0.28 along the field's right / up axes through the seed (3, 3).
+    a = math.radians(degrees)
+    right, up = np.array([math.cos(a), math.sin(a)]), np.array([-math.sin(a), math.cos(a)])
+    d = out["position"][:, :2].astype(np.float64) - out["position"][0, :2]
+    uv = np.stack([d @ right, d @ up], axis=1) / STEP
+    assert np.abs(uv - np.round(uv)).max() * STEP < 1e-4
+    assert len({tuple(c) for c in np.round(uv).astype(int)}) == n
+    # The seed: the plane's area centroid (it lies on the plane).
+    _, _, pos, tris = scene
+    corners = pos[tris].astype(np.float64)
+    area = 0.5 * np.abs(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])[:, 2])
+    np.testing.assert_allclose(out["position"][0], (area[:, None] * corners.mean(1)).sum(0) / area.sum(), atol=1e-6)
+    # Every lattice point inside the plane is taken once.
+    i, j = np.mgrid[-40:41, -40:41]
+    pts = out["position"][0, :2] + STEP * (i.ravel()[:, None] * right + j.ravel()[:, None] * up)
+    inside = np.all((pts > 1e-6) & (pts < 6 - 1e-6), axis=1).sum()
+    assert n == inside
+    np.testing.assert_allclose(out["sprite_axis"][:, :2], np.tile(right, (n, 1)), atol=1e-5)
+    np.testing.assert_allclose(out["normal"], np.tile([0, 0, 1], (n, 1)), atol=1e-6)
+    np.testing.assert_allclose(out["pixel_size"], 0.01, rtol=1e-6)
+    assert (out["class"] == 1).all() and out["parent"][0] == -1 and (out["parent"][1:] < np.arange(1, n)).all()
+    assert [tn.placement_origins[o] for o in np.unique(out["origin"])] == ["seed", "propagated"]
+    stats = out["stats"]
+    assert stats["components"] == 1 and not stats["capped"] and stats["seconds"] > 0 and stats["walks"] > n
+    (cls,) = stats["classes"]
+    assert cls["class"] == 1 and cls["placed"] == n and cls["hidden"] == 0 and cls["rejected_overlap"] > 0
+
+
+def test_overrides_seeds_and_cap(scene):
+    a, mesh, pos, tris = scene
+    T = len(tris)
+    out = place(scene, face_size=np.full(T, 2.0), seed_triangles=[10], seed_barycentrics=[[0.2, 0.3]],
+                max_particles=50)
+    p = pos[tris[10]].astype(np.float64)
+    np.testing.assert_allclose(out["position"][0], 0.5 * p[0] + 0.2 * p[1] + 0.3 * p[2], atol=1e-6)
+    np.testing.assert_allclose(out["pixel_size"], 0.02, rtol=1e-6)
+    assert len(out["class"]) == 50 and out["stats"]["capped"]
+    hidden = place(scene, face_probability=np.zeros(T))
+    assert len(hidden["class"]) == 0 and hidden["stats"]["classes"][0]["hidden"] > 300
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"directions": np.zeros((5, 3))}, "directions must have shape"),
+    ({"vertex_scale": np.ones(7)}, "vertex_scale must have shape"),
+    ({"face_density": np.ones((3, 2))}, "face_density must have shape"),
+    ({"face_probability": np.full(7200, 1.5)}, "face_probability"),
+    ({"vertex_scale": np.zeros(3721)}, "vertex_scale"),
+    ({"sample_world_width": -1.0}, "sample_world_width"),
+    ({"size_jitter": 1.0}, "size_jitter"),
+    ({"classes": [0]}, "background"),
+    ({"classes": [5]}, "unknown class"),
+    ({"classes": []}, "at least one class"),
+    ({"seed_triangles": [0]}, "go together"),
+    ({"seed_triangles": [0], "seed_barycentrics": [[0.1, 0.1, 0.1]]}, "seed_barycentrics must have shape"),
+    ({"seed_triangles": [99999], "seed_barycentrics": [[0.1, 0.1]]}, "seed 0"),
+    ({"max_particles": 0}, "max_particles"),
+    ({"progress": "fast"}, "CancelToken"),
+])
+def test_bad_arguments_raise_value_error(scene, kwargs, message):
+    a, mesh, pos, _ = scene
+    args = {"directions": field(pos, 0), "sample_world_width": 0.01 * a.width}
+    args.update(kwargs)
+    directions = args.pop("directions")
+    with pytest.raises(ValueError, match=message):
+        tn.place_particles(a, mesh, directions, **args)
+
+
+def test_cancel_progress_and_gil(scene):
+    token = tn.CancelToken()
+    token.cancel()
+    with pytest.raises(tn.Cancelled):
+        place(scene, cancel=token)
+    progress = tn.CancelToken()
+    place(scene, progress=progress)
+    assert progress.progress == pytest.approx(1.0)
+    # A long run in a thread: this thread keeps running meanwhile (GIL released) and cancels it.
+    a, _, _, _ = scene
+    pos, tris = plane(n=200, spacing=0.05, jitter=0.3)
+    mesh = tn.surface_walk_mesh(pos, tris)
+    token = tn.CancelToken()
+    caught = []
+
+    def run():
+        try:
+            tn.place_particles(a, mesh, field(pos, 0), sample_world_width=0.0008 * a.width, cancel=token)
+        except tn.Cancelled:
+            caught.append(True)
+
+    worker = threading.Thread(target=run)
+    worker.start()
+    ticks = 0
+    while token.progress < 0.05 and worker.is_alive():
+        ticks += 1
+        time.sleep(0.001)
+    token.cancel()
+    worker.join(5)
+    assert caught == [True] and ticks > 0
+
+
+def hostile_meshes():
+    """(name, positions, triangles) that must end in a result or a ValueError, never a crash."""
+    pos, tris = plane(n=6, spacing=0.5, jitter=0.2)
+    yield "coords_1e30", pos * np.float32(1e30), tris
+    yield "coords_1e-30", pos * np.float32(1e-30), tris
+    yield "zero_area", np.zeros((3, 3), np.float32), np.array([[0, 1, 2]], np.int32)
+    yield "one_triangle", np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32), np.array([[0, 1, 2]], np.int32)
+    flipped = tris.copy()
+    flipped[::3] = flipped[::3, ::-1]
+    yield "inconsistent_winding", pos, flipped
+    fan = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]], np.float32)
+    yield "nonmanifold_fan", fan, np.array([[0, 1, 2], [0, 1, 3], [0, 1, 4]], np.int32)
+    yield "sliver", np.array([[0, 0, 0], [1, 0, 0], [0.5, 1e-9, 0]], np.float32), np.array([[0, 1, 2]], np.int32)
+
+
+@pytest.mark.parametrize("name, pos, tris", list(hostile_meshes()), ids=[m[0] for m in hostile_meshes()])
+def test_hostile_meshes_give_a_result_or_value_error(scene, name, pos, tris):
+    a = scene[0]
+    try:
+        mesh = tn.surface_walk_mesh(pos, tris)
+        out = tn.place_particles(a, mesh, field(pos, 0), sample_world_width=0.01 * a.width, max_particles=20000)
+    except ValueError as e:
+        assert "placement" in str(e) or "mesh" in str(e)
+        return
+    assert np.isfinite(out["position"]).all() and np.isfinite(out["sprite_axis"]).all()
+    assert ((out["triangle"] >= 0) & (out["triangle"] < len(tris))).all()
+
+
+def test_same_seed_same_bytes_other_seed_other_draws(scene):
+    a, _, _, tris = scene
+    kwargs = {"size_jitter": 0.2, "face_probability": np.full(len(tris), 0.8)}
+    first, again, other = place(scene, **kwargs), place(scene, **kwargs), place(scene, seed=1, **kwargs)
+    for key in ("class", "sprite", "parent", "triangle", "barycentric", "position", "sprite_axis", "pixel_size"):
+        assert first[key].tobytes() == again[key].tobytes(), key
+    assert first["sprite"].tobytes() != other["sprite"].tobytes()
+    assert first["pixel_size"].tobytes() != other["pixel_size"].tobytes()
