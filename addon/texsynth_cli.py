@@ -102,6 +102,8 @@ def parse_args(argv):
                         help="world size of the sample's width, in world units (default 1)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--jump-rate", type=float, default=20.0)
+    parser.add_argument("--working-size", type=int, default=512,
+                        help="jumpmap/texton: longest side the sample is analysed at (0 = its own resolution)")
     parser.add_argument("--no-blend", action="store_true", help="only the base UV layer, no blend sets")
     parser.add_argument("--blend-mode", choices=("auto", "histogram", "variance", "linear"), default="auto",
                         help="how the shader cross-fades the blend sets (default auto: histogram for jump maps, "
@@ -387,7 +389,8 @@ def main(argv):
         raise CliError("sample image not found: %s" % args.sample)
     objects = find_objects(args, compat)
     settings = pipeline.Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
-                                 jump_rate=args.jump_rate, blend=not args.no_blend, blend_mode=args.blend_mode.upper(),
+                                 jump_rate=args.jump_rate, working_size=args.working_size, blend=not args.no_blend,
+                                 blend_mode=args.blend_mode.upper(),
                                  allow_oversized=args.allow_oversized, blend_threshold=args.blend_threshold,
                                  orientation="FIELD" if args.direction_attribute else "AXIS",
                                  direction_attribute=args.direction_attribute,

@@ -24,6 +24,8 @@ void write_bytes(const std::string& path, const std::vector<char>& bytes) {
 void expect_same(const texsynth::Preprocessed& a, const texsynth::Preprocessed& b) {
   EXPECT_EQ(a.width, b.width);
   EXPECT_EQ(a.height, b.height);
+  EXPECT_EQ(a.sample_width, b.sample_width);
+  EXPECT_EQ(a.sample_height, b.sample_height);
   EXPECT_EQ(a.sample_hash, b.sample_hash);
   EXPECT_EQ(texsynth::params_hash(a.params), texsynth::params_hash(b.params));
   EXPECT_EQ(a.num_textons, b.num_textons);
@@ -112,9 +114,9 @@ TEST_F(Cache, TruncatedOrExtendedFilesAreRejected) {
 TEST_F(Cache, VersionMagicAndHashMismatchesAreRejected) {
   const auto good = saved();
   auto bad = good;
-  bad[8] = 2;  // format version 2
+  bad[8] = 1;  // format version 1 (before working_size)
   fix_checksum(bad);
-  expect_cache_error(bad, "format version 2");
+  expect_cache_error(bad, "format version 1");
   bad = good;
   bad[0] = 'X';
   fix_checksum(bad);
@@ -126,7 +128,7 @@ TEST_F(Cache, VersionMagicAndHashMismatchesAreRejected) {
 
 TEST_F(Cache, ValidChecksumDoesNotMakeBadValuesTrusted) {
   const auto good = saved();
-  const size_t header = 84;
+  const size_t header = 96;
   const size_t n = size_t(result_->pixel_count());
   auto bad = good;
   const uint16_t label = uint16_t(result_->num_textons);  // one past the last texton
@@ -150,7 +152,7 @@ TEST_F(Cache, ValidChecksumDoesNotMakeBadValuesTrusted) {
 
   bad = good;
   const int32_t huge = 1 << 30;  // width: must not lead to a giant allocation
-  std::memcpy(bad.data() + 60, &huge, 4);
+  std::memcpy(bad.data() + 64, &huge, 4);
   fix_checksum(bad);
   expect_cache_error(bad, "image size");
 }
@@ -197,6 +199,9 @@ TEST(CacheNames, FollowTheDocumentedPattern) {
   EXPECT_NE(texsynth::params_hash(p), texsynth::params_hash(q));
   q = p;
   q.tileable = true;
+  EXPECT_NE(texsynth::params_hash(p), texsynth::params_hash(q));
+  q = p;
+  q.working_size = 2048;
   EXPECT_NE(texsynth::params_hash(p), texsynth::params_hash(q));
 }
 

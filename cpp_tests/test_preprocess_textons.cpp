@@ -6,6 +6,7 @@
 #include <map>
 #include <set>
 
+#include "preprocess_threads.hpp"
 #include "synthetic_texture.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/preprocess/kmeans.hpp"
@@ -156,22 +157,28 @@ TEST(Preprocess, BitIdenticalForOneAndTwoThreads) {
   const texsynth::Image image = texsynth_test::brick_texture(160, 140, 4);
   texsynth::PreprocessParams params;
   params.seed = 17;
-  texsynth::Preprocessed one, two;
-  {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
-    one = texsynth::preprocess(image, params);
-  }
-  {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
-    two = texsynth::preprocess(image, params);
-  }
-  EXPECT_EQ(one.texton_map, two.texton_map);
-  EXPECT_EQ(one.textons, two.textons);
-  EXPECT_EQ(one.jump_map.targets, two.jump_map.targets);
-  EXPECT_EQ(one.jump_map.weights, two.jump_map.weights);
+  const texsynth::Preprocessed one = texsynth_test::expect_same_at_one_and_two_threads(image, params);
   params.seed = 18;
   const texsynth::Preprocessed other = texsynth::preprocess(image, params);
   EXPECT_NE(one.textons, other.textons) << "seed has no effect";
+  // 320x300 > 4 x 20000 pixels: the single assignment pass after the subsample.
+  texsynth_test::expect_same_at_one_and_two_threads(texsynth_test::brick_texture(320, 300, 4), params);
+}
+
+TEST(KMeans, SingleAssignmentPassIsExactNearestCentre) {
+  const texsynth::Features points = random_points(20000, 8, 5);
+  texsynth::KMeansParams params;
+  params.num_clusters = 40;
+  params.subsample_size = 2000;  // a tenth of the points: one pass over all of them
+  const texsynth::KMeansResult result = texsynth::kmeans(points, params);
+  EXPECT_EQ(result.iterations, 0);
+  EXPECT_EQ(result.labels, texsynth::assign_brute_force(points, result.centres, 40));
+  params.full_lloyd = true;
+  const texsynth::KMeansResult full = texsynth::kmeans(points, params);
+  EXPECT_GT(full.iterations, 0);
+  // Within-cluster SSE of the single pass stays close to Lloyd on every point.
+  EXPECT_LT(texsynth::within_cluster_sse(points, result.labels, 40),
+            1.05 * texsynth::within_cluster_sse(points, full.labels, 40));
 }
 
 TEST(Preprocess, TileableUsesPeriodicNeighbourhoods) {

@@ -56,6 +56,7 @@ TEST(PreprocessValidation, RefusesFeatureSetsBeyondTheMemoryLimit) {
   texsynth::PreprocessParams params;
   params.feature_dims = 0;
   params.num_textons = 10;
+  params.working_size = 0;  // at its own resolution (1024 would analyse 1024² and fit)
   expect_rejected(image, params, "memory limit");
 }
 

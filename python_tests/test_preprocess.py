@@ -216,3 +216,42 @@ def test_color_space_override(sample):
     assert linear.sample_hash != ref.sample_hash
     with pytest.raises(ValueError, match="color_space"):
         ts.preprocess(sample, color_space="rec2020")
+
+
+def test_working_size_analyses_a_smaller_copy_and_keys_the_cache(tmp_path):
+    big = bricks(300, 200, seed=4)
+    pre = ts.preprocess(big, working_size=100, num_textons=40)
+    assert (pre.width, pre.height, pre.sample_width, pre.sample_height) == (67, 100, 200, 300)
+    assert pre.texton_map.shape == (100, 67) and pre.jump_targets.shape == (100, 67, 4)
+    assert pre.params["working_size"] == 100
+    own = ts.preprocess(big, working_size=0, num_textons=40)
+    assert (own.width, own.height) == (200, 300)
+    assert ts.cache_file_path(big, cache_dir=tmp_path, working_size=100) != \
+        ts.cache_file_path(big, cache_dir=tmp_path, working_size=0)
+    first = ts.preprocess(big, working_size=100, num_textons=40, cache_dir=tmp_path)
+    again = ts.preprocess(big, working_size=100, num_textons=40, cache_dir=tmp_path)
+    assert again.cache_hit and (again.width, again.sample_width) == (67, 200)
+    assert np.array_equal(again.jump_targets, first.jump_targets)
+
+
+def test_texton_synthesis_takes_the_full_sample_after_a_working_size():
+    from test_synth import grid
+    big = (bricks(160, 120, seed=5) / 255.0).astype(np.float32)
+    pre = ts.preprocess(big, working_size=80, jump_candidates=2)
+    mesh = grid(5, 0.2, triangles=False)
+    out = ts.synthesize_texton(pre, big, *mesh, scale=8.0, seed=1)
+    assert np.isfinite(out["edge_error"]).all() and out["base_uv"].shape[0] == mesh[1].size
+    with pytest.raises(ValueError, match="sample"):
+        ts.synthesize_texton(pre, big[:, :-3], *mesh, scale=8.0)  # neither the analysis nor the given size
+
+
+@pytest.mark.parametrize("kwargs,fragment", [
+    (dict(working_size=-1), "working_size must be"),
+    (dict(working_size=63), "working_size must be"),
+    (dict(working_size=5000), "working_size must be"),
+    (dict(working_size=0), "set a working size"),
+])
+def test_oversized_or_bad_working_size_raises(kwargs, fragment):
+    gray = np.zeros((4097, 4097), np.uint8)
+    with pytest.raises(ValueError, match=fragment):
+        ts.preprocess(gray, **kwargs)

@@ -19,6 +19,8 @@ IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON", "ROUND", "PATCHES", "PARTICLES")
 UV_METHODS = ("JUMPMAP", "TEXTON")   # write coordinates into the sample + blend data (uv_methods/)
 SURFACE_METHODS = ("ROUND", "PATCHES")  # write a colour per surface sample (surface_colour/)
 SURFACE_TARGETS = ("IMAGE", "VERTICES")
+# Preprocessing working size (native kMinWorkingSize / kMaxWorkingSize; 0 = off).
+WORKING_SIZE_RANGE = (64, 4096)
 # Round neighbourhoods: the native limits (round_synth.hpp) and the defaults the README measures.
 ROUND_LEVEL_RANGE, ROUND_RING_RANGE, ROUND_CANDIDATE_RANGE = (1, 6), (1, 6), (0, 16)
 ROUND_RESOLUTIONS = ("AUTO", "FULL")
@@ -97,6 +99,9 @@ class Settings:
     scale_min: float = 0.5
     scale_max: float = 2.0
     neighbourhood: int = 11
+    # UV methods: the longest side of the copy the textons and jump map are computed on (0 = the
+    # sample's own resolution); the material still samples the full image. README "Preprocessing".
+    working_size: int = 512
     tileable: bool = False
     # TEXTON: 0 blends every interior edge; > 0 only edges whose blending metric Φ = λ·E_t·d/|camera - m|
     # (λ = render width in pixels / camera field of view, so Φ ≈ colour error × edge length in pixels)
@@ -167,6 +172,10 @@ class Settings:
                 raise SettingsError("scale range must be two positive numbers, got (%r, %r)" % (self.scale_min, self.scale_max))
         if not isinstance(self.neighbourhood, int) or self.neighbourhood < 3 or self.neighbourhood % 2 == 0:
             raise SettingsError("neighbourhood must be an odd integer >= 3, got %r" % (self.neighbourhood,))
+        low, high = WORKING_SIZE_RANGE
+        if not _is_int(self.working_size) or not (self.working_size == 0 or low <= self.working_size <= high):
+            raise SettingsError("analysis size must be 0 (the sample's own) or an integer in [%d, %d], got %r"
+                                % (low, high, self.working_size))
         if self.method in SURFACE_METHODS:
             if self.surface_target not in SURFACE_TARGETS:
                 raise SettingsError("unknown target %r (choose one of %s)"
@@ -243,7 +252,8 @@ class Settings:
 
     def preprocess_params(self):
         """Keyword arguments of texsynth_native.preprocess / cache_status that key the cache."""
-        return {"neighbourhood": self.neighbourhood, "tileable": bool(self.tileable), "seed": 0}
+        return {"neighbourhood": self.neighbourhood, "tileable": bool(self.tileable), "seed": 0,
+                "working_size": int(self.working_size)}
 
 
 def _is_int(value):

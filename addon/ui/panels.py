@@ -70,6 +70,10 @@ class TEXSYNTH_PT_method(_SubPanel, bpy.types.Panel):
         layout.prop(props, "seed")
         if props.method == "JUMPMAP":
             layout.prop(props, "jump_rate")
+        if props.method in pipeline.UV_METHODS:
+            column = layout.column(align=True)
+            column.prop(props, "working_size")
+            column.prop(props, "neighbourhood")
         if props.method == "PARTICLES":
             column = layout.column(align=True)
             column.prop(props, "particle_classes")

@@ -146,6 +146,13 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                    description="World size of the sample's width: one sample spans this many "
                                                "world units on every selected object")
     seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
+    neighbourhood: bpy.props.IntProperty(
+        name="Neighbourhood", default=11, min=3, max=25, step=2, subtype="PIXEL",
+        description="Window (in analysis pixels, odd) that textons and jumps compare")
+    working_size: bpy.props.IntProperty(
+        name="Analysis Size", default=512, min=0, max=pipeline.WORKING_SIZE_RANGE[1], subtype="PIXEL",
+        description="Longest side of the copy the sample is analysed at (0: its own resolution, at most 4096 "
+                    "pixels). The material still shows the full image")
     jump_rate: bpy.props.FloatProperty(name="Jump Rate", default=20.0, min=0.0, soft_max=100.0,
                                        description="How often the walk jumps to a similar sample location")
     orientation: bpy.props.EnumProperty(
@@ -252,6 +259,7 @@ class TexSynthSettings(bpy.types.PropertyGroup):
     def to_settings(self):
         return pipeline.Settings(method=self.method, sample_world_size=float(self.scale), seed=int(self.seed),
                                  jump_rate=float(self.jump_rate), blend=bool(self.blend),
+                                 neighbourhood=int(self.neighbourhood) | 1, working_size=int(self.working_size),
                                  blend_mode=self.blend_mode,
                                  orientation=self.orientation, axis=tuple(self.axis),
                                  direction_attribute=self.direction_attribute,

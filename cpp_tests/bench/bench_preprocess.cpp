@@ -4,6 +4,7 @@
 // (full-D Lloyd k-means with brute-force assignment + brute-force kNN, timed on a subsample and
 // extrapolated). Run: build/cpp_tests/bench/bench_preprocess [--benchmark_filter=...]
 #include <benchmark/benchmark.h>
+#include <sys/resource.h>
 #include <hnswlib/hnswlib.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -11,9 +12,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <string>
 #include <filesystem>
+#include <thread>
 
 #include "../synthetic_texture.hpp"
+#include "texsynth/common/errors.hpp"
 #include "texsynth/preprocess/cache.hpp"
 #include "texsynth/preprocess/features.hpp"
 #include "texsynth/preprocess/jump_map.hpp"
@@ -21,6 +26,28 @@
 #include "texsynth/preprocess/preprocess.hpp"
 
 namespace {
+
+double peak_rss_mb() {
+  struct rusage usage {};
+  getrusage(RUSAGE_SELF, &usage);
+  return double(usage.ru_maxrss) / 1024.0;
+}
+
+// Where the time went: wall and CPU seconds per stage (CPU = all threads).
+void stage_counters(benchmark::State& state, const texsynth::Preprocessed& result,
+                    const texsynth::PreprocessStats& stats) {
+  state.counters["K"] = result.num_textons;
+  state.counters["features_s"] = stats.features_seconds;
+  state.counters["kmeans_s"] = stats.kmeans_seconds;
+  state.counters["tables_s"] = stats.tables_seconds;
+  state.counters["jumps_s"] = stats.jump_map_seconds;
+  state.counters["features_cpu"] = stats.features_cpu;
+  state.counters["kmeans_cpu"] = stats.kmeans_cpu;
+  state.counters["jumps_cpu"] = stats.jump_map_cpu;
+  state.counters["total_cpu"] =
+      stats.working_cpu + stats.features_cpu + stats.kmeans_cpu + stats.tables_cpu + stats.jump_map_cpu;
+  state.counters["km_iters"] = stats.kmeans_full_iterations;
+}
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -35,20 +62,149 @@ void BM_Preprocess(benchmark::State& state) {
   for (auto _ : state) result = texsynth::preprocess(image, params, nullptr, &stats);
   const auto path = std::filesystem::temp_directory_path() / "texsynth_bench.tscache";
   texsynth::save_preprocessed(result, path.string());
-  state.counters["K"] = result.num_textons;
-  state.counters["features_s"] = stats.features_seconds;
-  state.counters["kmeans_s"] = stats.kmeans_seconds;
-  state.counters["tables_s"] = stats.tables_seconds;
-  state.counters["jumps_s"] = stats.jump_map_seconds;
-  state.counters["features_cpu"] = stats.features_cpu;
-  state.counters["kmeans_cpu"] = stats.kmeans_cpu;
-  state.counters["jumps_cpu"] = stats.jump_map_cpu;
-  state.counters["total_cpu"] = stats.features_cpu + stats.kmeans_cpu + stats.tables_cpu + stats.jump_map_cpu;
-  state.counters["km_iters"] = stats.kmeans_full_iterations;
+  stage_counters(state, result, stats);
   state.counters["cache_B_per_px"] = double(std::filesystem::file_size(path)) / double(size * size);
   std::filesystem::remove(path);
 }
 BENCHMARK(BM_Preprocess)->Arg(256)->Arg(512)->Arg(1024)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+
+// Issue 16 rows: a photo-like sample (synthetic_texture.hpp gravel_texture: pebbles 18 px across at
+// 512², the same picture with 2x/4x/8x/16x the pixels for the larger sizes, as an upscaled photo),
+// preprocessed cold with the defaults (working_size 512). Arg 1 = 1 times the former algorithms in
+// the same run (analysis at full resolution, Lloyd on all points). Peak RSS is the process's, so run
+// one size per process for memory: --benchmark_filter='BM_PhotoPreprocess/4096/0'.
+void BM_PhotoPreprocess(benchmark::State& state) {
+  const int size = int(state.range(0));
+  const bool former = state.range(1) != 0;
+  const texsynth::Image image = texsynth_test::gravel_texture(size, size, 18.0f * float(size) / 512.0f);
+  texsynth::PreprocessParams params;
+  texsynth::PreprocessVariant variant;
+  if (former) {
+    params.working_size = 0;
+    variant.full_lloyd = true;
+  }
+  texsynth::PreprocessStats stats;
+  texsynth::Preprocessed result;
+  for (auto _ : state) result = texsynth::preprocess(image, params, nullptr, &stats, variant);
+  stage_counters(state, result, stats);
+  state.counters["analysed_px"] = result.width;
+  state.counters["scale_s"] = stats.working_seconds;
+  state.counters["km_sub_iters"] = stats.kmeans_subsample_iterations;
+  state.counters["peak_rss_MB"] = peak_rss_mb();
+}
+BENCHMARK(BM_PhotoPreprocess)
+    ->Args({512, 0})->Args({512, 1})->Args({1024, 0})->Args({1024, 1})->Args({2048, 0})->Args({2048, 1})
+    ->Args({4096, 0})->Args({4096, 1})->Args({8192, 0})->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+
+// Writes the photo-like samples as 8-bit PNGs (to time other builds, e.g. the Python module, on them):
+// TEXSYNTH_WRITE_SAMPLES=DIR build/cpp_tests/bench/bench_preprocess --benchmark_filter=BM_WriteSamples
+void BM_WriteSamples(benchmark::State& state) {
+  const char* dir = std::getenv("TEXSYNTH_WRITE_SAMPLES");
+  for (auto _ : state) {
+    if (!dir) continue;
+    for (int size : {512, 1024, 2048, 4096, 8192}) {
+      const texsynth::Image image = texsynth_test::gravel_texture(size, size, 18.0f * float(size) / 512.0f);
+      std::vector<uint8_t> bytes(image.pixels.size());
+      for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = uint8_t(std::lround(image.pixels[i] * 255.0f));
+      texsynth::write_image_u8(std::string(dir) + "/gravel_" + std::to_string(size) + ".png", bytes.data(), size, size, 3);
+    }
+  }
+}
+BENCHMARK(BM_WriteSamples)->Iterations(1);
+
+// Choosing the default working size: a 4096² photo-like sample analysed at 256..4096 (11×11 windows in
+// analysis pixels). Quality = how alike the full-resolution picture is around a pixel and its best jump
+// (mean squared RGB difference over a 65×65 window of ORIGINAL pixels, about a pebble, what a jump puts
+// side by side in a render), divided by the same for random pixel pairs: 0 = perfect matches, 1 = no
+// better than chance. fine_17px: the same over 17×17 pixels (grain).
+void BM_WorkingSizeQuality(benchmark::State& state) {
+  const int size = 4096, working = int(state.range(0));
+  static const texsynth::Image image = texsynth_test::gravel_texture(size, size, 18.0f * size / 512.0f);
+  texsynth::PreprocessParams params;
+  params.working_size = working;
+  texsynth::Preprocessed r;
+  texsynth::PreprocessStats stats;
+  for (auto _ : state) r = texsynth::preprocess(image, params, nullptr, &stats);
+  const double scale = double(size) / r.width;
+  auto window_difference = [&](double ax, double ay, double bx, double by, int radius) {
+    double sum = 0;
+    int count = 0;
+    const int step = std::max(1, radius / 16);
+    for (int dy = -radius; dy <= radius; dy += step)
+      for (int dx = -radius; dx <= radius; dx += step) {
+        const int x0 = int(ax) + dx, y0 = int(ay) + dy, x1 = int(bx) + dx, y1 = int(by) + dy;
+        if (x0 < 0 || y0 < 0 || x1 < 0 || y1 < 0 || x0 >= size || y0 >= size || x1 >= size || y1 >= size) continue;
+        for (int c = 0; c < 3; ++c) {
+          const double d = image.pixels[(size_t(y0) * size + x0) * 3 + c] - image.pixels[(size_t(y1) * size + x1) * 3 + c];
+          sum += d * d;
+        }
+        ++count;
+      }
+    return count ? sum / count : 0.0;
+  };
+  texsynth::Rng rng(11);
+  double jumps = 0, random = 0, jumps_fine = 0, random_fine = 0;
+  const int64_t n = int64_t(r.width) * r.height;
+  for (int i = 0; i < 4000; ++i) {
+    const int64_t p = int64_t(rng.below(uint32_t(n)));
+    const int32_t q = r.jump_map.targets[size_t(p) * r.jump_map.k];
+    const int64_t o = int64_t(rng.below(uint32_t(n)));
+    auto centre = [&](int64_t at, double& x, double& y) {
+      x = (double(at % r.width) + 0.5) * scale;
+      y = (double(at / r.width) + 0.5) * scale;
+    };
+    double px, py, qx, qy, ox, oy;
+    centre(p, px, py);
+    centre(o, ox, oy);
+    random += window_difference(px, py, ox, oy, 32);
+    random_fine += window_difference(px, py, ox, oy, 8);
+    if (q < 0) continue;
+    centre(q, qx, qy);
+    jumps += window_difference(px, py, qx, qy, 32);
+    jumps_fine += window_difference(px, py, qx, qy, 8);
+  }
+  state.counters["jump_vs_random"] = jumps / random;
+  state.counters["fine_17px"] = jumps_fine / random_fine;
+  state.counters["analysis_s"] = stats.features_seconds + stats.kmeans_seconds + stats.tables_seconds +
+                                 stats.jump_map_seconds;
+  state.counters["scale_s"] = stats.working_seconds;
+}
+BENCHMARK(BM_WorkingSizeQuality)->Arg(256)->Arg(512)->Arg(1024)->Arg(2048)->Unit(benchmark::kSecond)->Iterations(1)
+    ->UseRealTime();
+
+// Cancel latency at every stage of an 8192² sample (validation, hash, scale-down, features, k-means,
+// jump map): cancel raised after each delay; latency = raise to throw. Prints the largest.
+void BM_CancelLatency(benchmark::State& state) {
+  static const texsynth::Image image = texsynth_test::gravel_texture(8192, 8192, 288.0f);
+  const texsynth::PreprocessParams params;
+  double worst = 0, total = 0;
+  for (auto _ : state) {
+    const auto whole = std::chrono::steady_clock::now();
+    texsynth::preprocess(image, params);
+    total = seconds_since(whole);
+    for (double fraction = 0.02; fraction < 1.0; fraction += 0.07) {
+      std::atomic<bool> cancel{false};
+      std::chrono::steady_clock::time_point raised;
+      std::thread raiser([&] {
+        std::this_thread::sleep_for(std::chrono::duration<double>(total * fraction));
+        raised = std::chrono::steady_clock::now();
+        cancel = true;
+      });
+      bool cancelled = false;
+      try {
+        texsynth::preprocess(image, params, &cancel);
+      } catch (const texsynth::Cancelled&) {
+        cancelled = true;
+      }
+      const auto finished = std::chrono::steady_clock::now();
+      raiser.join();
+      if (cancelled) worst = std::max(worst, std::chrono::duration<double>(finished - raised).count());
+    }
+  }
+  state.counters["uncancelled_s"] = total;
+  state.counters["worst_latency_ms"] = worst * 1000.0;
+}
+BENCHMARK(BM_CancelLatency)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 // Naive: full-D features, 20 Lloyd iterations with brute-force assignment, brute-force kNN jump search.
 // Timed on a subsample of points/queries and extrapolated to the whole sample.

@@ -38,8 +38,9 @@ py::array_t<T> move_array(std::vector<T>&& values, std::vector<py::ssize_t> shap
 }
 
 PreprocessParams make_params(int neighbourhood, int num_textons, int jump_candidates, int feature_dims, bool tileable,
-                             uint64_t seed) {
+                             uint64_t seed, int working_size) {
   PreprocessParams p;
+  p.working_size = working_size;
   p.neighbourhood = neighbourhood;
   p.num_textons = num_textons;
   p.jump_candidates = jump_candidates;
@@ -65,12 +66,14 @@ py::dict params_dict(const PreprocessParams& p) {
   d["seed"] = p.seed;
   d["kmeans_change_fraction"] = p.kmeans_change_fraction;
   d["kmeans_max_iterations"] = p.kmeans_max_iterations;
+  d["working_size"] = p.working_size;
   return d;
 }
 
 #define TEXSYNTH_PARAM_ARGS                                                                                  \
   py::kw_only(), py::arg("neighbourhood") = 11, py::arg("num_textons") = 0, py::arg("jump_candidates") = 4, \
-      py::arg("feature_dims") = 16, py::arg("tileable") = false, py::arg("seed") = 0, py::arg("color_space") = "auto"
+      py::arg("feature_dims") = 16, py::arg("tileable") = false, py::arg("seed") = 0, py::arg("color_space") = "auto", \
+      py::arg("working_size") = 512
 
 }  // namespace
 
@@ -79,6 +82,8 @@ void bind_preprocess(py::module_& m) {
                                                           "A preprocessed sample: textons, bucket array, jump map.")
       .def_property_readonly("width", [](const Preprocessed& r) { return r.width; })
       .def_property_readonly("height", [](const Preprocessed& r) { return r.height; })
+      .def_property_readonly("sample_width", [](const Preprocessed& r) { return r.sample_width; })
+      .def_property_readonly("sample_height", [](const Preprocessed& r) { return r.sample_height; })
       .def_property_readonly("num_textons", [](const Preprocessed& r) { return r.num_textons; })
       .def_property_readonly("texton_dims", [](const Preprocessed& r) { return r.texton_dims; })
       .def_property_readonly("sample_hash", [](const Preprocessed& r) { return r.sample_hash; })
@@ -138,9 +143,9 @@ void bind_preprocess(py::module_& m) {
   m.def(
       "preprocess",
       [](py::object image_arg, int neighbourhood, int num_textons, int jump_candidates, int feature_dims, bool tileable,
-         uint64_t seed, const std::string& color_space, py::object cache_dir, py::object cancel) {
+         uint64_t seed, const std::string& color_space, int working_size, py::object cache_dir, py::object cancel) {
         const PreprocessParams params =
-            make_params(neighbourhood, num_textons, jump_candidates, feature_dims, tileable, seed);
+            make_params(neighbourhood, num_textons, jump_candidates, feature_dims, tileable, seed, working_size);
         texsynth::Image image = texsynth_python::image_from_python(image_arg, color_space);
         std::optional<std::string> dir;
         if (!cache_dir.is_none()) dir = cache_dir_string(cache_dir);
@@ -157,22 +162,22 @@ void bind_preprocess(py::module_& m) {
   m.def(
       "cache_file_path",
       [](py::object image_arg, py::object cache_dir, int neighbourhood, int num_textons, int jump_candidates,
-         int feature_dims, bool tileable, uint64_t seed, const std::string& color_space) {
+         int feature_dims, bool tileable, uint64_t seed, const std::string& color_space, int working_size) {
         const PreprocessParams params =
-            make_params(neighbourhood, num_textons, jump_candidates, feature_dims, tileable, seed);
+            make_params(neighbourhood, num_textons, jump_candidates, feature_dims, tileable, seed, working_size);
         const texsynth::Image image = texsynth_python::image_from_python(image_arg, color_space);
         return texsynth::cache_file_path(cache_dir_string(cache_dir), texsynth::image_hash(image), params);
       },
       py::arg("image"), py::kw_only(), py::arg("cache_dir"), py::arg("neighbourhood") = 11, py::arg("num_textons") = 0,
       py::arg("jump_candidates") = 4, py::arg("feature_dims") = 16, py::arg("tileable") = false, py::arg("seed") = 0,
-      py::arg("color_space") = "auto", "Where preprocess(image, cache_dir=..., **params) keeps its cache.");
+      py::arg("color_space") = "auto", py::arg("working_size") = 512, "Where preprocess(image, cache_dir=..., **params) keeps its cache.");
 
   m.def(
       "cache_status",
       [](py::object image_arg, py::object cache_dir, int neighbourhood, int num_textons, int jump_candidates,
-         int feature_dims, bool tileable, uint64_t seed, const std::string& color_space) {
+         int feature_dims, bool tileable, uint64_t seed, const std::string& color_space, int working_size) {
         const PreprocessParams params =
-            make_params(neighbourhood, num_textons, jump_candidates, feature_dims, tileable, seed);
+            make_params(neighbourhood, num_textons, jump_candidates, feature_dims, tileable, seed, working_size);
         const texsynth::Image image = texsynth_python::image_from_python(image_arg, color_space);
         const uint64_t hash = texsynth::image_hash(image);
         const std::string path = texsynth::cache_file_path(cache_dir_string(cache_dir), hash, params);
@@ -185,7 +190,7 @@ void bind_preprocess(py::module_& m) {
       },
       py::arg("image"), py::kw_only(), py::arg("cache_dir"), py::arg("neighbourhood") = 11, py::arg("num_textons") = 0,
       py::arg("jump_candidates") = 4, py::arg("feature_dims") = 16, py::arg("tileable") = false, py::arg("seed") = 0,
-      py::arg("color_space") = "auto", "\"fresh\" | \"missing\" | \"stale\" for the cache preprocess() would use (computes no textons).");
+      py::arg("color_space") = "auto", py::arg("working_size") = 512, "\"fresh\" | \"missing\" | \"stale\" for the cache preprocess() would use (computes no textons).");
 
   m.def(
       "histogram_transform",

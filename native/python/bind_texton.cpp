@@ -8,6 +8,7 @@
 #include "field_args.hpp"
 #include "texsynth/mesh/mesh.hpp"
 #include "texsynth/preprocess/preprocessed.hpp"
+#include "texsynth/preprocess/working_image.hpp"
 #include "texsynth/synth/texton_synth.hpp"
 
 namespace py = pybind11;
@@ -46,7 +47,12 @@ void bind_texton(py::module_& m) {
         OrientedMeshArgs args = oriented_mesh_args(positions, corner_verts, poly_starts, poly_sizes, normals, orientation,
                                                    axis, direction, anchor_vertices, anchor_directions, sources, sinks);
         FloatArray pixels = float_array(sample_pixels, "sample_pixels");
-        const texsynth::SampleImage sample = sample_image(pixels);
+        texsynth::SampleImage sample = sample_image(pixels);
+        // A sample analysed through a working size: E_t compares the analysis copy, so scale the given
+        // full-resolution pixels down the same way (any other size is refused by synthesize_texton).
+        const bool scale_down = pre.sample_width > 0 && (sample.width != pre.width || sample.height != pre.height) &&
+                                sample.width == pre.sample_width && sample.height == pre.sample_height;
+        std::vector<float> scaled;
         FloatArray multiplier = optional_scale_multiplier(scale_multiplier, args.arrays.input.num_vertices);
         texsynth::TextonSynthParams params;
         params.scale = scale;
@@ -73,6 +79,13 @@ void bind_texton(py::module_& m) {
         std::vector<float> pairs;  // pack_sets: the sets in the add-on's RGBA-pair layout
         {
           py::gil_scoped_release release;
+          if (scale_down) {
+            scaled = texsynth::area_downscale(sample.pixels, sample.width, sample.height, sample.channels, pre.width,
+                                              pre.height, params.cancel);
+            sample.pixels = scaled.data();
+            sample.width = pre.width;
+            sample.height = pre.height;
+          }
           const OrientedMeshArgs::Built built = args.build();
           r = texsynth::synthesize_texton(pre, built.mesh, built.up.data(), sample, params);
           if (pack_sets) {

@@ -366,8 +366,8 @@ def mesh_cases(out):
 
 
 # Byte ranges of the cache layout (cache.hpp), for mutations per field.
-CACHE_FIELDS = [("magic", 0, 8), ("version", 8, 12), ("params", 12, 52), ("sample_hash", 52, 60),
-                ("dims", 60, 84)]
+CACHE_FIELDS = [("magic", 0, 8), ("version", 8, 12), ("params", 12, 56), ("sample_hash", 56, 64),
+                ("dims", 64, 96)]
 MUTATIONS = {"xor01": lambda b: b ^ 0x01, "xor80": lambda b: b ^ 0x80, "zero": lambda b: 0x00,
              "ff": lambda b: 0xFF, "inc": lambda b: (b + 1) & 0xFF}
 
@@ -383,7 +383,7 @@ def cache_cases(out, native):
     valid = open(valid_path, "rb").read()
     n = pre.width * pre.height
     k, dims, jk = pre.num_textons, pre.texton_dims, pre.params["jump_candidates"]
-    header = 84
+    header = 96
     sections = [("texton_map", header, header + 2 * n)]
     sections.append(("textons", sections[-1][2], sections[-1][2] + 4 * k * dims))
     sections.append(("jump_targets", sections[-1][2], sections[-1][2] + 4 * n * jk))
@@ -408,7 +408,7 @@ def cache_cases(out, native):
             write(os.path.join(out, file), bytes(data))
             cases.append(dict(id="cache/%s@%d/%s" % (name, offset, label), kind="cache", file=file, expect="error"))
             mutated += 1
-    lengths = sorted(set([0, 1, 7, 8, 83, 84, 85, len(valid) - 9, len(valid) - 1] +
+    lengths = sorted(set([0, 1, 7, 8, 95, 96, 97, len(valid) - 9, len(valid) - 1] +
                          [rng.randrange(1, len(valid)) for _ in range(40)]))
     for length in lengths:
         file = "caches/truncated_%d.tscache" % length
@@ -417,15 +417,15 @@ def cache_cases(out, native):
     write(os.path.join(out, "caches/extra_byte.tscache"), valid + b"\0")
     cases.append(dict(id="cache/extra_byte", kind="cache", file="caches/extra_byte.tscache", expect="error"))
     wrong_version = bytearray(valid)
-    wrong_version[8:12] = struct.pack("<I", 2)
-    write(os.path.join(out, "caches/version_2.tscache"), bytes(wrong_version))
-    cases.append(dict(id="cache/version_mismatch", kind="cache", file="caches/version_2.tscache", expect="error"))
+    wrong_version[8:12] = struct.pack("<I", 1)
+    write(os.path.join(out, "caches/version_1.tscache"), bytes(wrong_version))
+    cases.append(dict(id="cache/version_mismatch", kind="cache", file="caches/version_1.tscache", expect="error"))
     cases.append(dict(id="cache/hash_mismatch", kind="cache", file="caches/valid.tscache",
                       expected_hash=(pre.sample_hash + 1) % 2**64, expect="error"))
     os.makedirs(os.path.join(d, "directory.tscache"), exist_ok=True)
     cases.append(dict(id="cache/directory", kind="cache", file="caches/directory.tscache", expect="error"))
     # A corrupt file at the very path preprocess(cache_dir=...) uses: must be recomputed and replaced.
-    for label in ("truncated_84", "checksum_%d_xor01" % (len(valid) - 8), "textons_%d_ff" % sections[1][1]):
+    for label in ("truncated_96", "checksum_%d_xor01" % (len(valid) - 8), "textons_%d_ff" % sections[1][1]):
         source = "caches/%s.tscache" % label
         if os.path.exists(os.path.join(out, source)):
             cases.append(dict(id="cache/recompute_over_%s" % label, kind="cache_dir", file=source,

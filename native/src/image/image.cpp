@@ -7,6 +7,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -122,14 +123,21 @@ std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
 
 constexpr int kMaxFileChannels = 64;
 
-void check_dims(int width, int height, int channels, const std::string& where, int max_channels = 4) {
+void check_dims(int width, int height, int channels, const std::string& where, int max_channels = 4,
+                int64_t max_pixels = kMaxSamplePixels) {
   if (width <= 0 || height <= 0)
     throw std::invalid_argument(where + ": image has no pixels (" + std::to_string(width) + "x" +
                                 std::to_string(height) + ")");
-  if (width > kMaxImageSide || height > kMaxImageSide || int64_t(width) * height > kMaxImagePixels)
+  if (width > kMaxImageSide || height > kMaxImageSide || int64_t(width) * height > max_pixels) {
+    const int side = int(std::lround(std::sqrt(double(max_pixels))));
+    const double gb = double(width) * double(height) * std::max(channels, 1) * sizeof(float) / 1e9;
+    char need[32];
+    std::snprintf(need, sizeof(need), "%.1f", gb);
     throw std::invalid_argument(where + ": image " + std::to_string(width) + "x" + std::to_string(height) +
-                                " exceeds the limit of " + std::to_string(kMaxImagePixels) +
-                                " pixels (4096x4096); downscale the sample");
+                                " exceeds the limit of " + std::to_string(max_pixels) + " pixels (" +
+                                std::to_string(side) + "x" + std::to_string(side) + "; its pixels alone need " +
+                                need + " GB); downscale the sample");
+  }
   if (channels < 1 || channels > max_channels)
     throw std::invalid_argument(where + ": image has " + std::to_string(channels) +
                                 " channels; samples need 1 (gray), 2 (gray+alpha), 3 (RGB) or 4 (RGBA)");
@@ -279,8 +287,8 @@ Image image_from_pixels(const void* data, PixelType type, int width, int height,
   return image;
 }
 
-void validate_image(const Image& image) {
-  check_dims(image.width, image.height, image.channels, "image");
+void validate_image(const Image& image, int64_t max_pixels) {
+  check_dims(image.width, image.height, image.channels, "image", 4, max_pixels);
   if (image.pixels.size() != size_t(image.pixel_count()) * size_t(image.channels))
     throw std::invalid_argument("image: pixel buffer size does not match width*height*channels");
   check_finite(image.pixels, image.width, image.channels, "image");

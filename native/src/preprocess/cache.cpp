@@ -17,6 +17,7 @@
 #include "texsynth/image/image.hpp"
 #include "texsynth/preprocess/kmeans.hpp"
 #include "texsynth/preprocess/preprocess.hpp"
+#include "texsynth/preprocess/working_image.hpp"
 
 namespace texsynth {
 namespace fs = std::filesystem;
@@ -25,8 +26,8 @@ namespace {
 
 constexpr char kMagic[8] = {'T', 'S', 'P', 'R', 'E', 'P', 'R', 'C'};
 constexpr uint64_t kChecksumSeed = 0x747363616368ull;
-// magic + version + params(4*4 + 4 + 8 + 8 + 4) + hash + 6*4
-constexpr size_t kHeaderSize = 8 + 4 + 40 + 8 + 24;
+// magic + version + params(4*4 + 4 + 8 + 8 + 4 + 4) + hash + 8*4
+constexpr size_t kHeaderSize = 8 + 4 + 44 + 8 + 32;
 
 void put_params(ByteWriter& w, const PreprocessParams& p) {
   w.put<int32_t>(p.neighbourhood);
@@ -37,6 +38,7 @@ void put_params(ByteWriter& w, const PreprocessParams& p) {
   w.put<uint64_t>(p.seed);
   w.put<double>(p.kmeans_change_fraction);
   w.put<int32_t>(p.kmeans_max_iterations);
+  w.put<int32_t>(p.working_size);
 }
 
 size_t payload_size(int64_t pixels, int64_t k, int64_t dims, int64_t jump_k) {
@@ -81,6 +83,8 @@ void save_preprocessed(const Preprocessed& r, const std::string& path) {
   w.put<int32_t>(r.num_textons);
   w.put<int32_t>(r.texton_dims);
   w.put<int32_t>(k);
+  w.put<int32_t>(r.sample_width > 0 ? r.sample_width : r.width);
+  w.put<int32_t>(r.sample_height > 0 ? r.sample_height : r.height);
   w.put<uint32_t>(0);
   for (int32_t t : r.texton_map) w.put<uint16_t>(uint16_t(t));
   w.put_array(r.textons.data(), r.textons.size());
@@ -115,12 +119,15 @@ Preprocessed load_preprocessed(const std::string& path, std::optional<uint64_t> 
   p.seed = in.get<uint64_t>();
   p.kmeans_change_fraction = in.get<double>();
   p.kmeans_max_iterations = in.get<int32_t>();
+  p.working_size = in.get<int32_t>();
   r.sample_hash = in.get<uint64_t>();
   r.width = in.get<int32_t>();
   r.height = in.get<int32_t>();
   r.num_textons = in.get<int32_t>();
   r.texton_dims = in.get<int32_t>();
   const int32_t jump_k = in.get<int32_t>();
+  r.sample_width = in.get<int32_t>();
+  r.sample_height = in.get<int32_t>();
   const uint32_t reserved = in.get<uint32_t>();
 
   // Validate the header before sizing anything from it.
@@ -130,10 +137,13 @@ Preprocessed load_preprocessed(const std::string& path, std::optional<uint64_t> 
     throw bad("invalid image size in header");
   p.tileable = tileable == 1;
   try {
-    validate_preprocess(p, r.width, r.height);
+    validate_preprocess(p, r.sample_width, r.sample_height);
   } catch (const std::invalid_argument& e) {
     throw bad(std::string("invalid parameters in header: ") + e.what());
   }
+  const Size2 analysed = working_dimensions(r.sample_width, r.sample_height, p.working_size);
+  if (analysed.width != r.width || analysed.height != r.height)
+    throw bad("analysis size does not follow from the sample size and working size");
   const int64_t n = int64_t(r.width) * r.height;
   if (r.num_textons != resolved_num_textons(p, n)) throw bad("texton count does not match parameters");
   if (jump_k != p.jump_candidates) throw bad("jump map size does not match parameters");

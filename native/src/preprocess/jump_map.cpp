@@ -9,6 +9,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
@@ -40,6 +43,22 @@ struct TopK {
     distance[i] = d;
   }
 };
+
+// First index i in [from, end) with values[i] < threshold, or end: most candidates lie above the
+// threshold once k jumps are known, so skip them four at a time.
+inline int next_below(const float* values, int from, int end, float threshold) {
+  int i = from;
+#ifdef __SSE2__
+  const __m128 limit = _mm_set1_ps(threshold);
+  for (; i + 4 <= end; i += 4) {
+    const int mask = _mm_movemask_ps(_mm_cmplt_ps(_mm_loadu_ps(values + i), limit));
+    if (mask) return i + __builtin_ctz(unsigned(mask));
+  }
+#endif
+  for (; i < end; ++i)
+    if (values[i] < threshold) return i;
+  return end;
+}
 
 inline int axis_distance(int a, int b, int size, bool periodic) {
   int d = std::abs(a - b);
@@ -139,7 +158,8 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
           TopK best(k);
           float threshold = std::numeric_limits<float>::max();
           for (int c = 0; c < c_n; ++c) {
-            if (!(partial[c] < threshold)) continue;
+            c = next_below(partial, c, c_n, threshold);
+            if (c == c_n) break;
             const float d = partial[c] + query_norm;
             const size_t at = size_t(candidates[size_t(c)]);
             if (std::max(axis_distance(px, bucket_x[at], width, params.tileable),

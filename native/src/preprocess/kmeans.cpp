@@ -31,19 +31,81 @@ struct Nearest {
   float second_bound;   // lower bound on the distance to any other centre
 };
 
+constexpr int kLanes = 8;
+
+// Centres regrouped for lane-parallel distances: kLanes centres per group, stored dimension-major,
+// so one pass over the dimensions gives kLanes distances. Each lane adds its terms in the order
+// squared_distance() does, so every distance is bit-identical to it (only faster).
+struct CentreGroups {
+  int dims = 0, list_groups = 0, all_groups = 0;
+  std::vector<float> lists;  // per centre: its index list (nearest centres first), list_groups groups
+  std::vector<float> all;    // every centre in label order, all_groups groups
+
+  CentreGroups(const std::vector<float>& centres, int k, int dims_, const CentreIndex& index)
+      : dims(dims_), list_groups((index.list_length + kLanes - 1) / kLanes), all_groups((k + kLanes - 1) / kLanes) {
+    const size_t group_size = size_t(dims) * kLanes;
+    lists.assign(size_t(k) * list_groups * group_size, 0.0f);
+    all.assign(size_t(all_groups) * group_size, 0.0f);
+    auto put = [&](float* groups, int slot, int c) {
+      float* g = groups + size_t(slot / kLanes) * group_size + slot % kLanes;
+      for (int i = 0; i < dims; ++i) g[size_t(i) * kLanes] = centres[size_t(c) * dims + i];
+    };
+    for (int c = 0; c < k; ++c) put(all.data(), c, c);
+    tbb::parallel_for(tbb::blocked_range<int>(0, k, 16), [&](const tbb::blocked_range<int>& r) {
+      for (int c = r.begin(); c < r.end(); ++c)
+        for (int j = 0; j < index.list_length; ++j) put(list(c), j, index.nearest(c)[j]);
+    });
+  }
+  float* list(int c) { return lists.data() + size_t(c) * list_groups * dims * kLanes; }
+  const float* list(int c) const { return lists.data() + size_t(c) * list_groups * dims * kLanes; }
+
+  // Squared distances from x to the kLanes centres of one group.
+  void distances(const float* x, const float* group, float* out) const {
+    float acc[kLanes] = {};
+    for (int i = 0; i < dims; ++i) {
+      const float xi = x[i];
+      const float* g = group + size_t(i) * kLanes;
+      for (int l = 0; l < kLanes; ++l) {
+        const float d = xi - g[l];
+        acc[l] += d * d;
+      }
+    }
+    std::copy(acc, acc + kLanes, out);
+  }
+};
+
 // Exact nearest centre, pruned by the triangle inequality around the guessed centre.
-Nearest nearest_centre(const float* x, const float* centres, int k, int dims, const CentreIndex& index, int guess) {
-  const float guess_dist = std::sqrt(squared_distance(x, centres + size_t(guess) * dims, dims));
+Nearest nearest_centre(const float* x, int k, const CentreIndex& index, const CentreGroups& groups, int guess) {
+  // Distances to the guess's list, a group at a time, as the scan reaches them.
+  const float* list = groups.list(guess);
+  const size_t group_size = size_t(groups.dims) * kLanes;
+  float squared[kLanes];
+  int computed = -1;
+  auto list_distance = [&](int j) {
+    if (j / kLanes != computed) {
+      computed = j / kLanes;
+      groups.distances(x, list + size_t(computed) * group_size, squared);
+    }
+    return squared[j % kLanes];
+  };
+  const float guess_sq = list_distance(0);  // the list starts with the guess itself
+  const float guess_dist = std::sqrt(guess_sq);
   int best = guess;
   float best_dist = guess_dist, second_dist = std::numeric_limits<float>::max();
-  auto consider = [&](int c) {
-    const float d = std::sqrt(squared_distance(x, centres + size_t(c) * dims, dims));
+  float best_sq = guess_sq, second_sq = std::numeric_limits<float>::infinity();
+  auto consider = [&](int c, float sq) {
+    // sqrt is monotonic: sq > second_sq gives d >= second_dist > best_dist, which changes nothing below.
+    if (sq > second_sq && second_dist > best_dist) return;
+    const float d = std::sqrt(sq);
     if (d < best_dist || (d == best_dist && c < best)) {
       second_dist = best_dist;
+      second_sq = best_sq;
       best = c;
       best_dist = d;
+      best_sq = sq;
     } else if (d < second_dist) {
       second_dist = d;
+      second_sq = sq;
     }
   };
   const int32_t* order = index.nearest(guess);
@@ -53,12 +115,16 @@ Nearest nearest_centre(const float* x, const float* centres, int k, int dims, co
     // every unscanned centre is at least |c - c'| - |x - c| away.
     if (between[j] > (guess_dist + best_dist) * 1.0001f + 1e-6f)
       return {best, best_dist, std::min(second_dist, between[j] - guess_dist) * 0.9999f};
-    consider(order[j]);
+    consider(order[j], list_distance(j));
   }
   if (index.list_length < k) {  // list exhausted: finish exactly by brute force
     second_dist = std::numeric_limits<float>::max();
-    for (int c = 0; c < k; ++c)
-      if (c != best) consider(c);
+    second_sq = std::numeric_limits<float>::infinity();
+    for (int g = 0; g < groups.all_groups; ++g) {
+      groups.distances(x, groups.all.data() + size_t(g) * group_size, squared);
+      for (int l = 0; l < kLanes && g * kLanes + l < k; ++l)
+        if (g * kLanes + l != best) consider(g * kLanes + l, squared[l]);
+    }
   }
   return {best, best_dist, second_dist * 0.9999f};
 }
@@ -76,6 +142,7 @@ int64_t assign_all(const Features& points, const std::vector<float>& centres, in
                    std::vector<int32_t>& labels, PointBounds& bounds, const std::atomic<bool>* cancel) {
   const int64_t n = points.count;
   const int dims = points.dims;
+  const CentreGroups groups(centres, k, dims, index);
   return tbb::parallel_reduce(
       tbb::blocked_range<int64_t>(0, n, kChunk), int64_t(0),
       [&](const tbb::blocked_range<int64_t>& r, int64_t changed) {
@@ -90,7 +157,7 @@ int64_t assign_all(const Features& points, const std::vector<float>& centres, in
             upper = std::sqrt(squared_distance(x, centres.data() + size_t(old) * dims, dims));
             if (upper <= bounds.lower[size_t(i)]) continue;
           }
-          const Nearest found = nearest_centre(x, centres.data(), k, dims, index, old >= 0 ? old : previous);
+          const Nearest found = nearest_centre(x, k, index, groups, old >= 0 ? old : previous);
           if (found.label != old) ++changed;
           labels[size_t(i)] = found.label;
           bounds.upper[size_t(i)] = found.distance;
@@ -159,15 +226,32 @@ std::vector<float> seed_centres(const Features& points, int k, uint64_t seed, co
   Rng rng(seed, 0x6B6D2B2Bull);  // "km++"
   std::vector<float> centres(size_t(k) * dims);
   std::vector<float> nearest_sq(static_cast<size_t>(n), std::numeric_limits<float>::max());
+  const int64_t groups = (n + kLanes - 1) / kLanes;
+  std::vector<float> point_groups(size_t(groups) * dims * kLanes, 0.0f);
+  for (int64_t p = 0; p < n; ++p)
+    for (int i = 0; i < dims; ++i)
+      point_groups[size_t(p / kLanes) * dims * kLanes + size_t(i) * kLanes + size_t(p % kLanes)] = points.row(p)[i];
   int64_t chosen = int64_t(rng.below(uint32_t(n)));
   for (int c = 0; c < k; ++c) {
     if ((c & 63) == 0) check_cancel(cancel);
     const float* centre = points.row(chosen);
     std::copy(centre, centre + dims, centres.data() + size_t(c) * dims);
     if (c + 1 == k) break;
-    tbb::parallel_for(tbb::blocked_range<int64_t>(0, n, kChunk), [&](const tbb::blocked_range<int64_t>& r) {
-      for (int64_t i = r.begin(); i < r.end(); ++i)
-        nearest_sq[size_t(i)] = std::min(nearest_sq[size_t(i)], squared_distance(points.row(i), centre, dims));
+    // kLanes points at a time (bit-identical to squared_distance(point, centre) per lane).
+    tbb::parallel_for(tbb::blocked_range<int64_t>(0, groups, kChunk / kLanes), [&](const tbb::blocked_range<int64_t>& r) {
+      for (int64_t g = r.begin(); g < r.end(); ++g) {
+        const float* group = point_groups.data() + size_t(g) * dims * kLanes;
+        float acc[kLanes] = {};
+        for (int i = 0; i < dims; ++i) {
+          const float ci = centre[i];
+          for (int l = 0; l < kLanes; ++l) {
+            const float d = group[size_t(i) * kLanes + l] - ci;
+            acc[l] += d * d;
+          }
+        }
+        for (int l = 0; l < kLanes && g * kLanes + l < n; ++l)
+          nearest_sq[size_t(g * kLanes + l)] = std::min(nearest_sq[size_t(g * kLanes + l)], acc[l]);
+      }
     });
     double total = 0.0;
     for (float d : nearest_sq) total += d;
@@ -322,17 +406,24 @@ KMeansResult kmeans(const Features& points, const KMeansParams& params, const st
   double change = 1.0;
   if (sub_n < n) {
     std::vector<int32_t> sub_labels(size_t(sub_n), -1);
-    lloyd(sub, k, params.seed, params.change_fraction, params.max_iterations, result.centres, sub_labels, change, cancel);
+    result.subsample_iterations = lloyd(sub, k, params.seed, params.change_fraction, params.max_iterations,
+                                        result.centres, sub_labels, change, cancel);
     // Means of the converged subsample clusters seed the full-data phase.
     update_centres(sub, sub_labels, k, params.seed, 1 << 20, result.centres);
   }
   sub = Features();
 
-  // Phase 2: all points.
+  // Phase 2: all points (one pruned assignment pass unless full_lloyd, or when the subsample is everything).
   result.labels.assign(size_t(n), -1);
-  result.iterations = lloyd(points, k, params.seed ^ 0x5A5A5A5Aull, params.change_fraction, params.max_iterations,
+  // Small samples (the subsample is a quarter or more of them) still converge on all points: it is cheap
+  // there, and keeps their textons as they were.
+  const bool converge_all = params.full_lloyd || sub_n * 4 >= n;
+  const int full_iterations = converge_all ? params.max_iterations : 0;
+  const double subsample_change = change;
+  result.iterations = lloyd(points, k, params.seed ^ 0x5A5A5A5Aull, params.change_fraction, full_iterations,
                             result.centres, result.labels, change, cancel);
-  result.last_change_fraction = change;
+  // After the single pass, convergence is the subsample's (every label "changed" from none).
+  result.last_change_fraction = full_iterations > 0 ? change : subsample_change;
   return result;
 }
 

@@ -14,6 +14,7 @@
 #include "texsynth/preprocess/features.hpp"
 #include "texsynth/preprocess/jump_map.hpp"
 #include "texsynth/preprocess/kmeans.hpp"
+#include "texsynth/preprocess/working_image.hpp"
 
 namespace texsynth {
 
@@ -28,11 +29,23 @@ void validate_preprocess(const PreprocessParams& params, int width, int height) 
   if (n < 3 || n % 2 == 0 || n > kMaxNeighbourhood)
     bad("neighbourhood must be an odd number between 3 and " + std::to_string(kMaxNeighbourhood) + ", got " +
         std::to_string(n));
+  if (params.working_size != 0 && (params.working_size < kMinWorkingSize || params.working_size > kMaxWorkingSize))
+    bad("working_size must be 0 (the sample's own resolution) or between " + std::to_string(kMinWorkingSize) +
+        " and " + std::to_string(kMaxWorkingSize) + ", got " + std::to_string(params.working_size));
+  const std::string given = std::to_string(width) + "x" + std::to_string(height);
+  if (int64_t(width) * height > kMaxSamplePixels)
+    bad("sample " + given + " exceeds the limit of 8192x8192 pixels (its RGBA floats alone need " +
+        std::to_string(int64_t(width) * height * 16 / 1000000) + " MB); downscale the sample");
+  const Size2 analysed = working_dimensions(width, height, params.working_size);
+  const int64_t pixels = int64_t(analysed.width) * analysed.height;
+  if (pixels > kMaxImagePixels)
+    bad("sample " + given + " exceeds the pixel limit (4096x4096) for analysis at its own resolution (about " +
+        std::to_string(pixels * 100 / 1000000) + " MB); set a working size of at most 4096");
+  width = analysed.width;
+  height = analysed.height;
   if (width < n || height < n)
     bad("sample " + std::to_string(width) + "x" + std::to_string(height) + " is smaller than the " +
         std::to_string(n) + "x" + std::to_string(n) + " neighbourhood");
-  const int64_t pixels = int64_t(width) * height;
-  if (pixels > kMaxImagePixels) bad("sample exceeds the pixel limit (4096x4096)");
   if (params.num_textons < 0) bad("num_textons must be >= 0 (0 = automatic), got " + std::to_string(params.num_textons));
   const int k = resolved_num_textons(params, pixels);
   if (k > pixels)
@@ -51,16 +64,9 @@ void validate_preprocess(const PreprocessParams& params, int width, int height) 
 }
 
 Preprocessed preprocess(const Image& image, const PreprocessParams& params, const std::atomic<bool>* cancel,
-                        PreprocessStats* stats) {
-  validate_image(image);
+                        PreprocessStats* stats, const PreprocessVariant& variant) {
+  validate_image(image, kMaxSamplePixels);
   validate_preprocess(params, image.width, image.height);
-  const int k = resolved_num_textons(params, image.pixel_count());
-  const int full_dims = full_feature_dims(image, params.neighbourhood);
-  const int dims = params.feature_dims > 0 && params.feature_dims < full_dims ? params.feature_dims : full_dims;
-  if (double(image.pixel_count()) * dims > double(kMaxFeatureValues))
-    throw std::invalid_argument("features of " + std::to_string(dims) + " dimensions for " +
-                                std::to_string(image.pixel_count()) +
-                                " pixels exceed the memory limit (1 GB); use fewer feature_dims or a smaller sample");
   PreprocessStats local_stats;
   if (!stats) stats = &local_stats;
   auto clock = std::chrono::steady_clock::now();
@@ -73,9 +79,25 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
     clock = now;
     cpu_clock = cpu_now;
   };
+  const uint64_t sample_hash = image_hash(image);
+  // The analysis copy only when the sample is larger than the working size: otherwise no copy at all.
+  const Size2 analysed = working_dimensions(image.width, image.height, params.working_size);
+  std::optional<Image> scaled;
+  if (analysed.width != image.width || analysed.height != image.height)
+    scaled = working_image(image, params.working_size, cancel);
+  const Image& work = scaled ? *scaled : image;
+  lap(stats->working_seconds, stats->working_cpu);
+
+  const int k = resolved_num_textons(params, work.pixel_count());
+  const int full_dims = full_feature_dims(work, params.neighbourhood);
+  const int dims = params.feature_dims > 0 && params.feature_dims < full_dims ? params.feature_dims : full_dims;
+  if (double(work.pixel_count()) * dims > double(kMaxFeatureValues))
+    throw std::invalid_argument("features of " + std::to_string(dims) + " dimensions for " +
+                                std::to_string(work.pixel_count()) +
+                                " pixels exceed the memory limit (1 GB); use fewer feature_dims or a smaller sample");
 
   const Features features =
-      compute_features(image, params.neighbourhood, params.feature_dims, params.tileable, params.seed, cancel);
+      compute_features(work, params.neighbourhood, params.feature_dims, params.tileable, params.seed, cancel);
   if (cancel && cancel->load()) throw Cancelled();
   lap(stats->features_seconds, stats->features_cpu);
 
@@ -84,16 +106,20 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
   km.seed = params.seed;
   km.change_fraction = params.kmeans_change_fraction;
   km.max_iterations = params.kmeans_max_iterations;
+  km.full_lloyd = variant.full_lloyd;
   KMeansResult clusters = kmeans(features, km, cancel);
   stats->kmeans_full_iterations = clusters.iterations;
+  stats->kmeans_subsample_iterations = clusters.subsample_iterations;
   stats->kmeans_last_change = clusters.last_change_fraction;
   lap(stats->kmeans_seconds, stats->kmeans_cpu);
 
   Preprocessed out;
-  out.width = image.width;
-  out.height = image.height;
+  out.width = work.width;
+  out.height = work.height;
+  out.sample_width = image.width;
+  out.sample_height = image.height;
   out.params = params;
-  out.sample_hash = image_hash(image);
+  out.sample_hash = sample_hash;
   out.num_textons = k;
   out.texton_dims = features.dims;
   out.texton_map = std::move(clusters.labels);
@@ -116,7 +142,7 @@ Preprocessed preprocess(const Image& image, const PreprocessParams& params, cons
 
 Preprocessed preprocess_cached(const Image& image, const PreprocessParams& params, const std::string& cache_dir,
                                const std::atomic<bool>* cancel) {
-  validate_image(image);
+  validate_image(image, kMaxSamplePixels);
   validate_preprocess(params, image.width, image.height);
   if (cache_dir.empty()) throw std::invalid_argument("cache_dir is empty");
   const uint64_t hash = image_hash(image);

@@ -15,9 +15,12 @@
 
 namespace texsynth {
 
-// Largest sample accepted (pixels). Preprocessing keeps ~100 bytes per pixel in flight, so a
-// 4096 x 4096 sample already needs ~1.7 GB; anything larger is refused with a clear error.
+// Largest sample analysed at its own resolution (pixels). Analysis keeps ~100 bytes per pixel in
+// flight, so a 4096 x 4096 sample already needs ~1.7 GB; larger ones are refused with a clear error.
 constexpr int64_t kMaxImagePixels = int64_t(4096) * 4096;
+// Largest sample decoded at all (8192²: 1 GB as RGBA floats). Only preprocessing through a working
+// size takes more than kMaxImagePixels; everything else still refuses it.
+constexpr int64_t kMaxSamplePixels = int64_t(8192) * 8192;
 constexpr int kMaxImageSide = 65536;
 // Largest pixel magnitude accepted (float images): beyond it the L*a*b* conversion overflows to
 // NaN (fuzz_params found -2e36 turning textons into NaN). Real HDR radiance stays far below.
@@ -58,8 +61,9 @@ enum class PixelType { kUint8, kUint16, kFloat16, kFloat32 };
 // and marked sRGB; float types are kept as is and marked linear. Validates size, channels, NaN/Inf.
 Image image_from_pixels(const void* data, PixelType type, int width, int height, int channels);
 
-// Throws std::invalid_argument when dims/channels/size/pixel values are unusable.
-void validate_image(const Image& image);
+// Throws std::invalid_argument when dims/channels/size/pixel values are unusable (more than
+// max_pixels pixels included).
+void validate_image(const Image& image, int64_t max_pixels = kMaxImagePixels);
 
 // 64-bit hash of the decoded pixels, dimensions, channel count and encoding.
 uint64_t image_hash(const Image& image);

@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// On-disk cache of a Preprocessed sample. Little-endian binary layout (format version 1):
+// On-disk cache of a Preprocessed sample. Little-endian binary layout (format version 2):
 //   magic "TSPREPRC" | u32 version | params (i32 n, i32 K requested, i32 k, i32 feature_dims,
-//   u32 tileable, u64 seed, f64 change_fraction, i32 max_iterations) | u64 sample_hash |
-//   i32 width | i32 height | i32 K | i32 texton_dims | i32 jump_k | u32 reserved |
+//   u32 tileable, u64 seed, f64 change_fraction, i32 max_iterations, i32 working_size) | u64 sample_hash |
+//   i32 width | i32 height (analysis size) | i32 K | i32 texton_dims | i32 jump_k |
+//   i32 sample_width | i32 sample_height | u32 reserved |
 //   u16 texton_map[W*H] | f32 textons[K*D] | i32 jump_targets[W*H*k] | u16 jump_weights[W*H*k] |
 //   u64 checksum (hash_bytes over everything before it).
 // The texton distance table and bucket array are rebuilt on load (derivable). About 26 bytes per
@@ -17,7 +18,8 @@
 
 namespace texsynth {
 
-constexpr uint32_t kCacheFormatVersion = 1;
+// 2: working_size and the sample size (version 1 files are recomputed).
+constexpr uint32_t kCacheFormatVersion = 2;
 
 void save_preprocessed(const Preprocessed& result, const std::string& path);
 Preprocessed load_preprocessed(const std::string& path, std::optional<uint64_t> expected_hash = std::nullopt);

@@ -3,8 +3,10 @@
 // Deterministic, pruned k-means for textons.
 //
 // 1. k-means++ seeding on a deterministic subsample; Lloyd iterations on that subsample.
-// 2. All points assigned, then Lloyd iterations on all points until <= change_fraction of them
-//    change cluster (or max_iterations).
+// 2. All points assigned once to the subsample's centres (a texton is a mean of its subsample
+//    members). With full_lloyd (the former default, kept as the benchmarks' baseline), or when the
+//    subsample holds a quarter of the points or more, Lloyd iterations then continue on all points
+//    until <= change_fraction of them change cluster.
 // Assignment is exact but pruned: starting from a guess c (previous label, or the previous pixel's),
 // centres are scanned in increasing distance from c and the scan stops once
 // |c - c'| >= |x - c| + |x - best| (triangle inequality: no later centre can be closer).
@@ -24,6 +26,7 @@ struct KMeansParams {
   double change_fraction = 0.01;
   int max_iterations = 50;
   int subsample_size = 0;  // 0 = automatic (max(32*K, 20000), capped at the point count)
+  bool full_lloyd = false;  // keep iterating on all points after the subsample (slow; baseline)
 };
 
 struct KMeansResult {
@@ -32,6 +35,7 @@ struct KMeansResult {
   std::vector<float> centres;   // num_clusters*dims
   std::vector<int32_t> labels;  // one per point
   int iterations = 0;           // full-data iterations run
+  int subsample_iterations = 0; // iterations on the subsample
   double last_change_fraction = 0.0;
 };
 

@@ -19,6 +19,11 @@ struct PreprocessParams {
   uint64_t seed = 0;              // k-means initialisation etc.
   double kmeans_change_fraction = 0.01;  // stop when <= this fraction of pixels change cluster
   int kmeans_max_iterations = 50;
+  // Longest side of the analysis copy: a larger sample is area-averaged down to it first, so the
+  // neighbourhood covers the same share of the picture whatever its pixel count (jump-map and texton
+  // UVs are fractions of the image, so the material still samples the full-resolution file).
+  // 0 = analyse at the sample's own resolution. 512: measured best (README "Preprocessing").
+  int working_size = 512;
 };
 
 // Up to k jumps per pixel, fixed stride k. Unused slots have target -1 and weight 0.
@@ -30,8 +35,10 @@ struct JumpMap {
 };
 
 struct Preprocessed {
-  int width = 0;
+  int width = 0;   // analysis resolution: every pixel index below is in this grid
   int height = 0;
+  int sample_width = 0;   // the sample as given (larger than width/height when it was scaled down)
+  int sample_height = 0;
   PreprocessParams params;
   uint64_t sample_hash = 0;  // hash of the sample's pixels as they were given
 
