@@ -35,7 +35,8 @@ void validate_preprocess(const PreprocessParams& params, int width, int height) 
   const std::string given = std::to_string(width) + "x" + std::to_string(height);
   if (int64_t(width) * height > kMaxSamplePixels)
     bad("sample " + given + " exceeds the limit of 8192x8192 pixels (its RGBA floats alone need " +
-        std::to_string(int64_t(width) * height * 16 / 1000000) + " MB); downscale the sample");
+        std::to_string(int64_t(double(width) * double(height) * 16.0 / 1e6)) +  // double: sizes read from a damaged cache overflow int64
+        " MB); downscale the sample");
   const Size2 analysed = working_dimensions(width, height, params.working_size);
   const int64_t pixels = int64_t(analysed.width) * analysed.height;
   if (pixels > kMaxImagePixels)
