@@ -179,8 +179,11 @@ install_check() {
   cp "$root/python_tests/install/check_installed.py" "$root/blend_samples/bricks.png" "$drop/"
   local name kind=legacy
   name="$(basename "$package")"
-  # An extension has its manifest at the top; the legacy zip holds a folder texsynth/.
-  unzip -Z1 "$package" | grep -qx blender_manifest.toml && kind=extension
+  # An extension has its manifest at the top; the legacy zip holds a folder texsynth/. No `unzip | grep -q`:
+  # under pipefail, grep quitting early can SIGPIPE unzip and silently pick the legacy path (a CI failure).
+  local listing
+  listing="$(unzip -Z1 "$package")"
+  if grep -qx blender_manifest.toml <<<"$listing"; then kind=extension; fi
   local status=0
   TEXSYNTH_ENV_SRC="$drop" run_in "$env" env HOME=/tmp/home bash -euc '
     mkdir -p "$HOME"
