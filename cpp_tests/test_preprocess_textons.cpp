@@ -3,6 +3,9 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <cmath>
+#include <utility>
+#include <vector>
 #include <map>
 #include <set>
 
@@ -205,6 +208,33 @@ TEST(Preprocess, MirroredBordersAreUnbiased) {
   const auto image = texsynth::image_from_pixels(grey.data(), texsynth::PixelType::kFloat32, 30, 30, 1);
   const auto f = texsynth::compute_features(image, 11, 0, false, 0);
   for (int d = 0; d < f.dims; ++d) EXPECT_NEAR(f.row(0)[d], f.row(15 * 30 + 15)[d], 1e-5);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(KMeans, CentreIndexListsCentresByDistanceThenIndexSelfFirst) {
+  // Duplicated centres (distance 0 to another centre, lower index) and equal distances: the order is
+  // self, then (distance, index) ascending, whatever the list length.
+  const int k = 7, dims = 2;
+  const std::vector<float> centres = {0, 0, 0, 0, 1, 0, 0, 1, -1, 0, 3, 4, 0, 0};  // 0, 1, 6 coincide
+  const std::vector<float> table = texsynth::centre_distance_table(centres, k, dims);
+  for (int length : {1, 3, k}) {
+    const texsynth::CentreIndex index = texsynth::build_centre_index(table, k, length);
+    for (int c = 0; c < k; ++c) {
+      std::vector<std::pair<float, int>> expected;
+      for (int j = 0; j < k; ++j)
+        if (j != c) expected.push_back({table[size_t(c) * k + j], j});
+      std::sort(expected.begin(), expected.end());
+      EXPECT_EQ(index.nearest(c)[0], c);
+      EXPECT_EQ(index.nearest_distance(c)[0], 0.0f);
+      for (int j = 1; j < length; ++j) {
+        EXPECT_EQ(index.nearest(c)[j], expected[size_t(j - 1)].second) << "centre " << c << " rank " << j;
+        EXPECT_FLOAT_EQ(index.nearest_distance(c)[j], std::sqrt(expected[size_t(j - 1)].first));
+      }
+    }
+  }
 }
 
 }  // namespace

@@ -122,7 +122,7 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
   // of a block to its candidates are one small GEMM: |c|² + |q|² − 2 c·q.
   tbb::parallel_for(tbb::blocked_range<int>(0, num_textons, 1), [&](const tbb::blocked_range<int>& range) {
     std::vector<int32_t> candidates;  // positions in bucket order
-    Eigen::MatrixXf candidate_matrix, products;
+    Eigen::MatrixXf candidate_matrix, products, scaled_queries;
     Eigen::VectorXf candidate_norms;
     for (int t = range.begin(); t < range.end(); ++t) {
       if (cancel && cancel->load(std::memory_order_relaxed)) return;
@@ -147,9 +147,12 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
           std::copy_n(bucket_features.data() + size_t(candidates[size_t(c)]) * dims, dims, candidate_matrix.col(c).data());
         candidate_norms = candidate_matrix.colwise().squaredNorm().transpose();
         const Eigen::Map<const Eigen::MatrixXf> queries(bucket_features.data() + size_t(block) * dims, dims, block_size);
-        // partial(c, q) = |c|² − 2 c·q; adding |q|² gives the squared distance (constant per query).
-        products.noalias() = candidate_matrix.transpose() * queries;  // c_n × block_size
-        products = (products * -2.0f).colwise() + candidate_norms;
+        // partial(c, q) = |c|² − 2 c·q; adding |q|² gives the squared distance (constant per query). The −2
+        // goes into the queries: scaling by a power of two is exact, so the products are bit-identical to
+        // scaling them afterwards, without that extra pass over c_n × block_size values.
+        scaled_queries.noalias() = queries * -2.0f;
+        products.noalias() = candidate_matrix.transpose() * scaled_queries;  // c_n × block_size
+        products.colwise() += candidate_norms;
         for (int qi = 0; qi < block_size; ++qi) {
           const size_t query_at = size_t(block + qi);
           const int px = bucket_x[query_at], py = bucket_y[query_at];

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
@@ -74,30 +75,20 @@ struct CentreGroups {
   }
 };
 
-// Exact nearest centre, pruned by the triangle inequality around the guessed centre.
+// Exact nearest centre, pruned by the triangle inequality around a pivot centre: the guess, then (when the
+// guess's list runs out before the bound closes) the best centre found so far, then brute force.
 Nearest nearest_centre(const float* x, int k, const CentreIndex& index, const CentreGroups& groups, int guess) {
-  // Distances to the guess's list, a group at a time, as the scan reaches them.
-  const float* list = groups.list(guess);
   const size_t group_size = size_t(groups.dims) * kLanes;
   float squared[kLanes];
-  int computed = -1;
-  auto list_distance = [&](int j) {
-    if (j / kLanes != computed) {
-      computed = j / kLanes;
-      groups.distances(x, list + size_t(computed) * group_size, squared);
-    }
-    return squared[j % kLanes];
-  };
-  const float guess_sq = list_distance(0);  // the list starts with the guess itself
-  const float guess_dist = std::sqrt(guess_sq);
-  int best = guess;
-  float best_dist = guess_dist, second_dist = std::numeric_limits<float>::max();
-  float best_sq = guess_sq, second_sq = std::numeric_limits<float>::infinity();
+  int best = -1;
+  float best_dist = std::numeric_limits<float>::max(), second_dist = std::numeric_limits<float>::max();
+  float best_sq = std::numeric_limits<float>::infinity(), second_sq = std::numeric_limits<float>::infinity();
   auto consider = [&](int c, float sq) {
+    if (c == best) return;
     // sqrt is monotonic: sq > second_sq gives d >= second_dist > best_dist, which changes nothing below.
     if (sq > second_sq && second_dist > best_dist) return;
     const float d = std::sqrt(sq);
-    if (d < best_dist || (d == best_dist && c < best)) {
+    if (best < 0 || d < best_dist || (d == best_dist && c < best)) {
       second_dist = best_dist;
       second_sq = best_sq;
       best = c;
@@ -108,23 +99,40 @@ Nearest nearest_centre(const float* x, int k, const CentreIndex& index, const Ce
       second_sq = sq;
     }
   };
-  const int32_t* order = index.nearest(guess);
-  const float* between = index.nearest_distance(guess);
-  for (int j = 1; j < index.list_length; ++j) {
-    // Any centre c' with |c - c'| >= |x - c| + |x - best| is no closer than best (small slack for rounding);
-    // every unscanned centre is at least |c - c'| - |x - c| away.
-    if (between[j] > (guess_dist + best_dist) * 1.0001f + 1e-6f)
-      return {best, best_dist, std::min(second_dist, between[j] - guess_dist) * 0.9999f};
-    consider(order[j], list_distance(j));
-  }
-  if (index.list_length < k) {  // list exhausted: finish exactly by brute force
-    second_dist = std::numeric_limits<float>::max();
-    second_sq = std::numeric_limits<float>::infinity();
-    for (int g = 0; g < groups.all_groups; ++g) {
-      groups.distances(x, groups.all.data() + size_t(g) * group_size, squared);
-      for (int l = 0; l < kLanes && g * kLanes + l < k; ++l)
-        if (g * kLanes + l != best) consider(g * kLanes + l, squared[l]);
+  int pivot = guess;
+  for (int round = 0; round < 2; ++round) {
+    // Distances to the pivot's list, a group at a time, as the scan reaches them.
+    const float* list = groups.list(pivot);
+    int computed = -1;
+    auto list_distance = [&](int j) {
+      if (j / kLanes != computed) {
+        computed = j / kLanes;
+        groups.distances(x, list + size_t(computed) * group_size, squared);
+      }
+      return squared[j % kLanes];
+    };
+    const float pivot_sq = list_distance(0);  // the list starts with the pivot itself
+    const float pivot_dist = std::sqrt(pivot_sq);
+    consider(pivot, pivot_sq);
+    const int32_t* order = index.nearest(pivot);
+    const float* between = index.nearest_distance(pivot);
+    for (int j = 1; j < index.list_length; ++j) {
+      // Any centre c' with |p - c'| >= |x - p| + |x - best| is no closer than best (small slack for rounding);
+      // every unscanned centre is at least |p - c'| - |x - p| away.
+      if (between[j] > (pivot_dist + best_dist) * 1.0001f + 1e-6f)
+        return {best, best_dist, std::min(second_dist, between[j] - pivot_dist) * 0.9999f};
+      consider(order[j], list_distance(j));
     }
+    if (index.list_length >= k) return {best, best_dist, second_dist * 0.9999f};
+    if (best == pivot) break;
+    pivot = best;
+  }
+  // Lists exhausted: finish exactly by brute force.
+  second_dist = std::numeric_limits<float>::max();
+  second_sq = std::numeric_limits<float>::infinity();
+  for (int g = 0; g < groups.all_groups; ++g) {
+    groups.distances(x, groups.all.data() + size_t(g) * group_size, squared);
+    for (int l = 0; l < kLanes && g * kLanes + l < k; ++l) consider(g * kLanes + l, squared[l]);
   }
   return {best, best_dist, second_dist * 0.9999f};
 }
@@ -301,16 +309,27 @@ int lloyd(const Features& points, int k, uint64_t seed, double change_fraction, 
       sums.apply_changes(points, previous_labels, labels);
     }
     sums.write_centres(points, seed, iteration, centres);
-    float max_drift = 0.0f;
+    // Other centres moved at most the largest drift, or the second largest for the points of the centre
+    // that moved most (Hamerly's refinement: fewer points lose their bound).
+    float max_drift = 0.0f, second_drift = 0.0f;
+    int max_drift_centre = -1;
     for (int c = 0; c < k; ++c) {
       drift[size_t(c)] = std::sqrt(squared_distance(centres.data() + size_t(c) * points.dims,
                                                     previous_centres.data() + size_t(c) * points.dims, points.dims));
-      max_drift = std::max(max_drift, drift[size_t(c)]);
+      if (drift[size_t(c)] > max_drift) {
+        second_drift = max_drift;
+        max_drift = drift[size_t(c)];
+        max_drift_centre = c;
+      } else {
+        second_drift = std::max(second_drift, drift[size_t(c)]);
+      }
     }
     tbb::parallel_for(tbb::blocked_range<int64_t>(0, points.count, kChunk), [&](const tbb::blocked_range<int64_t>& r) {
       for (int64_t i = r.begin(); i < r.end(); ++i) {
-        bounds.upper[size_t(i)] += drift[size_t(labels[size_t(i)])] * 1.0001f + 1e-6f;
-        bounds.lower[size_t(i)] -= max_drift * 1.0001f + 1e-6f;
+        const int32_t own = labels[size_t(i)];
+        const float others = own == max_drift_centre ? second_drift : max_drift;
+        bounds.upper[size_t(i)] += drift[size_t(own)] * 1.0001f + 1e-6f;
+        bounds.lower[size_t(i)] -= others * 1.0001f + 1e-6f;
       }
     });
   }
@@ -339,20 +358,30 @@ CentreIndex build_centre_index(const std::vector<float>& squared_distance_table,
   const int len = index.list_length;
   index.order.resize(size_t(k) * len);
   index.distance.resize(size_t(k) * len);
+  // Sort keys (squared distance bits, index): squared distances are >= 0, so their IEEE bits order like the
+  // values, and one integer compare gives the (distance, index) order without an indirect comparator.
   tbb::parallel_for(tbb::blocked_range<int>(0, k, 8), [&](const tbb::blocked_range<int>& r) {
-    std::vector<int32_t> all(static_cast<size_t>(k));
+    std::vector<uint64_t> keys;
+    keys.reserve(size_t(k));
     for (int c = r.begin(); c < r.end(); ++c) {
       const float* row = squared_distance_table.data() + size_t(c) * k;
-      std::iota(all.begin(), all.end(), 0);
-      auto closer = [&](int32_t a, int32_t b) {
-        if (a == c || b == c) return a == c && b != c;  // the centre itself first
-        return row[a] < row[b] || (row[a] == row[b] && a < b);
-      };
-      if (len < k) std::nth_element(all.begin(), all.begin() + len, all.end(), closer);
-      std::sort(all.begin(), all.begin() + len, closer);
-      for (int j = 0; j < len; ++j) {
-        index.order[size_t(c) * len + j] = all[size_t(j)];
-        index.distance[size_t(c) * len + j] = std::sqrt(row[all[size_t(j)]]);
+      keys.clear();
+      for (int j = 0; j < k; ++j) {
+        if (j == c) continue;  // the centre itself goes first
+        uint32_t bits;
+        std::memcpy(&bits, row + j, sizeof bits);
+        keys.push_back(uint64_t(bits) << 32 | uint32_t(j));
+      }
+      const auto end = keys.begin() + (len - 1);
+      if (len < k) std::nth_element(keys.begin(), end, keys.end());
+      std::sort(keys.begin(), end);
+      int32_t* order = index.order.data() + size_t(c) * len;
+      float* distance = index.distance.data() + size_t(c) * len;
+      order[0] = c;
+      distance[0] = std::sqrt(row[c]);
+      for (int j = 1; j < len; ++j) {
+        order[j] = int32_t(uint32_t(keys[size_t(j - 1)]));
+        distance[j] = std::sqrt(row[order[j]]);
       }
     }
   });
