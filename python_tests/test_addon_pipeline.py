@@ -102,6 +102,15 @@ def test_shader_mean_decodes_srgb_like_blender():
     assert pipeline.shader_mean(grey, srgb=False) == (0.25, 0.25, 0.25)
 
 
+def test_shader_mean_in_row_chunks_matches_one_float64_pass():
+    # 300 rows in chunks of 128 (the last one partial), both sides of the sRGB curve's linear toe.
+    pixels = np.random.RandomState(4).rand(300, 70, 3).astype(np.float32) ** 3
+    for srgb in (False, True):
+        reference = (pipeline.srgb_to_linear(pixels) if srgb else pixels.astype(np.float64)).mean(axis=(0, 1))
+        assert np.allclose(pipeline.shader_mean(pixels, srgb, rows_per_chunk=128), reference, rtol=1e-6)
+        assert np.allclose(pipeline.shader_mean(pixels, srgb, rows_per_chunk=7), reference, rtol=1e-6)
+
+
 def test_blender_pixels_are_flipped_top_row_first():
     width, height = 3, 2
     bottom_up = np.arange(width * height * 4, dtype=np.float32)
@@ -319,6 +328,21 @@ def test_blend_shading_falls_back_to_variance_for_flat_samples(tmp_path, real_na
     shading = pipeline.blend_shading(textured, pipeline.Settings(), str(tmp_path), srgb=False)
     assert shading.mode == "HISTOGRAM" and shading.note == "" and os.path.isfile(shading.files.lut_path)
     assert pipeline.blend_shading(textured, pipeline.Settings(blend=False), str(tmp_path), False).mode == "LINEAR"
+
+
+def test_blend_shading_above_4096_squared_uses_variance_and_says_why(tmp_path, real_native):
+    # 8K samples are analysed through the working size; the Gaussianized copy is not made for them.
+    large = np.zeros((4097, 4096, 1), np.uint8)
+    large[::3] = 200
+    shading = pipeline.blend_shading(large, pipeline.Settings(), str(tmp_path), srgb=False)
+    assert shading.mode == "VARIANCE" and shading.files is None
+    assert "4096x4097" in shading.note and "variance-preserving" in shading.note
+    assert np.allclose(shading.mean, (200.0 * 1366 / 4097 / 255.0,) * 3, atol=1e-4)
+    assert os.listdir(tmp_path) == []  # nothing cached for a transform that was not made
+    # A path is measured from its header: the same size as the decoded pixels.
+    bricks = os.path.join(os.path.dirname(__file__), "..", "blend_samples", "bricks.png")
+    height, width = real_native.load_image(bricks).shape[:2]
+    assert pipeline.sample_size(bricks) == (width, height)
 
 
 def _speckles(size=96, seed=2):
