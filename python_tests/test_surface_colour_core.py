@@ -67,6 +67,22 @@ def test_working_sample_averages_down_to_the_target_density_only_when_coarser():
     assert floor.shape[:2] == (40, 40) and scale == pytest.approx(40.0)
 
 
+def test_working_sample_is_the_area_average_at_fractional_ratios():
+    # Reference: dense weights, output pixel j covering input [j f, (j + 1) f) (fractions at both ends).
+    def dense(size_in, size_out):
+        f = size_in / size_out
+        weights = np.zeros((size_out, size_in))
+        for j in range(size_out):
+            for i in range(size_in):
+                weights[j, i] = max(0.0, min((j + 1) * f, i + 1) - max(j * f, i)) / f
+        return weights
+    sample = np.random.RandomState(3).rand(37, 300, 2).astype(np.float32)  # 300 columns: two column chunks
+    reduced, scale = core.working_sample(sample, 30.0, 4.0, "AUTO", minimum=4)
+    assert reduced.shape == (5, 40, 2) and reduced.dtype == np.float32 and scale == pytest.approx(4.0)
+    expected = np.einsum("yh,hwc,xw->yxc", dense(37, 5), sample.astype(np.float64), dense(300, 40))
+    assert np.allclose(reduced, expected, atol=1e-6)
+
+
 def test_round_settings_are_range_checked():
     assert pipeline.Settings(method="ROUND").validate() is not None
     for field, value in (("round_levels", 0), ("round_levels", 7), ("round_coarse_rings", 0),
