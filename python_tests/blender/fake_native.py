@@ -73,6 +73,11 @@ def load_image(path):
     return np.zeros((height, width, 4), np.float32)
 
 
+def image_info(path):
+    width, height = _image_size(path)
+    return dict(width=width, height=height, channels=4, format="png", data_type="uint8")
+
+
 def synthesize_texton(pre, sample_pixels, positions, corner_verts, poly_starts, poly_sizes, *, scale, blend=True,
                       seed=0, camera_position=None, blend_threshold=None, lambda_=1.0, **options):
     """The jump-map double's maps plus per-corner edge data: every other corner blended, E_t = 0.001·corner."""
