@@ -27,6 +27,11 @@ def fail_point(name):
         raise RuntimeError("injected failure at %r (%s)" % (name, FAIL_AT_ENV))
 
 
+# "before": write_result scans the results for NaN/inf before writing anything (the previous order;
+# the benchmark's baseline) instead of in a worker thread while the layers are written.
+WRITE_CHECK_ENV = "TEXSYNTH_WRITE_CHECK"
+
+
 class MeshWriteError(RuntimeError):
     """Writing failed; the mesh has been restored."""
 
@@ -203,10 +208,17 @@ def write_result(mesh, result, taken_snapshot=None):
     then leaves the mesh as it was. Returns the snapshot taken before writing, for restore().
     Consumes result["blend_weights"] (converted to RGBA in place, to save a corner-sized copy).
     taken_snapshot: snapshot(mesh) taken since the mesh last changed (else it is taken here).
+
+    Shapes and dtypes are checked first; the scan for NaN/inf (hundreds of MB on a million faces)
+    runs in a worker thread while the layers are written and is awaited before the write completes:
+    a non-finite result restores the mesh like any failed write (TEXSYNTH_WRITE_CHECK=before: scan
+    first, as before).
     """
     num_corners = len(mesh.loops)
-    base = np.ascontiguousarray(pipeline.check_result(result, num_corners), dtype=np.float32).ravel()
-    extras = pipeline.corner_attributes(result, num_corners)
+    scan_during_write = os.environ.get(WRITE_CHECK_ENV) != "before"
+    base = np.ascontiguousarray(pipeline.check_result(result, num_corners, finite=not scan_during_write),
+                                dtype=np.float32).ravel()
+    extras = pipeline.corner_attributes(result, num_corners, finite=not scan_during_write)
     sets = int(result["num_blend_sets"])
     check_capacity(mesh)
     colors = {}  # FLOAT_COLOR corner attributes to write
@@ -215,12 +227,17 @@ def write_result(mesh, result, taken_snapshot=None):
         colors[pipeline.WEIGHTS_NAME] = pipeline.weights_rgba(result, num_corners, consume=True)
         if result.get("mapping_groups") is not None:
             groups = result["mapping_groups"]
-            if groups.shape != (num_corners * 4,) or groups.dtype != np.float32 or not pipeline.all_finite(groups):
+            if groups.shape != (num_corners * 4,) or groups.dtype != np.float32 or \
+                    (not scan_during_write and not pipeline.all_finite(groups)):
                 raise pipeline.SettingsError("mapping groups must be finite float32 of shape (%d,)" % (num_corners * 4))
             colors[pipeline.GROUPS_NAME] = groups
 
     saved = taken_snapshot if taken_snapshot is not None else snapshot(mesh)
     had_uv = len(mesh.uv_layers) > 0
+    # Every value written is scanned (the weights after their in-place RGBA conversion: 1 - w is
+    # finite exactly when w is); nothing below changes these arrays.
+    scan = pipeline.FiniteScan([("base_uv", base)] + list(colors.items()) + list(extras.items())) \
+        if scan_during_write else None
     try:
         layer = mesh.uv_layers.get(pipeline.BASE_UV_NAME) or mesh.uv_layers.new(name=pipeline.BASE_UV_NAME,
                                                                                  do_init=False)
@@ -244,6 +261,10 @@ def write_result(mesh, result, taken_snapshot=None):
                 attribute.data.foreach_set(key, values)
                 fail_point({pipeline.WEIGHTS_NAME: "weights", pipeline.GROUPS_NAME: "weights"}.get(
                     name, "sets" if name in pipeline.SET_ATTRIBUTE_NAMES else "extras"))
+        if scan is not None:
+            bad, scan = scan.wait(), None
+            if bad is not None:
+                raise pipeline.SettingsError("native result %s contains NaN or infinite values (mesh restored)" % bad)
         # Last: removed layers would come back in another order if a later step failed.
         _remove_uv_layers(mesh, [n for n in texsynth_uv_names(mesh) if n != pipeline.BASE_UV_NAME])
         if had_uv:
@@ -253,6 +274,8 @@ def write_result(mesh, result, taken_snapshot=None):
             mesh.uv_layers[0].active_render = True
         mesh.update()
     except Exception as error:
+        if scan is not None:
+            scan.wait()  # no thread left reading the arrays
         _restore(mesh, saved)
         if isinstance(error, (pipeline.SettingsError, MeshWriteError)):
             raise
