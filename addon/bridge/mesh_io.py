@@ -53,7 +53,7 @@ def read_indices(collection, name, count):
 def read_mesh(obj, direction_attribute=""):
     """MeshArrays of obj's base mesh in world space (positions transformed by matrix_world)."""
     mesh = obj.data
-    num_vertices, num_corners, num_polys = len(mesh.vertices), len(mesh.loops), len(mesh.polygons)
+    num_corners, num_polys = len(mesh.loops), len(mesh.polygons)
     corner_verts = read_indices(mesh.loops, "vertex_index", num_corners)
     poly_starts = read_indices(mesh.polygons, "loop_start", num_polys)
     poly_sizes = read_indices(mesh.polygons, "loop_total", num_polys)

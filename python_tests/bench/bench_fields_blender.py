@@ -91,7 +91,6 @@ def main():
     args = parser.parse_args(harness.script_args())
     texsynth = harness.load_addon()
     texsynth.register()
-    from texsynth.bridge import mesh_io
     from texsynth.fields import authoring, tools
     harness.reset_scene()
     texsynth.register()

@@ -409,7 +409,8 @@ def test_live_update_from_memory_falls_back_when_the_mesh_changed():
     assert_same_layers(texsynth_layers(obj), live)
     # Another direction attribute than the field's: read from the mesh as Synthesize does.
     props.direction_attribute = "Other"
-    mesh_io.write_point_attribute(obj.data, "Other", "FLOAT_VECTOR", np.tile([1.0, 0.0, 0.0], (len(obj.data.vertices), 1)))
+    mesh_io.write_point_attribute(obj.data, "Other", "FLOAT_VECTOR",
+                                  np.tile([1.0, 0.0, 0.0], (len(obj.data.vertices), 1)))
     state = tools.field_state(bpy.context, obj)
     assert tools.commit_edit(bpy.context, obj, state) is None
     assert tools.last_timings["live_from_memory"] is False
