@@ -164,6 +164,26 @@ def test_all_finite_sees_nan_and_inf_anywhere():
             assert not pipeline.all_finite(broken), (index, bad)
 
 
+def test_all_finite_is_exact_when_a_sum_of_finite_values_overflows():
+    huge = np.full(1000, 3e38, np.float32)  # finite, but their sum is inf in float32
+    with np.errstate(over="ignore"):
+        assert np.isinf(np.add.reduce(huge))
+    assert pipeline.all_finite(huge)
+    huge[500] = np.nan
+    assert not pipeline.all_finite(huge)
+    opposite = np.array([np.inf, -np.inf, 1.0], np.float32)  # the sum is NaN
+    assert not pipeline.all_finite(opposite)
+
+
+def test_finite_scan_names_the_first_bad_array_and_reraises_errors():
+    good, bad = np.zeros(10, np.float32), np.zeros(10, np.float32)
+    bad[3] = np.inf
+    assert pipeline.FiniteScan([("a", good), ("b", good)]).wait() is None
+    assert pipeline.FiniteScan([("a", good), ("b", bad), ("c", bad)]).wait() == "b"
+    with pytest.raises(AttributeError):  # the worker's error reaches the caller
+        pipeline.FiniteScan([("a", None)]).wait()
+
+
 def test_weights_rgba_stores_w0_w1_w2_and_one_minus_w3():
     three = _result(5, 3)
     rgba = pipeline.weights_rgba(three, 5).reshape(5, 4)

@@ -27,6 +27,11 @@ def fail_point(name):
         raise RuntimeError("injected failure at %r (%s)" % (name, FAIL_AT_ENV))
 
 
+# "before": write_result scans the results for NaN/inf before writing anything (the previous order;
+# the benchmark's baseline) instead of in a worker thread while the layers are written.
+WRITE_CHECK_ENV = "TEXSYNTH_WRITE_CHECK"
+
+
 class MeshWriteError(RuntimeError):
     """Writing failed; the mesh has been restored."""
 
@@ -48,22 +53,34 @@ def read_indices(collection, name, count):
 def read_mesh(obj, direction_attribute=""):
     """MeshArrays of obj's base mesh in world space (positions transformed by matrix_world)."""
     mesh = obj.data
-    num_vertices, num_corners, num_polys = len(mesh.vertices), len(mesh.loops), len(mesh.polygons)
-    local = np.empty(num_vertices * 3, dtype=np.float32)
-    mesh.vertices.foreach_get("co", local)
+    num_corners, num_polys = len(mesh.loops), len(mesh.polygons)
     corner_verts = read_indices(mesh.loops, "vertex_index", num_corners)
     poly_starts = read_indices(mesh.polygons, "loop_start", num_polys)
     poly_sizes = read_indices(mesh.polygons, "loop_total", num_polys)
-
     matrix = np.array(obj.matrix_world, dtype=np.float64)
-    positions = local.reshape(-1, 3)
-    if not np.array_equal(matrix, np.eye(4)):
-        positions = (positions @ matrix[:3, :3].T.astype(np.float32)) + matrix[:3, 3].astype(np.float32)
-    arrays = pipeline.MeshArrays(np.ascontiguousarray(positions, dtype=np.float32), corner_verts,
-                                 poly_starts, poly_sizes)
+    arrays = pipeline.MeshArrays(read_positions(obj, matrix), corner_verts, poly_starts, poly_sizes)
     if direction_attribute:
         arrays.direction = read_direction(obj, direction_attribute, matrix)
     return arrays
+
+
+def read_positions(obj, matrix=None):
+    """(N, 3) float32 world-space vertex positions of obj's base mesh (what read_mesh sends)."""
+    mesh = obj.data
+    local = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", local)
+    if matrix is None:
+        matrix = np.array(obj.matrix_world, dtype=np.float64)
+    positions = local.reshape(-1, 3)
+    if not np.array_equal(matrix, np.eye(4)):
+        positions = (positions @ matrix[:3, :3].T.astype(np.float32)) + matrix[:3, 3].astype(np.float32)
+    return np.ascontiguousarray(positions, dtype=np.float32)
+
+
+def vectors_to_world(vectors, matrix):
+    """Object-space (N, 3) float32 vectors rotated to world space exactly as read_direction does, so a
+    live update from memory sends the synthesizer the same bits a fresh Synthesize reads back."""
+    return np.ascontiguousarray(vectors @ matrix[:3, :3].T.astype(np.float32), dtype=np.float32)
 
 
 def read_direction(obj, name, matrix=None):
@@ -81,7 +98,7 @@ def read_direction(obj, name, matrix=None):
         raise pipeline.SettingsError("attribute %r contains NaN or infinite vectors" % name)
     if matrix is None:
         matrix = np.array(obj.matrix_world, dtype=np.float64)
-    return np.ascontiguousarray(vectors @ matrix[:3, :3].T.astype(np.float32), dtype=np.float32)
+    return vectors_to_world(vectors, matrix)
 
 
 def texsynth_uv_names(mesh):
@@ -92,31 +109,46 @@ def check_capacity(mesh):
     pipeline.check_uv_capacity([layer.name for layer in mesh.uv_layers])
 
 
-def _uv_data(layer, num_corners):
-    values = np.empty(num_corners * 2, dtype=np.float32)
+def _buffer(size, reuse):
+    """A float32 buffer of `size` values: `reuse` when it fits (a live update reads the layers it
+    replaces into the previous update's snapshot buffers: no fresh pages, no page faults), else new."""
+    if reuse is not None and reuse.dtype == np.float32 and reuse.size == size and reuse.flags.c_contiguous:
+        return reuse
+    return np.empty(size, dtype=np.float32)
+
+
+def _uv_data(layer, num_corners, reuse=None):
+    values = _buffer(num_corners * 2, reuse)
     layer.data.foreach_get("uv", values)
     return values
 
 
-def _attribute_snapshot(attribute):
+def _attribute_snapshot(attribute, reuse=None):
     is_color = attribute.data_type in ("FLOAT_COLOR", "BYTE_COLOR")
-    values = np.empty(len(attribute.data) * (4 if is_color else 1), dtype=np.float32)
+    values = _buffer(len(attribute.data) * (4 if is_color else 1), reuse)
     key = "color" if is_color else "value"
     attribute.data.foreach_get(key, values)
     return (attribute.data_type, attribute.domain, key, values)
 
 
-def _snapshot(mesh):
-    """Everything write_result/clear may change, to restore it exactly."""
+def snapshot(mesh, reuse=None):
+    """Everything write_result/clear may change, to restore it exactly. A live update takes it on
+    the main thread while the synthesizer runs in a worker (mesh reads overlap the native work).
+    reuse: an older snapshot no longer needed, whose buffers are filled again where sizes match
+    (it is invalid afterwards)."""
     num_corners = len(mesh.loops)
+    old_attributes = reuse["attributes"] if reuse is not None else {}
+    old_uv = reuse["uv"] if reuse is not None else {}
     attributes = {}
     for name in pipeline.ATTRIBUTE_NAMES:
         attribute = mesh.attributes.get(name)
-        attributes[name] = _attribute_snapshot(attribute) if attribute is not None else None
+        old = old_attributes.get(name)
+        attributes[name] = (_attribute_snapshot(attribute, old[3] if old is not None else None)
+                            if attribute is not None else None)
     active_color = getattr(mesh.attributes, "active_color", None)
     return {
         "uv_order": [layer.name for layer in mesh.uv_layers],
-        "uv": {layer.name: _uv_data(layer, num_corners) for layer in mesh.uv_layers
+        "uv": {layer.name: _uv_data(layer, num_corners, old_uv.get(layer.name)) for layer in mesh.uv_layers
                if pipeline.is_texsynth_uv_name(layer.name)},
         "active_uv": mesh.uv_layers.active_index,
         "render_uv": next((i for i, layer in enumerate(mesh.uv_layers) if layer.active_render), -1),
@@ -156,15 +188,18 @@ def _restore_uv_order_flags(mesh, snapshot):
     """Active and render UV maps as in snapshot, by name (indices shift when older TexSynth maps go);
     a flag on a removed map falls back to the first map."""
     names = [layer.name for layer in mesh.uv_layers]
-    for key, apply in (("active_uv", lambda i: setattr(mesh.uv_layers, "active_index", i)),
-                       ("render_uv", lambda i: setattr(mesh.uv_layers[i], "active_render", True))):
+    # Set only when different: each assignment is an RNA update (a few ms per live update).
+    for key, apply in (("active_uv", lambda i: mesh.uv_layers.active_index != i
+                        and setattr(mesh.uv_layers, "active_index", i)),
+                       ("render_uv", lambda i: not mesh.uv_layers[i].active_render
+                        and setattr(mesh.uv_layers[i], "active_render", True))):
         index = snapshot[key]
         if 0 <= index < len(snapshot["uv_order"]) and names:
             name = snapshot["uv_order"][index]
             apply(names.index(name) if name in names else 0)
 
 
-def write_result(mesh, result):
+def write_result(mesh, result, taken_snapshot=None):
     """Writes the base UV map and the corner attributes (blend sets, weights, the method's extras);
     replaces TexSynth's previous layers, including the blend-set UV maps of older versions.
 
@@ -172,10 +207,18 @@ def write_result(mesh, result):
     mesh had none. Raises SettingsError (no room for the UV map) or MeshWriteError (restored) and
     then leaves the mesh as it was. Returns the snapshot taken before writing, for restore().
     Consumes result["blend_weights"] (converted to RGBA in place, to save a corner-sized copy).
+    taken_snapshot: snapshot(mesh) taken since the mesh last changed (else it is taken here).
+
+    Shapes and dtypes are checked first; the scan for NaN/inf (hundreds of MB on a million faces)
+    runs in a worker thread while the layers are written and is awaited before the write completes:
+    a non-finite result restores the mesh like any failed write (TEXSYNTH_WRITE_CHECK=before: scan
+    first, as before).
     """
     num_corners = len(mesh.loops)
-    base = np.ascontiguousarray(pipeline.check_result(result, num_corners), dtype=np.float32).ravel()
-    extras = pipeline.corner_attributes(result, num_corners)
+    scan_during_write = os.environ.get(WRITE_CHECK_ENV) != "before"
+    base = np.ascontiguousarray(pipeline.check_result(result, num_corners, finite=not scan_during_write),
+                                dtype=np.float32).ravel()
+    extras = pipeline.corner_attributes(result, num_corners, finite=not scan_during_write)
     sets = int(result["num_blend_sets"])
     check_capacity(mesh)
     colors = {}  # FLOAT_COLOR corner attributes to write
@@ -184,12 +227,17 @@ def write_result(mesh, result):
         colors[pipeline.WEIGHTS_NAME] = pipeline.weights_rgba(result, num_corners, consume=True)
         if result.get("mapping_groups") is not None:
             groups = result["mapping_groups"]
-            if groups.shape != (num_corners * 4,) or groups.dtype != np.float32 or not pipeline.all_finite(groups):
+            if groups.shape != (num_corners * 4,) or groups.dtype != np.float32 or \
+                    (not scan_during_write and not pipeline.all_finite(groups)):
                 raise pipeline.SettingsError("mapping groups must be finite float32 of shape (%d,)" % (num_corners * 4))
             colors[pipeline.GROUPS_NAME] = groups
 
-    snapshot = _snapshot(mesh)
+    saved = taken_snapshot if taken_snapshot is not None else snapshot(mesh)
     had_uv = len(mesh.uv_layers) > 0
+    # Every value written is scanned (the weights after their in-place RGBA conversion: 1 - w is
+    # finite exactly when w is); nothing below changes these arrays.
+    scan = pipeline.FiniteScan([("base_uv", base)] + list(colors.items()) + list(extras.items())) \
+        if scan_during_write else None
     try:
         layer = mesh.uv_layers.get(pipeline.BASE_UV_NAME) or mesh.uv_layers.new(name=pipeline.BASE_UV_NAME,
                                                                                  do_init=False)
@@ -213,20 +261,26 @@ def write_result(mesh, result):
                 attribute.data.foreach_set(key, values)
                 fail_point({pipeline.WEIGHTS_NAME: "weights", pipeline.GROUPS_NAME: "weights"}.get(
                     name, "sets" if name in pipeline.SET_ATTRIBUTE_NAMES else "extras"))
+        if scan is not None:
+            bad, scan = scan.wait(), None
+            if bad is not None:
+                raise pipeline.SettingsError("native result %s contains NaN or infinite values (mesh restored)" % bad)
         # Last: removed layers would come back in another order if a later step failed.
         _remove_uv_layers(mesh, [n for n in texsynth_uv_names(mesh) if n != pipeline.BASE_UV_NAME])
         if had_uv:
-            _restore_uv_order_flags(mesh, snapshot)
+            _restore_uv_order_flags(mesh, saved)
         else:
             mesh.uv_layers.active_index = 0
             mesh.uv_layers[0].active_render = True
         mesh.update()
     except Exception as error:
-        _restore(mesh, snapshot)
+        if scan is not None:
+            scan.wait()  # no thread left reading the arrays
+        _restore(mesh, saved)
         if isinstance(error, (pipeline.SettingsError, MeshWriteError)):
             raise
         raise MeshWriteError("writing TexSynth layers failed (mesh restored): %s" % error) from error
-    return snapshot
+    return saved
 
 
 def restore(mesh, snapshot):
@@ -333,17 +387,30 @@ def read_field_state(obj, axis=(0.0, 0.0, 1.0)):
     return state
 
 
+def field_attributes(obj, state):
+    """{name: (data_type, values)} of the field attributes as write_field_state stores them (object
+    space, the stored dtypes): computed before writing, so a live update can start synthesizing from
+    exactly the stored direction while the main thread writes."""
+    from ..fields import authoring
+    if state.arrays.num_vertices != len(obj.data.vertices):
+        raise pipeline.SettingsError("mesh %r changed while its field was edited" % obj.data.name)
+    inverse = np.linalg.inv(_linear(obj)) if abs(np.linalg.det(_linear(obj))) > 1e-30 else np.eye(3)
+    return {authoring.GUIDE_NAME: ("FLOAT_VECTOR", (state.guide @ inverse.T).astype(np.float32)),
+            authoring.SINGULARITY_NAME: ("INT", np.ascontiguousarray(state.singularity, dtype=np.int32)),
+            authoring.DIRECTION_NAME: ("FLOAT_VECTOR", (state.direction @ inverse.T).astype(np.float32))}
+
+
+def write_field_attributes(obj, attributes):
+    """Writes field_attributes(obj, state)."""
+    mesh = obj.data
+    for name, (data_type, values) in attributes.items():
+        write_point_attribute(mesh, name, data_type, values)
+    mesh.update()
+
+
 def write_field_state(obj, state):
     """Stores guide, singularities and direction on obj's mesh (object space)."""
-    from ..fields import authoring
-    mesh = obj.data
-    if state.arrays.num_vertices != len(mesh.vertices):
-        raise pipeline.SettingsError("mesh %r changed while its field was edited" % mesh.name)
-    inverse = np.linalg.inv(_linear(obj)) if abs(np.linalg.det(_linear(obj))) > 1e-30 else np.eye(3)
-    write_point_attribute(mesh, authoring.GUIDE_NAME, "FLOAT_VECTOR", state.guide @ inverse.T)
-    write_point_attribute(mesh, authoring.SINGULARITY_NAME, "INT", state.singularity)
-    write_point_attribute(mesh, authoring.DIRECTION_NAME, "FLOAT_VECTOR", state.direction @ inverse.T)
-    mesh.update()
+    write_field_attributes(obj, field_attributes(obj, state))
 
 
 def read_vertex_group(obj, name):

@@ -7,6 +7,7 @@ The bpy layer (operators, CLI) converts Blender data to the plain types here and
 import dataclasses
 import math
 import os
+import threading
 import time
 import zlib
 
@@ -735,8 +736,9 @@ def _require_direction(mesh_arrays, settings):
     return mesh_arrays.direction
 
 
-def check_result(result, num_corners):
-    """Validates a synthesizer result before anything is written (so a bad one changes nothing)."""
+def check_result(result, num_corners, finite=True):
+    """Validates a synthesizer result before anything is written (so a bad one changes nothing).
+    finite=False checks shapes and dtypes only (the caller scans for NaN/inf with FiniteScan)."""
     base = result["base_uv"]
     sets = int(result["num_blend_sets"])
     if not (0 <= sets <= MAX_BLEND_SETS):
@@ -753,24 +755,60 @@ def check_result(result, num_corners):
         if array.shape != shape or array.dtype != np.float32:
             raise SettingsError("native result %s has shape %s %s, expected %s float32"
                                 % (key, array.shape, array.dtype, shape))
-        if not all_finite(array):
+        if finite and not all_finite(array):
             raise SettingsError("native result %s contains NaN or infinite values" % key)
     return base
 
 
 def all_finite(array):
-    """True if no NaN/inf: min and max propagate NaN and expose inf, with no temporary the size of
-    the array (np.isfinite would allocate one: hundreds of MB of fresh pages on big meshes)."""
-    return array.size == 0 or bool(np.isfinite(array.min()) and np.isfinite(array.max()))
+    """True if no NaN/inf, in one pass with no temporary the size of the array (np.isfinite would
+    allocate one: hundreds of MB of fresh pages on big meshes). NaN and inf survive a sum, so a
+    finite sum proves every value finite; only a sum that overflowed from finite values (never
+    for UVs and weights) needs the exact min/max scan."""
+    if array.size == 0:
+        return True
+    with np.errstate(over="ignore", invalid="ignore"):  # an inf or NaN sum is an answer, not a warning
+        if np.isfinite(np.add.reduce(array, axis=None)):
+            return True
+    return bool(np.isfinite(array.min()) and np.isfinite(array.max()))
 
 
-def corner_attributes(result, num_corners):
-    """The method's extra per-corner FLOAT attributes {name: (L,) float32}, checked before writing."""
+class FiniteScan:
+    """all_finite over named arrays in a worker thread: numpy reductions release the GIL, so the scan
+    (hundreds of MB on a million-face mesh) runs while the main thread writes the layers. The arrays
+    must not change until wait() returns; wait() gives the first array that is not finite, or None."""
+
+    def __init__(self, named_arrays):
+        self.bad = None
+        self.error = None
+        self.thread = threading.Thread(target=self._run, args=(list(named_arrays),), name="TexSynth finite scan",
+                                       daemon=True)
+        self.thread.start()
+
+    def _run(self, named_arrays):
+        try:
+            for name, array in named_arrays:
+                if not all_finite(array):
+                    self.bad = name
+                    return
+        except BaseException as error:  # re-raised by wait() on the caller's thread
+            self.error = error
+
+    def wait(self):
+        self.thread.join()
+        if self.error is not None:
+            raise self.error
+        return self.bad
+
+
+def corner_attributes(result, num_corners, finite=True):
+    """The method's extra per-corner FLOAT attributes {name: (L,) float32}, checked before writing
+    (finite=False: shapes and dtypes only)."""
     extras = result.get("corner_attributes") or {}
     for name, values in extras.items():
         if name not in EXTRA_ATTRIBUTE_NAMES:
             raise SettingsError("native result has an unknown corner attribute %r" % name)
-        if values.shape != (num_corners,) or values.dtype != np.float32 or not all_finite(values):
+        if values.shape != (num_corners,) or values.dtype != np.float32 or (finite and not all_finite(values)):
             raise SettingsError("native result %s must be finite float32 of shape (%d,)" % (name, num_corners))
     return extras
 

@@ -3,7 +3,14 @@
 
 Each edit: mesh_io.read_field_state -> fields.* (native ray casts and relaxation) ->
 mesh_io.write_field_state -> overlay refresh -> optional live re-synthesis.
+
+With Live Update the re-synthesis starts from the edit's in-memory FieldState (mesh arrays and the
+direction exactly as stored), and the field attribute writes run on the main thread while the
+synthesizer works in a worker thread (see commit_edit). TEXSYNTH_LIVE_PATH=full keeps the previous
+sequence (write the field, then a Synthesize that re-reads the mesh), the benchmarks' baseline;
+TEXSYNTH_LIVE_PATH=sequential is the in-memory path without the worker thread.
 """
+import os
 import time
 
 import bpy
@@ -20,8 +27,14 @@ from ..uv_methods import synthesis
 _native_meshes = {}
 # Preprocessed samples kept in memory for live updates: key -> Preprocessed.
 _live_samples = {}
+# Per object name, during a Comb session only: the snapshot of its last live update, whose buffers
+# the next one reads the replaced layers into (no fresh pages per stroke).
+_live_snapshots = {}
 # Figures of the last edit / live update, shown by the panel and read by tests and benchmarks.
 last_timings = {}
+# "full": live updates take the pre-overlap path (write the field, then re-read and re-synthesize);
+# "sequential": from memory, no worker thread.
+LIVE_PATH_ENV = "TEXSYNTH_LIVE_PATH"
 
 
 def _native_mesh(obj, arrays, which):
@@ -61,14 +74,30 @@ def field_state(context, obj):
 def commit_edit(context, obj, state):
     """Writes the edited field, refreshes the overlay and re-synthesizes when Live Update is on.
     Returns a warning when the live update failed (the field edit itself is kept), else None."""
-    mesh_io.write_field_state(obj, state)
-    overlay.invalidate(obj.name)
+    attributes = mesh_io.field_attributes(obj, state)
+    written = []
+
+    def write_field():
+        mesh_io.write_field_attributes(obj, attributes)
+        written.append(True)
+
     warning = None
-    if context.scene.texsynth.field_live_update:
+    if not context.scene.texsynth.field_live_update:
+        write_field()
+    elif os.environ.get(LIVE_PATH_ENV) == "full":
+        write_field()
         try:
             live_update(context, obj)
         except (ValueError, RuntimeError) as error:
             warning = "TexSynth live update failed: %s" % error
+    else:
+        try:
+            live_update(context, obj, state, attributes, write_field)
+        except (ValueError, RuntimeError) as error:
+            warning = "TexSynth live update failed: %s" % error
+        if not written:  # the live update failed before the field was written: the edit is kept
+            write_field()
+    overlay.invalidate(obj.name)
     for area in getattr(context.screen, "areas", None) or ():
         if area.type == "VIEW_3D":
             area.tag_redraw()
@@ -85,15 +114,39 @@ def _report_warning(operator, warning):
 PATCH_PREVIEW_SIZE = 256
 
 
-def live_update(context, obj):
-    """Re-synthesizes obj with the sample kept in memory, reading the field just written.
-    UV methods only rewrite the UV layers and weights (materials are left as they are); vector-field
-    patches rewrite the object's image at preview size (Synthesize makes the full-size one)."""
+def _arrays_from_memory(obj, state, attributes):
+    """pipeline.MeshArrays for the synthesizer from the edit's FieldState, with the direction as a
+    fresh Synthesize would read it back from the attribute (object space -> world, same float32
+    rounding), or None when the mesh no longer matches the state (counts, transform or positions
+    changed: the caller then re-reads everything)."""
+    a, mesh = state.arrays, obj.data
+    if (len(mesh.vertices), len(mesh.loops), len(mesh.polygons)) != (a.num_vertices, a.num_corners, a.num_faces):
+        return None
+    matrix = np.array(obj.matrix_world, dtype=np.float64)
+    # 1 ms per 100k vertices: proves the positions (and transform) the state was read with still hold.
+    if not np.array_equal(mesh_io.read_positions(obj, matrix), a.positions):
+        return None
+    direction = mesh_io.vectors_to_world(attributes[authoring.DIRECTION_NAME][1].reshape(-1, 3), matrix)
+    return pipeline.MeshArrays(a.positions, a.corner_verts, a.poly_starts, a.poly_sizes, direction=direction)
+
+
+def live_update(context, obj, state=None, attributes=None, write_field=None):
+    """Re-synthesizes obj with the sample kept in memory.
+
+    Without state: reads the mesh and the field just written (the previous path). With the edit's
+    FieldState, its field_attributes and the function that writes them (commit_edit): the jump-map
+    method synthesizes from memory in a worker thread while write_field() runs on the main thread
+    (write_field is called in every case, before this returns or raises, unless a settings error
+    stops the update first). UV methods only rewrite the UV layers and weights (materials are left
+    as they are); vector-field patches rewrite the object's image at preview size (Synthesize makes
+    the full-size one)."""
     props = context.scene.texsynth
     settings = props.to_settings()
     if settings.orientation == "AXIS":
         settings.orientation, settings.direction_attribute = "FIELD", authoring.DIRECTION_NAME
     if settings.method == "PATCHES":
+        if write_field is not None:
+            write_field()  # the preview reads the field from the mesh
         return _patch_preview(context, obj, props, settings)
     if settings.method in pipeline.SURFACE_METHODS + ("PARTICLES",):
         raise pipeline.SettingsError("live update is not available for %s: press Synthesize"
@@ -108,7 +161,25 @@ def live_update(context, obj):
         _live_samples.clear()
         _live_samples[key] = pre
     start = time.perf_counter()
-    report = synthesis.synthesize([obj], sample, settings, cache_dir, "NONE", preprocessed=pre)
+    for name in [name for name in last_timings if name.startswith("live_")]:
+        del last_timings[name]
+    arrays = None
+    if (state is not None and write_field is not None and settings.method == "JUMPMAP"
+            and settings.direction_attribute == authoring.DIRECTION_NAME):
+        arrays = _arrays_from_memory(obj, state, attributes)
+    last_timings["live_from_memory"] = arrays is not None
+    if arrays is not None:
+        report = synthesis.synthesize_from_memory(obj, arrays, settings, pre, write_field,
+                                                  overlap=os.environ.get(LIVE_PATH_ENV) != "sequential",
+                                                  reuse_snapshot=_live_snapshots.pop(obj.name, None))
+        _live_snapshots.clear()  # one object edited at a time: keep one set of buffers
+        if obj.name in overlay.active_editors:  # only during a Comb session (released by its end)
+            _live_snapshots[obj.name] = report.snapshot
+        last_timings.update(("live_" + name, value) for name, value in report.seconds.items())
+    else:
+        if write_field is not None:
+            write_field()
+        report = synthesis.synthesize([obj], sample, settings, cache_dir, "NONE", preprocessed=pre)
     last_timings["live_update"] = time.perf_counter() - start
     last_timings["live_native"] = report.native_stats.get(obj.name, {}).get("seconds", 0.0)
     if report.failures:
@@ -204,6 +275,7 @@ class TEXSYNTH_OT_comb(bpy.types.Operator):
     def _finish(self, context):
         overlay.brush_cursor = None
         overlay.active_editors.discard(self.obj.name)
+        _live_snapshots.pop(self.obj.name, None)
         context.area.header_text_set(None)
         context.area.tag_redraw()
 

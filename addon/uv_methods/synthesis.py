@@ -7,6 +7,8 @@ synthesis (every object; may run in a worker thread, cancellable) -> mesh_io.wri
 until every native call has finished, so cancelling leaves every mesh untouched.
 """
 import os
+import threading
+import time
 
 import bpy
 
@@ -256,6 +258,69 @@ def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", p
     `preprocessed` (optional) skips preprocessing, e.g. for live updates with a sample kept in memory."""
     job = Job(objects, sample, settings, cache_dir, material_mode, scene, preprocessed).prepare()
     return job.compute(progress).apply(progress)
+
+
+def synthesize_from_memory(obj, arrays, settings, preprocessed, main_thread_work=None, overlap=True,
+                           reuse_snapshot=None):
+    """A live update's re-synthesis of one object (JUMPMAP) from mesh arrays the edit session holds
+    in memory (no mesh or field re-read). The native call runs in a worker thread with the GIL
+    released; meanwhile the main thread runs main_thread_work() (e.g. the field attribute writes)
+    and snapshots the layers the write replaces, the bpy reads write_result would otherwise do after
+    it. Then writes atomically as Synthesize does (no material). The worker touches no bpy data.
+    Returns a pipeline.Report (seconds: read, synthesis, overlap (main-thread work during the native
+    call), write, total). Raises SettingsError / ValueError / RuntimeError; main_thread_work's
+    exceptions propagate after the worker has finished. overlap=False: the same steps one after
+    the other on the calling thread (main_thread_work, snapshot, native, write). reuse_snapshot:
+    the snapshot of the object's previous live update (its buffers are reused, see mesh_io.snapshot);
+    the new one is in report.snapshot."""
+    if settings.method != "JUMPMAP":
+        raise pipeline.SettingsError("synthesize_from_memory supports the jump-map method only")
+    start = time.perf_counter()
+    report = pipeline.Report()
+    seconds = {}
+    arrays.scale_multiplier = mesh_io.read_scale_multiplier(obj, settings)
+    if arrays.num_faces == 0:
+        raise pipeline.SettingsError("mesh %r has no faces" % obj.data.name)
+    seed = pipeline.object_seed(settings.seed, obj.name)
+    scale = pipeline.texels_per_unit(int(preprocessed.width), settings.sample_world_size)
+    seconds["read"] = time.perf_counter() - start
+    outcome = {}
+
+    def run():
+        begin = time.perf_counter()
+        try:
+            outcome["result"] = pipeline.synthesize(preprocessed, arrays, settings, seed, scale)
+        except BaseException as error:  # re-raised on the main thread below
+            outcome["error"] = error
+        outcome["seconds"] = time.perf_counter() - begin
+
+    worker = threading.Thread(target=run, name="TexSynth live update", daemon=True)
+    native_start = time.perf_counter()
+    if overlap:
+        worker.start()
+    try:
+        if main_thread_work is not None:
+            main_thread_work()
+        mesh_io.check_capacity(obj.data)
+        taken = mesh_io.snapshot(obj.data, reuse_snapshot)
+        seconds["overlap"] = time.perf_counter() - native_start
+    finally:
+        if overlap:
+            worker.join()
+        else:
+            run()
+    seconds["synthesis"] = outcome.get("seconds", 0.0)
+    seconds["wait"] = time.perf_counter() - native_start - seconds.get("overlap", 0.0)
+    if "error" in outcome:
+        raise outcome["error"]
+    result = outcome["result"]
+    write_start = time.perf_counter()
+    report.snapshot = mesh_io.write_result(obj.data, result, taken)
+    seconds["write"] = time.perf_counter() - write_start
+    report.add_object(obj.name, arrays, result.get("stats"))
+    seconds["total"] = time.perf_counter() - start
+    report.seconds = seconds
+    return report
 
 
 def clear(objects):

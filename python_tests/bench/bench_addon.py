@@ -16,6 +16,9 @@ panel runs it; bpy.ops ends with a view-layer update, i.e. Blender's depsgraph e
 layers), the Blender-only floor (the same reads, layer creation, foreach_set and view-layer update
 with no synthesis: what any implementation writing these layers pays), and Smart UV Project.
 Goal: operator <= 0.1 x Smart UV Project. The sample is preprocessed (cached) before timing.
+Each repeat also runs the operator with TEXSYNTH_WRITE_CHECK=before (the results' NaN/inf scan
+before the layer writes, as before; now it runs in a worker thread during them), alternating the
+order, and prints the operator's own read + write phases against the floor's.
 """
 import argparse
 import os
@@ -176,12 +179,26 @@ def main():
 
     synthesis.Job.apply = recording_apply
     operator_runs, undo_runs, floor_runs, minimal_floor_runs, smart_runs, old_floor_runs = [], [], [], [], [], []
+    scan_first = {"operator": [], "breakdown": []}  # the previous write order (NaN/inf scan, then writes)
+    from texsynth.bridge import mesh_io
     for run in range(args.repeat):
-        target = copy_of(source, "Operator%d" % run)
-        harness.select_only([target])
-        start = time.perf_counter()
-        assert bpy.ops.texsynth.synthesize() == {"FINISHED"}
-        operator_runs.append(time.perf_counter() - start)
+        for mode in (("before", "") if run % 2 else ("", "before")):
+            if mode:
+                os.environ[mesh_io.WRITE_CHECK_ENV] = mode
+            target = copy_of(source, "Operator%d%s" % (run, mode))
+            harness.select_only([target])
+            start = time.perf_counter()
+            assert bpy.ops.texsynth.synthesize() == {"FINISHED"}
+            seconds = time.perf_counter() - start
+            os.environ.pop(mesh_io.WRITE_CHECK_ENV, None)
+            if mode:
+                scan_first["operator"].append(seconds)
+                scan_first["breakdown"].append(breakdowns.pop())
+                discard(target)
+            else:
+                kept, kept_seconds = target, seconds
+        target = kept
+        operator_runs.append(kept_seconds)
         layer_counts.append(len(target.data.uv_layers))
         # A global undo step of the scene: in the UI it follows every undoable operator (Smart UV's too);
         # not part of the operator time measured here.
@@ -227,6 +244,17 @@ def main():
             smart_runs[run]))
     print("  global undo push after the operator (Blender's, not in the operator time): %.3f s (median)"
           % statistics.median(undo_runs))
+
+    def median(runs, key):
+        return statistics.median(times[key] for times in runs)
+    floor_io = median(floor_runs, "read") + median(floor_runs, "write")
+    print("Operator's own bpy work (read + write phases) vs the floor's read + write (%.3f s), medians:" % floor_io)
+    for label, runs in (("scan during the write (now)", breakdowns),
+                        ("scan before the write (TEXSYNTH_WRITE_CHECK=before)", scan_first["breakdown"])):
+        own = median(runs, "read") + median(runs, "write")
+        print("  %-52s read %.3f + write %.3f = %.3f s = %.2f x floor; with native %.3f s = %.2f x floor total"
+              % (label, median(runs, "read"), median(runs, "write"), own, own / floor_io,
+                 own + median(runs, "synthesis"), (own + median(runs, "synthesis")) / floor))
 
 
 if __name__ == "__main__":

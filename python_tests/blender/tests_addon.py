@@ -400,6 +400,37 @@ def test_failed_write_restores_mesh_byte_identical():
     assert harness.mesh_hash(obj.data) == before, message
 
 
+def test_non_finite_result_found_during_the_write_restores_mesh_byte_identical():
+    """The NaN/inf scan runs while the layers are written (mesh_io.WRITE_CHECK_ENV): a bad value in any
+    layer, last one included, still leaves the mesh byte-identical, in both scan orders."""
+    clean()
+    obj = harness.add_primitive("uv_sphere", "Scan", segments=16, ring_count=8)
+    synthesize_one(obj, blend=True)
+    before = harness.mesh_hash(obj.data)
+    corners = len(obj.data.loops)
+    for order in ("", "before"):
+        for key, index in (("base_uv", (0, 0)), ("blend_weights", (corners - 1, 0)),
+                           ("blend_set_pairs", (1, corners - 1, 3))):
+            result = {"base_uv": np.zeros((corners, 2), np.float32), "num_blend_sets": 4,
+                      "blend_set_pairs": np.zeros((2, corners, 4), np.float32),
+                      "blend_weights": np.full((corners, 4), 0.25, np.float32)}
+            result[key][index] = np.nan if key != "blend_weights" else np.inf
+            os.environ[mesh_io.WRITE_CHECK_ENV] = order
+            try:
+                mesh_io.write_result(obj.data, result)
+                raise AssertionError("expected an error for %s" % key)
+            except pipeline.SettingsError as error:
+                assert "NaN or infinite" in str(error), error
+            finally:
+                os.environ.pop(mesh_io.WRITE_CHECK_ENV)
+            assert harness.mesh_hash(obj.data) == before, (order, key)
+    # A finite result goes through (the scan passes) and changes the layers.
+    mesh_io.write_result(obj.data, {"base_uv": np.zeros((corners, 2), np.float32), "num_blend_sets": 4,
+                                    "blend_set_pairs": np.zeros((2, corners, 4), np.float32),
+                                    "blend_weights": np.full((corners, 4), 0.25, np.float32)})
+    assert harness.mesh_hash(obj.data) != before
+
+
 def test_direction_attribute_missing_is_reported():
     clean()
     obj = harness.add_primitive("cube", "Cube")

@@ -324,6 +324,158 @@ def test_live_update_resynthesizes_after_an_edit():
     np.testing.assert_array_equal(third, second)
 
 
+def texsynth_layers(obj):
+    """Every TexSynth corner layer's values, for bit-exact comparisons."""
+    mesh = obj.data
+    layers = {}
+    for layer in mesh.uv_layers:
+        if pipeline.is_texsynth_uv_name(layer.name):
+            values = np.empty(len(mesh.loops) * 2, np.float32)
+            layer.data.foreach_get("uv", values)
+            layers["uv:" + layer.name] = values
+    for name in pipeline.ATTRIBUTE_NAMES:
+        attribute = mesh.attributes.get(name)
+        if attribute is not None:
+            values = np.empty(len(mesh.loops) * 4, np.float32)
+            attribute.data.foreach_get("color", values)
+            layers[name] = values
+    return layers
+
+
+def assert_same_layers(a, b):
+    assert sorted(a) == sorted(b), (sorted(a), sorted(b))
+    for name in a:
+        np.testing.assert_array_equal(a[name], b[name], err_msg=name)
+
+
+def live_scene():
+    """A rotated, translated grid (object space != world) with blending (1 UV map + 3 colours)."""
+    props = fresh_scene()
+    props.blend, props.field_live_update, props.orientation = True, True, "FIELD"
+    return props, grid_object(cuts=24, rotation=(0.3, 0.0, math.radians(30)), location=(1.0, 2.0, 0.5))
+
+
+def comb(state, obj, direction, centre_vertex=100):
+    """A stroke of anchors around one vertex along `direction`, then the relaxation (as Comb does)."""
+    caster = tools.caster_for(obj, state.arrays)
+    ids, distances = caster.vertices_within(state.arrays.positions[centre_vertex], 0.4)
+    authoring.paint(state, ids, authoring.falloff(distances, 0.4), direction)
+    authoring.relax(state)
+
+
+def test_live_update_from_memory_equals_the_old_path_and_a_fresh_synthesize():
+    props, obj = live_scene()
+    state = tools.field_state(bpy.context, obj)
+    results = {}
+    try:
+        for k, path in enumerate(("full", "sequential", "")):
+            os.environ[tools.LIVE_PATH_ENV] = path
+            comb(state, obj, (1.0, 0.5 * k, 0.0), centre_vertex=100 + 40 * k)
+            assert tools.commit_edit(bpy.context, obj, state) is None
+            assert tools.last_timings["live_from_memory"] == (path != "full")
+            results[path] = texsynth_layers(obj)
+            assert "TexSynth_Sets01" in results[path] and "uv:TexSynth" in results[path]
+            # The field attributes hold the edit, and a fresh Synthesize (re-reading mesh and field)
+            # gives exactly the live update's layers.
+            stored = mesh_io.read_point_attribute(obj.data, authoring.DIRECTION_NAME, "FLOAT_VECTOR")
+            np.testing.assert_array_equal(stored, mesh_io.field_attributes(obj, state)[authoring.DIRECTION_NAME][1])
+            harness.select_only([obj])
+            assert bpy.ops.texsynth.synthesize() == {"FINISHED"}
+            assert_same_layers(texsynth_layers(obj), results[path])
+    finally:
+        os.environ.pop(tools.LIVE_PATH_ENV, None)
+    # Each stroke changed the result (the live update did re-synthesize).
+    assert not np.array_equal(results["full"]["uv:TexSynth"], results[""]["uv:TexSynth"])
+    # Same state -> same layers on every path, and repeatable (deterministic for the seed).
+    for path in ("full", "sequential", "", ""):
+        os.environ[tools.LIVE_PATH_ENV] = path
+        try:
+            assert tools.commit_edit(bpy.context, obj, state) is None
+        finally:
+            os.environ.pop(tools.LIVE_PATH_ENV, None)
+        assert_same_layers(texsynth_layers(obj), results[""])
+
+
+def test_live_update_from_memory_falls_back_when_the_mesh_changed():
+    props, obj = live_scene()
+    state = tools.field_state(bpy.context, obj)
+    comb(state, obj, (1.0, 0.0, 0.0))
+    obj.data.vertices[5].co.z += 0.01  # e.g. an edit behind the session's back: the state is stale
+    assert tools.commit_edit(bpy.context, obj, state) is None
+    assert tools.last_timings["live_from_memory"] is False
+    live = texsynth_layers(obj)
+    harness.select_only([obj])
+    assert bpy.ops.texsynth.synthesize() == {"FINISHED"}
+    assert_same_layers(texsynth_layers(obj), live)
+    # Another direction attribute than the field's: read from the mesh as Synthesize does.
+    props.direction_attribute = "Other"
+    mesh_io.write_point_attribute(obj.data, "Other", "FLOAT_VECTOR",
+                                  np.tile([1.0, 0.0, 0.0], (len(obj.data.vertices), 1)))
+    state = tools.field_state(bpy.context, obj)
+    assert tools.commit_edit(bpy.context, obj, state) is None
+    assert tools.last_timings["live_from_memory"] is False
+
+
+def test_live_update_from_memory_failing_write_keeps_the_field_and_restores_the_layers():
+    props, obj = live_scene()
+    state = tools.field_state(bpy.context, obj)
+    comb(state, obj, (1.0, 0.0, 0.0))
+    assert tools.commit_edit(bpy.context, obj, state) is None
+    before = texsynth_layers(obj)
+    comb(state, obj, (0.0, 1.0, 0.0), centre_vertex=300)
+    for point in ("uv_layer", "sets", "weights"):
+        os.environ[mesh_io.FAIL_AT_ENV] = point
+        try:
+            warning = tools.commit_edit(bpy.context, obj, state)
+        finally:
+            os.environ.pop(mesh_io.FAIL_AT_ENV)
+        assert warning is not None and "injected failure" in warning, warning
+        assert tools.last_timings["live_from_memory"] is True
+        assert_same_layers(texsynth_layers(obj), before)  # the layers as before the failed update
+        stored = mesh_io.read_point_attribute(obj.data, authoring.GUIDE_NAME, "FLOAT_VECTOR")
+        np.testing.assert_array_equal(stored, mesh_io.field_attributes(obj, state)[authoring.GUIDE_NAME][1])
+    # An error in the worker thread reaches the caller as a warning after the field was written.
+    original = pipeline.synthesize
+
+    def failing(*args, **kwargs):
+        raise RuntimeError("native failure in the worker")
+    pipeline.synthesize = failing
+    try:
+        comb(state, obj, (1.0, 1.0, 0.0), centre_vertex=200)
+        warning = tools.commit_edit(bpy.context, obj, state)
+    finally:
+        pipeline.synthesize = original
+    assert warning is not None and "native failure in the worker" in warning, warning
+    assert_same_layers(texsynth_layers(obj), before)
+    stored = mesh_io.read_point_attribute(obj.data, authoring.DIRECTION_NAME, "FLOAT_VECTOR")
+    np.testing.assert_array_equal(stored, mesh_io.field_attributes(obj, state)[authoring.DIRECTION_NAME][1])
+    # A bad scale attribute is refused before the worker starts; the field edit is kept as well.
+    props.scale_source, props.scale_attribute = "ATTRIBUTE", "Bad"
+    mesh_io.write_point_attribute(obj.data, "Bad", "FLOAT", np.zeros(len(obj.data.vertices)))
+    comb(state, obj, (1.0, -1.0, 0.0), centre_vertex=250)
+    warning = tools.commit_edit(bpy.context, obj, state)
+    assert warning is not None and "Bad" in warning, warning
+    assert_same_layers(texsynth_layers(obj), before)
+    stored = mesh_io.read_point_attribute(obj.data, authoring.DIRECTION_NAME, "FLOAT_VECTOR")
+    np.testing.assert_array_equal(stored, mesh_io.field_attributes(obj, state)[authoring.DIRECTION_NAME][1])
+
+
+def test_live_update_from_memory_is_undone_with_the_edit():
+    props, obj = live_scene()
+    state = tools.field_state(bpy.context, obj)
+    comb(state, obj, (1.0, 0.0, 0.0))
+    assert tools.commit_edit(bpy.context, obj, state) is None
+    bpy.ops.ed.undo_push(message="first stroke")
+    before = harness.mesh_hash(obj.data)
+    comb(state, obj, (0.0, 1.0, 0.0), centre_vertex=300)
+    assert tools.commit_edit(bpy.context, obj, state) is None
+    assert tools.last_timings["live_from_memory"] is True
+    assert harness.mesh_hash(obj.data) != before
+    bpy.ops.ed.undo_push(message="second stroke")  # what Blender does after the undoable operator
+    bpy.ops.ed.undo()
+    assert harness.mesh_hash(bpy.data.objects["Plane"].data) == before
+
+
 def test_panel_and_overlay_geometry():
     fresh_scene()
     from texsynth.fields import overlay
