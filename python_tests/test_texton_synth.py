@@ -188,3 +188,24 @@ def test_packed_set_pairs_hold_the_same_sets_as_blend_uv(pre, sample):
     for k in range(4):
         np.testing.assert_array_equal(pairs[k // 2][:, (k % 2) * 2:(k % 2) * 2 + 2], plain["blend_uv"][k])
     np.testing.assert_array_equal(packed["blend_weights"], plain["blend_weights"])
+
+
+def test_growth_parameters_reach_the_native_call(pre, sample):
+    mesh = grid(30, 0.05, triangles=True, jitter=0.3)  # 1800 triangles: up to 7 regions of 256 faces
+    old = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=4, coherence_threshold=0.0, seeds_per_component=1)
+    assert old["stats"]["regions"] == 1 and old["stats"]["coherent_faces"] == 0 and old["stats"]["border_faces"] == 0
+    np.testing.assert_array_equal(old["face_region"], np.zeros(1800, np.int32))
+    new = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=4, coherence_threshold=0.2, seeds_per_component=4)
+    st = new["stats"]
+    assert st["regions"] == 4 and st["border_faces"] > 0 and st["coherent_faces"] > 0
+    region = new["face_region"]
+    assert region.shape == (1800,) and set(np.unique(region)) == {-1, 0, 1, 2, 3}
+    assert (region == -1).sum() == st["border_faces"]
+    again = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=4, coherence_threshold=0.2, seeds_per_component=4)
+    np.testing.assert_array_equal(new["base_uv"], again["base_uv"])
+    for kwargs, match in (({"coherence_threshold": -1.0}, "coherence_threshold"),
+                          ({"coherence_threshold": np.nan}, "coherence_threshold"),
+                          ({"seeds_per_component": 0}, "seeds_per_component"),
+                          ({"seeds_per_component": 100000}, "seeds_per_component")):
+        with pytest.raises(ValueError, match=match):
+            ts.synthesize_texton(pre, sample, *mesh, scale=10.0, **kwargs)
