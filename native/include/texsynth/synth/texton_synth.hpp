@@ -86,7 +86,8 @@ struct SearchParams {
   // Coherent candidates (k-coherence style): the origins that exactly continue each textured
   // neighbour are tried first; the best is taken without voting when its Eq. 2 error per string
   // point is below coherence_threshold × the mean texton distance. 0 = off (always vote); [0, 1e6].
-  double coherence_threshold = 0.0;
+  // 0.5: chosen by bench_texton_speed.py (E_t falls as the threshold rises, speed-up levels off).
+  double coherence_threshold = 0.5;
 };
 
 struct TextonSynthParams {
@@ -100,8 +101,8 @@ struct TextonSynthParams {
   // this many seeds (one per kMinRegionFaces faces), chosen from the seed alone; the regions they
   // reach first (multi-source breadth-first) grow in parallel over their interior faces, then the
   // faces on region borders are grown sequentially, matching both sides. 1 = one seed, sequential
-  // (the original growth); [1, 4096].
-  int seeds_per_component = 1;
+  // (the original growth); [1, 4096]. 16: enough regions to balance 2-4 threads, few border faces.
+  int seeds_per_component = 16;
   // Blending metric: with has_camera, edge_phi = λ·E_t·d/‖v − m‖; with a finite blend_threshold
   // (needs the camera) only edges with Φ > threshold are blended.
   bool has_camera = false;
