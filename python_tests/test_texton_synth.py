@@ -213,12 +213,12 @@ def test_growth_parameters_reach_the_native_call(pre, sample):
 
 
 def test_default_growth_keeps_the_seam_error_of_the_original_path(pre, sample):
-    # Defaults (coherent candidates, 16 regions) against the original path: mean E_t within +10%
+    # Defaults (coherent candidates) and 12 regions against the original path: mean E_t within +10%
     # (measured lower: continuations match exactly where voting picks near misses).
     mesh = grid(40, 0.05, triangles=True, jitter=0.3)  # 3200 triangles: 12 regions
     interior = None
     means = []
-    for kwargs in ({"coherence_threshold": 0.0, "seeds_per_component": 1}, {}):
+    for kwargs in ({"coherence_threshold": 0.0, "seeds_per_component": 1}, {}, {"seeds_per_component": 16}):
         errors = []
         for seed in range(3):
             out = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=seed, **kwargs)
@@ -227,4 +227,4 @@ def test_default_growth_keeps_the_seam_error_of_the_original_path(pre, sample):
             errors.append(out["edge_error"][interior].mean())
         means.append(np.mean(errors))
     assert out["stats"]["regions"] == 12 and out["stats"]["coherent_faces"] > 0
-    assert means[1] <= means[0] * 1.10, means
+    assert means[1] <= means[0] * 1.10 and means[2] <= means[0] * 1.10, means

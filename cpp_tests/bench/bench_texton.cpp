@@ -87,6 +87,7 @@ Prepared& prepared(int64_t faces) {
 struct Growth {
   double coherence = 0;
   int seeds = 1;
+  int threads = 2;  // speed runs only
 };
 constexpr Growth kOldGrowth{0.0, 1};
 
@@ -233,7 +234,8 @@ void growth_report(const std::vector<Growth>& configs) {
                         {"jittered grid 3.2k, 16/cell", fixtures::grid(40, 40, 1.0, true, 0.4), 16.0},
                         {"noisy sphere 3.4k", fixtures::uv_sphere(30, 58, 1.0, 0.05), 120.0}};
   std::printf("  %-12s %-28s", "sample", "mesh");
-  for (const Growth& g : configs) std::printf("  %8g:%-4d     ", g.coherence, g.seeds);
+  for (const Growth& g : configs)
+    if (g.threads == 2) std::printf("  %8g:%-4d     ", g.coherence, g.seeds);
   std::printf("\n");
   for (int si = 0; si < 2; ++si)
     for (auto& mc : meshes) {
@@ -242,6 +244,7 @@ void growth_report(const std::vector<Growth>& configs) {
       p.up = texsynth::compute_orientation_field(p.mesh, texsynth::FieldParams());
       std::printf("  %-12s %-28s", names[si], mc.name);
       for (const Growth& g : configs) {
+        if (g.threads != 2) continue;  // same output at any thread count
         Summary sum;
         for (uint64_t seed = 1; seed <= 5; ++seed) {
           const auto r = texton(samples[si], p, mc.scale, seed, g);
@@ -252,24 +255,26 @@ void growth_report(const std::vector<Growth>& configs) {
       }
       std::printf("\n");
     }
-  tbb::global_control two(tbb::global_control::max_allowed_parallelism, 2);
   const Sample& s = bricks256();
   Prepared& p = prepared(1000000);
-  std::printf("  speed, 256x256 bricks, jittered grid %d faces, %.0f texels/cell, 2 threads, wall clock median of 3:\n",
+  std::printf("  speed, 256x256 bricks, jittered grid %d faces, %.0f texels/cell, wall clock median of 3 [range], process CPU median:\n",
               p.mesh.num_polys, kSpeedScale);
-  std::vector<std::vector<double>> times(configs.size());
+  std::vector<std::vector<double>> times(configs.size()), cpu(configs.size());
   std::vector<Summary> quality(configs.size());
   for (int rep = 0; rep < 3; ++rep)
     for (size_t i = 0; i < configs.size(); ++i) {
-      const double t0 = wall_seconds();
+      tbb::global_control threads(tbb::global_control::max_allowed_parallelism, size_t(configs[i].threads));
+      const double t0 = wall_seconds(), c0 = cpu_seconds();
       const auto r = texton(s, p, kSpeedScale, 1, configs[i]);
       times[i].push_back(wall_seconds() - t0);
+      cpu[i].push_back(cpu_seconds() - c0);
       quality[i] = summarize(r.edge_error, r.edges);
     }
   for (size_t i = 0; i < configs.size(); ++i) {
     std::sort(times[i].begin(), times[i].end());
-    std::printf("    %8g:%-4d %7.3f s [%.3f-%.3f] %10.0f faces/s  E_t %.4f / %.4f\n", configs[i].coherence,
-                configs[i].seeds, times[i][1], times[i][0], times[i][2], p.mesh.num_polys / times[i][1],
+    std::sort(cpu[i].begin(), cpu[i].end());
+    std::printf("    %8g:%-4d %d thr %7.3f s [%.3f-%.3f] %10.0f faces/s  CPU %.3f s  E_t %.4f / %.4f\n", configs[i].coherence,
+                configs[i].seeds, configs[i].threads, times[i][1], times[i][0], times[i][2], p.mesh.num_polys / times[i][1], cpu[i][1],
                 quality[i].mean, quality[i].p95);
   }
 }
@@ -282,7 +287,7 @@ int main(int argc, char** argv) {
     if (std::strcmp(argv[i], "--no_reports") == 0) reports = false, argv[i] = argv[0];
     if (std::strcmp(argv[i], "--growth_only") == 0) growth_only = true, argv[i] = argv[0];
   }
-  const std::vector<Growth> growth = {kOldGrowth, {0.1, 1}, {0.0, 16}, {0.1, 16}};
+  const std::vector<Growth> growth = {kOldGrowth, {0.5, 1}, {0.0, 16}, {0.5, 16}, {0.5, 16, 1}};
   if (growth_only) {
     growth_report(growth);
     return 0;

@@ -430,16 +430,18 @@ class TextonSynthesizer {
       for (int32_t r = b.begin(); r < b.end(); ++r) {
         sc.queue.assign(1, seeds[r]);
         queued[seeds[r]] = 1;
+        GrowCounts local;  // not region_counts[r]: neighbouring entries share a cache line across threads
         for (size_t h = 0; h < sc.queue.size(); ++h) {
           if ((h & 255) == 255) throw_if_cancelled(p_.cancel);
           const int32_t poly = sc.queue[h];
-          place(poly, edges, sc.search, sc.string, region_counts[r], h == 0);
+          place(poly, edges, sc.search, sc.string, local, h == 0);
           placed_at_[poly] = int32_t(h);  // rank within the region; offset below
           for_each_neighbour(edges, poly, [&](int32_t g) {
             if (region[g] == r && interior[g] && !queued[g]) queued[g] = 1, sc.queue.push_back(g);
           });
         }
         region_placed[r + 1] = int32_t(sc.queue.size());
+        region_counts[r] = local;
       }
     });
     throw_if_cancelled(p_.cancel);

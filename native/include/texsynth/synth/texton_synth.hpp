@@ -101,8 +101,9 @@ struct TextonSynthParams {
   // this many seeds (one per kMinRegionFaces faces), chosen from the seed alone; the regions they
   // reach first (multi-source breadth-first) grow in parallel over their interior faces, then the
   // faces on region borders are grown sequentially, matching both sides. 1 = one seed, sequential
-  // (the original growth); [1, 4096]. 16: enough regions to balance 2-4 threads, few border faces.
-  int seeds_per_component = 16;
+  // (the original growth); [1, 4096]. Default 1: on the shared 2-core benchmark machine no second
+  // core was free (1 and 2 threads ran equally fast) and 16 regions cost ~5-9% CPU (README).
+  int seeds_per_component = 1;
   // Blending metric: with has_camera, edge_phi = λ·E_t·d/‖v − m‖; with a finite blend_threshold
   // (needs the camera) only edges with Φ > threshold are blended.
   bool has_camera = false;
