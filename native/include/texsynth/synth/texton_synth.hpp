@@ -20,6 +20,9 @@
 // touched list, gives the top_m origins (count ties broken by a seeded hash); Eq. 2 over the FULL
 // string picks among them, uniformly at random among near-ties (E <= E_min·(1 + tie_tolerance)).
 // Candidates keep the whole polygon inside the sample (wrap when tileable).
+// Before voting, the origins exactly continuing each textured neighbour are scored with Eq. 2 and
+// the best taken when below SearchParams::coherence_threshold (k-coherence); regions grown in
+// parallel: TextonSynthParams::seeds_per_component.
 //
 // Blend sets (replaces the paper's edge blending, §3.3.1, whose attenuated seams stay visible):
 //  - every vertex v takes the mapping of its incident polygon textured first (its owner). The
