@@ -5,7 +5,7 @@ seeds_per_component=1) against the new ones IN THE SAME RUN (configurations alte
   bash scripts/fetch_bench_mesh.sh   # once, then (once) the bunny with 2 Catmull-Clark levels as arrays:
   blender -b --factory-startup --python-exit-code 1 --python python_tests/bench/export_bench_mesh.py
   PYTHONPATH=addon /usr/bin/python3.11 python_tests/bench/bench_texton_speed.py [--repeat 3] \\
-      [--mesh out/bench/bunny_cc2.npz] [--configs 0:1,0.1:1,0:16,0.1:16]
+      [--mesh out/bench/bunny_cc2.npz] [--configs 0:1,0.5:1,0:16,0.5:16]
 
 Mesh: out/bench/bunny_cc2.npz (904,896 quads) or, when missing, a synthetic jittered quad grid of that size.
 Samples: blend_samples/bricks.png (structured) and a value-noise image (stochastic), scale as bench_addon.py
@@ -81,7 +81,7 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--mesh", default=os.path.join(ROOT, "out", "bench", "bunny_cc2.npz"))
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--configs", default="0:1,0.1:1,0:16,0.1:16")
+    parser.add_argument("--configs", default="0:1,0.5:1,0:16,0.5:16")
     parser.add_argument("--samples", default="bricks,noise")
     parser.add_argument("--seed", type=int, default=1)
     args = parser.parse_args()
