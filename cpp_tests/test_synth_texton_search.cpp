@@ -150,3 +150,32 @@ TEST(TextonSearch, NoVoteInsideTheRangeReturnsFalse) {
 }
 
 }  // namespace
+
+namespace {
+
+// Coherent candidates: among a wrong origin and the planted continuation, the continuation
+// (Eq. 2 = 0) is taken; with a threshold at 0 nothing is, and candidates outside the range are skipped.
+TEST(TextonSearch, CoherentOriginTakesThePlantedContinuation) {
+  const auto pre = fixtures::label_sample(64, 64, 40, false, 21);
+  const float face[3][2] = {{0.f, 0.f}, {9.3f, 1.2f}, {3.1f, 8.7f}};
+  const float G[2] = {20.4f, 17.8f};
+  const float phase[2] = {G[0] - std::floor(G[0]), G[1] - std::floor(G[1])};
+  TextonString s;
+  const float ta[2] = {G[0] + face[1][0], G[1] + face[1][1]}, tb[2] = {G[0] + face[2][0], G[1] + face[2][1]};
+  texsynth::append_edge_string(pre, face[1], face[2], ta, tb, phase, s);
+  const OriginRange range = fitting_range(pre, face, 3, phase);
+  const int32_t xy[6] = {31, 5, 20, 17, 1000, 17};  // wrong, planted, outside the range
+  int32_t x = -1, y = -1;
+  double err = -1;
+  ASSERT_TRUE(texsynth::coherent_origin(pre, s, xy, 3, range, 0.5, x, y, err));
+  EXPECT_EQ(x, 20);
+  EXPECT_EQ(y, 17);
+  EXPECT_EQ(err, 0.0);
+  EXPECT_FALSE(texsynth::coherent_origin(pre, s, xy, 3, range, 0.0, x, y, err));  // strict: below the bound
+  // Only the wrong one: its error (> 0.5 per point with this table) is refused under a tight bound.
+  EXPECT_GT(texsynth::string_error(pre, s, 31, 5, false), 0.5);
+  EXPECT_FALSE(texsynth::coherent_origin(pre, s, xy, 1, range, 0.5, x, y, err));
+  EXPECT_FALSE(texsynth::coherent_origin(pre, s, xy + 4, 1, range, 1e9, x, y, err));  // outside the range
+}
+
+}  // namespace

@@ -150,6 +150,7 @@ TEST(TextonSynth, RandomPlacementHasLargeEdgeErrorSoThePlantedTestCanFail) {
   texsynth::TextonSynthParams p;
   p.scale = 7.0;
   p.search.top_m = 1, p.search.max_vote_points = 1;
+  p.search.coherence_threshold = 0;  // else the continuation is taken without any vote
   const SynthRun r = run(tm, pre, pixels, p);
   double sum = 0;
   for (float e : r.result.edge_error) sum += e;
@@ -285,6 +286,105 @@ TEST(TextonSynth, OversizedFacesAreMappedSafely) {
     for (float u : r.result.maps.base_uv) EXPECT_TRUE(std::isfinite(u) && (tileable || (u >= 0.f && u <= 1.f)));
     for (float u : r.result.maps.blend_uv) EXPECT_TRUE(std::isfinite(u));
   }
+}
+
+}  // namespace
+
+namespace {
+
+double mean_error(const texsynth::TextonSynthResult& r) {
+  double sum = 0;
+  int64_t count = 0;
+  for (int32_t e = 0; e < r.edges.num_edges(); ++e)
+    if (r.edges.edge_corner_start[e + 1] - r.edges.edge_corner_start[e] >= 2) sum += r.edge_error[e], ++count;
+  return sum / double(count);
+}
+
+// With coherence on, every face of the planted flat grid takes its neighbour's exact continuation
+// without voting, and E_t still vanishes.
+TEST(TextonSynth, CoherenceTakesThePlantedContinuationWithoutVoting) {
+  const auto pre = fixtures::label_sample(64, 64, 64, true, 31);
+  const auto pixels = fixtures::label_colours(pre);
+  const auto tm = fixtures::grid(6, 6, 1.0, true);
+  texsynth::TextonSynthParams p;
+  p.scale = 7.0;
+  p.seed = 3;
+  p.search.coherence_threshold = 0.05;
+  const SynthRun r = run(tm, pre, pixels, p);
+  const int64_t faces = int64_t(tm.poly_starts.size());
+  EXPECT_EQ(r.result.stats.searched_faces, faces - 1);
+  EXPECT_EQ(r.result.stats.coherent_faces, faces - 1);
+  for (float e : r.result.edge_error) EXPECT_LT(e, 1e-3f);
+  p.search.coherence_threshold = 0;
+  EXPECT_EQ(run(tm, pre, pixels, p).result.stats.coherent_faces, 0);
+}
+
+// Regions: several per component, deterministic at 1, 2 and 4 threads, every face textured once
+// (regions + border pass), and E_t no worse than the sequential growth beyond 10% on a curved mesh.
+TEST(TextonSynth, RegionGrowthIsDeterministicAndKeepsTheSeamError) {
+  const auto pre = fixtures::label_sample(128, 128, 40, false);
+  const auto pixels = fixtures::label_colours(pre);
+  const auto tm = fixtures::uv_sphere(40, 60, 1.0, 0.05);
+  texsynth::TextonSynthParams p;
+  p.scale = 60.0;
+  p.seed = 12;
+  p.seeds_per_component = 1, p.search.coherence_threshold = 0;  // the original growth
+  const double sequential = mean_error(run(tm, pre, pixels, p).result);
+  p.seeds_per_component = 8;
+  p.search.coherence_threshold = 0.1;
+  SynthRun runs[3];
+  const int threads[3] = {1, 2, 4};
+  for (int i = 0; i < 3; ++i) {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, threads[i]);
+    runs[i] = run(tm, pre, pixels, p);
+  }
+  const auto& st = runs[0].result.stats;
+  EXPECT_EQ(st.regions, 8);
+  EXPECT_GT(st.border_faces, 0);
+  EXPECT_EQ(st.searched_faces + st.fallback_faces + st.regions, st.faces);
+  int64_t in_regions = 0;
+  for (int32_t region : runs[0].result.face_region) in_regions += region >= 0;
+  EXPECT_EQ(in_regions + st.border_faces, st.faces);
+  for (int i = 1; i < 3; ++i) {
+    EXPECT_EQ(runs[0].result.maps.base_uv, runs[i].result.maps.base_uv) << threads[i];
+    EXPECT_EQ(runs[0].result.maps.blend_uv, runs[i].result.maps.blend_uv) << threads[i];
+    EXPECT_EQ(runs[0].result.face_region, runs[i].result.face_region) << threads[i];
+    EXPECT_EQ(runs[0].result.edge_error, runs[i].result.edge_error) << threads[i];
+  }
+  EXPECT_LE(mean_error(runs[0].result), sequential * 1.10);
+  // Small components keep one seed: below 2 × kMinRegionFaces faces.
+  const auto small = fixtures::grid(10, 10, 1.0, true);
+  p.scale = 7.0;
+  EXPECT_EQ(run(small, pre, pixels, p).result.stats.regions, 1);
+}
+
+TEST(TextonSynth, BadGrowthParametersAreRefused) {
+  const auto pre = fixtures::label_sample(32, 32, 5, false);
+  const auto pixels = fixtures::label_colours(pre);
+  const auto tm = fixtures::grid(3, 3, 1.0, true);
+  texsynth::TextonSynthParams p;
+  p.scale = 4.0;
+  auto message = [&](const texsynth::TextonSynthParams& pp) -> std::string {
+    try {
+      run(tm, pre, pixels, pp);
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  };
+  for (double bad : {-0.1, double(NAN), double(INFINITY)}) {
+    auto q = p;
+    q.search.coherence_threshold = bad;
+    EXPECT_NE(message(q).find("coherence_threshold"), std::string::npos) << bad;
+  }
+  for (int bad : {0, -3, 5000}) {
+    auto q = p;
+    q.seeds_per_component = bad;
+    EXPECT_NE(message(q).find("seeds_per_component"), std::string::npos) << bad;
+  }
+  auto ok = p;
+  ok.seeds_per_component = 4096, ok.search.coherence_threshold = 0.2;
+  EXPECT_EQ(message(ok), "");
 }
 
 }  // namespace

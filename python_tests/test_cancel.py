@@ -67,22 +67,23 @@ def test_token_stops_texton_synthesis_before_and_during_the_run(sample):
     assert tn.synthesize_texton(sample, pixels, *small, scale=1.0)["base_uv"].shape == (len(small[1]), 2)
 
     mesh = worker.huge_triangle_grid(300)  # 180k triangles: about a second of searching
-    token, outcome, started = tn.CancelToken(), {}, threading.Event()
+    for kwargs in ({}, {"seeds_per_component": 16}):  # sequential growth, then regions grown in parallel
+        token, outcome, started = tn.CancelToken(), {}, threading.Event()
 
-    def run():
-        started.set()
-        try:
-            outcome["result"] = tn.synthesize_texton(sample, pixels, *mesh, scale=0.05, cancel=token)
-        except tn.Cancelled as error:
-            outcome["cancelled"] = error
+        def run():
+            started.set()
+            try:
+                outcome["result"] = tn.synthesize_texton(sample, pixels, *mesh, scale=0.05, cancel=token, **kwargs)
+            except tn.Cancelled as error:
+                outcome["cancelled"] = error
 
-    thread = threading.Thread(target=run)
-    thread.start()
-    started.wait()
-    token.cancel()
-    thread.join(timeout=60)
-    assert not thread.is_alive()
-    assert "cancelled" in outcome and "result" not in outcome
+        thread = threading.Thread(target=run)
+        thread.start()
+        started.wait()
+        token.cancel()
+        thread.join(timeout=60)
+        assert not thread.is_alive()
+        assert "cancelled" in outcome and "result" not in outcome, kwargs
 
 
 def test_bad_token_is_a_clear_error(sample):

@@ -4,7 +4,8 @@
 // reports: (1) quality: mean and 95th-percentile E_t over interior edges, texton vs jump map on the
 // same meshes, for a structured (bricks) and a stochastic (value noise) sample; (2) scaling
 // 10k -> 1M faces on one core (best-of-N process CPU time) with the fitted exponent.
-// Run: build/cpp_tests/bench/bench_texton [--benchmark_filter=...] [--no_reports]
+// (3) growth: the original path against coherent candidates and parallel regions, E_t and 2-thread speed.
+// Run: build/cpp_tests/bench/bench_texton [--benchmark_filter=...] [--no_reports | --growth_only]
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
@@ -14,6 +15,7 @@
 #include <cstring>
 #include <ctime>
 #include <map>
+#include <vector>
 
 #include "../mesh_fixtures.hpp"
 #include "../synthetic_texture.hpp"
@@ -81,10 +83,21 @@ Prepared& prepared(int64_t faces) {
   return p;
 }
 
-texsynth::TextonSynthResult texton(const Sample& s, const Prepared& p, double scale, uint64_t seed = 1) {
+// Growth configuration: coherence_threshold and seeds_per_component (0, 1 = the original path).
+struct Growth {
+  double coherence = 0;
+  int seeds = 1;
+  int threads = 2;  // speed runs only
+};
+constexpr Growth kOldGrowth{0.0, 1};
+
+texsynth::TextonSynthResult texton(const Sample& s, const Prepared& p, double scale, uint64_t seed = 1,
+                                   Growth growth = kOldGrowth) {
   texsynth::TextonSynthParams params;
   params.scale = scale;
   params.seed = seed;
+  params.search.coherence_threshold = growth.coherence;
+  params.seeds_per_component = growth.seeds;
   return texsynth::synthesize_texton(s.pre, p.mesh, p.up.data(), s.view(), params);
 }
 
@@ -199,17 +212,92 @@ void scaling_report() {
   std::printf("  fitted exponent t ~ faces^%.3f (1.0 = linear)\n", (count * sxy - sx * sy) / (count * sxx - sx * sx));
 }
 
+double wall_seconds() {
+  timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+// Original growth vs coherent candidates / parallel regions in the same run: E_t on the quality
+// meshes (5 seeds) and wall-clock faces/s on 2 threads (configurations alternate; median of 3).
+void growth_report(const std::vector<Growth>& configs) {
+  std::printf("\ngrowth: coherence_threshold:seeds_per_component (0:1 = original path), same run\n");
+  std::printf("  E_t mean / p95 over interior edges, 5 seeds, 160x160 samples\n");
+  const Sample samples[2] = {make_sample(texsynth_test::brick_texture(160, 160, 4)), make_sample(noise_texture(160, 160, 4))};
+  const char* names[2] = {"bricks", "value noise"};
+  struct MeshCase {
+    const char* name;
+    fixtures::TestMesh t;
+    double scale;
+  };
+  MeshCase meshes[3] = {{"jittered grid 3.2k, 8/cell", fixtures::grid(40, 40, 1.0, true, 0.4), 8.0},
+                        {"jittered grid 3.2k, 16/cell", fixtures::grid(40, 40, 1.0, true, 0.4), 16.0},
+                        {"noisy sphere 3.4k", fixtures::uv_sphere(30, 58, 1.0, 0.05), 120.0}};
+  std::printf("  %-12s %-28s", "sample", "mesh");
+  for (const Growth& g : configs)
+    if (g.threads == 2) std::printf("  %8g:%-4d     ", g.coherence, g.seeds);
+  std::printf("\n");
+  for (int si = 0; si < 2; ++si)
+    for (auto& mc : meshes) {
+      Prepared p;
+      p.mesh = texsynth::build_mesh(mc.t.input());
+      p.up = texsynth::compute_orientation_field(p.mesh, texsynth::FieldParams());
+      std::printf("  %-12s %-28s", names[si], mc.name);
+      for (const Growth& g : configs) {
+        if (g.threads != 2) continue;  // same output at any thread count
+        Summary sum;
+        for (uint64_t seed = 1; seed <= 5; ++seed) {
+          const auto r = texton(samples[si], p, mc.scale, seed, g);
+          const Summary a = summarize(r.edge_error, r.edges);
+          sum.mean += a.mean / 5, sum.p95 += a.p95 / 5;
+        }
+        std::printf("  %.4f / %.4f", sum.mean, sum.p95);
+      }
+      std::printf("\n");
+    }
+  const Sample& s = bricks256();
+  Prepared& p = prepared(1000000);
+  std::printf("  speed, 256x256 bricks, jittered grid %d faces, %.0f texels/cell, wall clock median of 3 [range], process CPU median:\n",
+              p.mesh.num_polys, kSpeedScale);
+  std::vector<std::vector<double>> times(configs.size()), cpu(configs.size());
+  std::vector<Summary> quality(configs.size());
+  for (int rep = 0; rep < 3; ++rep)
+    for (size_t i = 0; i < configs.size(); ++i) {
+      tbb::global_control threads(tbb::global_control::max_allowed_parallelism, size_t(configs[i].threads));
+      const double t0 = wall_seconds(), c0 = cpu_seconds();
+      const auto r = texton(s, p, kSpeedScale, 1, configs[i]);
+      times[i].push_back(wall_seconds() - t0);
+      cpu[i].push_back(cpu_seconds() - c0);
+      quality[i] = summarize(r.edge_error, r.edges);
+    }
+  for (size_t i = 0; i < configs.size(); ++i) {
+    std::sort(times[i].begin(), times[i].end());
+    std::sort(cpu[i].begin(), cpu[i].end());
+    std::printf("    %8g:%-4d %d thr %7.3f s [%.3f-%.3f] %10.0f faces/s  CPU %.3f s  E_t %.4f / %.4f\n", configs[i].coherence,
+                configs[i].seeds, configs[i].threads, times[i][1], times[i][0], times[i][2], p.mesh.num_polys / times[i][1], cpu[i][1],
+                quality[i].mean, quality[i].p95);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool reports = true;
-  for (int i = 1; i < argc; ++i)
+  bool reports = true, growth_only = false;
+  for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--no_reports") == 0) reports = false, argv[i] = argv[0];
+    if (std::strcmp(argv[i], "--growth_only") == 0) growth_only = true, argv[i] = argv[0];
+  }
+  const std::vector<Growth> growth = {kOldGrowth, {0.5, 1}, {0.0, 16}, {0.5, 16}, {0.5, 16, 1}};
+  if (growth_only) {
+    growth_report(growth);
+    return 0;
+  }
   benchmark::Initialize(&argc, argv);
   benchmark::RunSpecifiedBenchmarks();
   if (reports) {
     quality_report();
     scaling_report();
+    growth_report(growth);
   }
   return 0;
 }

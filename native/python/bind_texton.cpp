@@ -43,7 +43,8 @@ void bind_texton(py::module_& m) {
          int max_vote_points, int max_votes, double tie_tolerance, const std::string& orientation, py::object axis, py::object direction,
          py::object anchor_vertices, py::object anchor_directions, py::object sources, py::object sinks,
          py::object normals, py::object scale_multiplier, py::object camera_position, py::object blend_threshold,
-         double lambda, bool allow_oversized, py::object cancel, bool pack_sets) {
+         double lambda, bool allow_oversized, py::object cancel, bool pack_sets, double coherence_threshold,
+         int seeds_per_component) {
         OrientedMeshArgs args = oriented_mesh_args(positions, corner_verts, poly_starts, poly_sizes, normals, orientation,
                                                    axis, direction, anchor_vertices, anchor_directions, sources, sinks);
         FloatArray pixels = float_array(sample_pixels, "sample_pixels");
@@ -62,6 +63,8 @@ void bind_texton(py::module_& m) {
         params.search.max_vote_points = max_vote_points;
         params.search.max_votes = max_votes;
         params.search.tie_tolerance = tie_tolerance;
+        params.search.coherence_threshold = coherence_threshold;
+        params.seeds_per_component = seeds_per_component;
         params.allow_oversized = allow_oversized;
         params.lambda = lambda;
         params.scale_multiplier = scale_multiplier.is_none() ? nullptr : multiplier.data();
@@ -111,6 +114,9 @@ void bind_texton(py::module_& m) {
         stats["fallback_faces"] = r.stats.fallback_faces;
         stats["oversized_faces"] = r.stats.oversized_faces;
         stats["max_oversize_ratio"] = r.stats.max_oversize_ratio;
+        stats["coherent_faces"] = r.stats.coherent_faces;
+        stats["regions"] = r.stats.regions;
+        stats["border_faces"] = r.stats.border_faces;
         stats["blended_edges"] = r.stats.blended_edges;
         stats["clipped_blend_sets"] = r.stats.clipped_blend_sets;
         stats["seconds"] = r.stats.seconds;
@@ -129,6 +135,8 @@ void bind_texton(py::module_& m) {
         out["edge_blended"] = to_numpy(std::move(r.edge_blended), {E}).attr("astype")("bool");
         out["corner_edge_blended"] = to_numpy(std::move(corner_blended), {L}).attr("astype")("bool");
         out["corner_edge_error"] = to_numpy(std::move(corner_error), {L});
+        const py::ssize_t F = py::ssize_t(r.face_region.size());
+        out["face_region"] = to_numpy(std::move(r.face_region), {F});
         return out;
       },
       py::arg("pre"), py::arg("sample_pixels"), py::arg("positions"), py::arg("corner_verts"), py::arg("poly_starts"),
@@ -140,12 +148,17 @@ void bind_texton(py::module_& m) {
       py::arg("sinks") = py::none(), py::arg("normals") = py::none(), py::arg("scale_multiplier") = py::none(),
       py::arg("camera_position") = py::none(), py::arg("blend_threshold") = py::none(), py::arg("lambda_") = 1.0,
       py::arg("allow_oversized") = false, py::arg("cancel") = py::none(), py::arg("pack_sets") = false,
+      py::arg("coherence_threshold") = texsynth::SearchParams().coherence_threshold,
+      py::arg("seeds_per_component") = texsynth::TextonSynthParams().seeds_per_component,
       "Texton-string patch synthesis (Magda & Kriegman 2003) on a Blender-layout mesh. sample_pixels: the (H, W[, C]) "
       "float image given to preprocess (for E_t). scale = texels per object unit.\n"
       "Returns dict with synthesize_jumpmap's keys (base_uv, blend_uv, blend_weights, num_blend_sets, stats) plus "
       "edge_vertices (E, 2) int32, edge_error E_t (E,), edge_phi Φ = lambda_*E_t*d/|camera - midpoint| (E,; NaN "
       "without camera_position), edge_blended (E,) bool, corner_edge_blended (L,) bool and corner_edge_error (L,) "
-      "for the edge from each corner to the next. blend_threshold (needs camera_position): blend only edges with "
+      "for the edge from each corner to the next, face_region (F,) int32 (growth region, -1 = border pass). "
+      "coherence_threshold: take a neighbour's exact continuation without voting when its Eq. 2 error per string "
+      "point is below this fraction of the mean texton distance (0 = always vote). seeds_per_component: growth "
+      "regions per component (one per 256 faces at most), grown in parallel (1 = sequential). blend_threshold (needs camera_position): blend only edges with "
       "Φ > threshold. ValueError on bad input. cancel: a CancelToken; raising it from another thread stops the call "
       "with Cancelled within milliseconds.");
 

@@ -66,6 +66,11 @@ def main():
     start = time.perf_counter()
     texton(None)
     report("texton", texton, time.perf_counter() - start)
+    regions = lambda token: tn.synthesize_texton(pre, pixels, *texton_mesh, scale=0.05, cancel=token,  # noqa: E731
+                                                 seeds_per_component=16)
+    start = time.perf_counter()
+    regions(None)
+    report("texton, 16 regions", regions, time.perf_counter() - start)
     image = np.ascontiguousarray(np.tile(make_corpus.sample_pixels(size=64), (8, 8, 1)))  # 512 x 512
     prep = lambda token: tn.preprocess(image, neighbourhood=7, cancel=token)  # noqa: E731
     start = time.perf_counter()

@@ -63,6 +63,20 @@ double string_error(const Preprocessed& pre, const TextonString& s, int32_t x, i
   return bounded_string_error(pre, s, x, y, wrap, std::numeric_limits<double>::infinity());
 }
 
+bool coherent_origin(const Preprocessed& pre, const TextonString& s, const int32_t* xy, int count,
+                     const OriginRange& range, double max_error, int32_t& x, int32_t& y, double& error) {
+  double best = max_error;
+  bool found = false;
+  for (int i = 0; i < count; ++i) {
+    const int32_t cx = xy[2 * i], cy = xy[2 * i + 1];
+    if (!range.wrap && (cx < range.x0 || cx > range.x1 || cy < range.y0 || cy > range.y1)) continue;
+    // Bounded: a candidate is dropped as soon as its sum reaches the best (or the threshold).
+    const double e = bounded_string_error(pre, s, cx, cy, range.wrap, best);
+    if (e < best) best = e, x = cx, y = cy, error = e, found = true;
+  }
+  return found;
+}
+
 TextonSearch::TextonSearch(const Preprocessed& pre) : pre_(pre) {
   if (pre.width > 32000 || pre.height > 32000)
     throw std::invalid_argument("texton synthesis supports samples up to 32000 pixels per side");

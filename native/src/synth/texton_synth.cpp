@@ -4,6 +4,7 @@
 #include "texsynth/synth/texton_synth.hpp"
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -74,6 +75,10 @@ void validate_params(const Mesh& m, const float* orientation, const TextonSynthP
   if (p.search.max_votes < 1) throw std::invalid_argument("max_votes must be >= 1");
   if (!(p.search.tie_tolerance >= 0 && p.search.tie_tolerance <= 1e6))
     throw std::invalid_argument("tie_tolerance must be in [0, 1e6]");
+  if (!(p.search.coherence_threshold >= 0 && p.search.coherence_threshold <= 1e6))
+    throw std::invalid_argument("coherence_threshold must be in [0, 1e6] (0 = always vote)");
+  if (p.seeds_per_component < 1 || p.seeds_per_component > 4096)
+    throw std::invalid_argument("seeds_per_component must be in [1, 4096] (1 = one seed, sequential growth)");
   if (!std::isfinite(p.lambda) || p.lambda < 0) throw std::invalid_argument("lambda_ must be finite and >= 0");
   if (p.has_camera && !(std::isfinite(p.camera[0]) && std::isfinite(p.camera[1]) && std::isfinite(p.camera[2])))
     throw std::invalid_argument("camera_position must be finite");
@@ -219,7 +224,7 @@ class TextonSynthesizer {
     measure_faces(r.stats);
     check_oversized_faces(r.stats.oversized_faces, r.stats.max_oversize_ratio, m_.num_polys, pre_.width, pre_.height,
                           p_.scale, p_.allow_oversized);
-    grow(r.edges, r.stats);
+    grow(r.edges, r.stats, r.face_region);
     throw_if_cancelled(p_.cancel);
     write_base(r.maps);
     r.edge_error = edge_continuity_error(m_, r.edges, r.maps.base_uv.data(), sample_, tileable_);
@@ -286,68 +291,203 @@ class TextonSynthesizer {
     return r;
   }
 
-  // Pass 2 (sequential, one RNG stream per face): breadth-first growth and search.
-  void grow(const MeshEdges& edges, TextonSynthStats& st) {
+  struct GrowCounts {
+    int64_t searched = 0, fallback = 0, coherent = 0;
+    void add(const GrowCounts& o) { searched += o.searched, fallback += o.fallback, coherent += o.coherent; }
+  };
+
+  template <class Fn>
+  void for_each_neighbour(const MeshEdges& edges, int32_t poly, Fn&& fn) const {
+    const int32_t first = m_.poly_starts[poly];
+    for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i) {
+      const int32_t e = edges.corner_edge[first + i];
+      if (e < 0) continue;
+      for (int32_t j = edges.edge_corner_start[e]; j < edges.edge_corner_start[e + 1]; ++j) {
+        const int32_t c = edges.edge_corners[j];
+        if (edges.corner_poly[c] != poly) fn(edges.corner_poly[c]);
+      }
+    }
+  }
+
+  // Collects the face-connected component of `start` (appends to `component`, marks `seen`).
+  void collect_component(const MeshEdges& edges, int32_t start, std::vector<uint8_t>& seen,
+                         std::vector<int32_t>& component) const {
+    component.assign(1, start);
+    seen[start] = 1;
+    for (size_t h = 0; h < component.size(); ++h) {
+      if ((h & 65535) == 65535) throw_if_cancelled(p_.cancel);
+      for_each_neighbour(edges, component[h], [&](int32_t g) {
+        if (!seen[g]) seen[g] = 1, component.push_back(g);
+      });
+    }
+  }
+
+  // Pass 2: breadth-first growth and search (one RNG stream per face).
+  void grow(const MeshEdges& edges, TextonSynthStats& st, std::vector<int32_t>& face_region) {
     texel_.assign(size_t(m_.num_corners) * 2, 0.f);
     textured_.assign(size_t(m_.num_polys), 0);
     placed_at_.assign(size_t(m_.num_polys), std::numeric_limits<int32_t>::max());
-    placed_count_ = 0;
-    std::vector<uint8_t> state(size_t(m_.num_polys), 0);  // 0 new, 1 queued/visited, 2 textured
+    face_region.assign(size_t(m_.num_polys), -1);
+    double sum = 0;
+    for (float d : pre_.texton_distances) sum += d;
+    coherence_bound_ = p_.search.coherence_threshold * sum / double(pre_.texton_distances.size());
+    GrowCounts counts;
+    if (p_.seeds_per_component <= 1)
+      grow_sequential(edges, st, counts, face_region);
+    else
+      grow_regions(edges, st, counts, face_region);
+    st.searched_faces = counts.searched, st.fallback_faces = counts.fallback, st.coherent_faces = counts.coherent;
+  }
+
+  // One seed per component, sequential (seeds_per_component = 1).
+  void grow_sequential(const MeshEdges& edges, TextonSynthStats& st, GrowCounts& counts,
+                       std::vector<int32_t>& face_region) {
+    int32_t placed_count = 0;
+    std::vector<uint8_t> state(size_t(m_.num_polys), 0);  // 0 new, 1 queued/visited
     std::vector<int32_t> queue, component;
     queue.reserve(size_t(m_.num_polys));
     TextonSearch search(pre_);
     TextonString string;
     Rng component_rng(p_.seed, 0x636f6d70);  // "comp"
-    auto for_each_neighbour = [&](int32_t poly, auto&& fn) {
-      const int32_t first = m_.poly_starts[poly];
-      for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i) {
-        const int32_t e = edges.corner_edge[first + i];
-        if (e < 0) continue;
-        for (int32_t j = edges.edge_corner_start[e]; j < edges.edge_corner_start[e + 1]; ++j) {
-          const int32_t c = edges.edge_corners[j];
-          if (edges.corner_poly[c] != poly) fn(i, c);
-        }
-      }
-    };
     std::vector<uint8_t> seen(size_t(m_.num_polys), 0);
     uint32_t placed = 0;
     for (int32_t start = 0; start < m_.num_polys; ++start) {
       if (seen[start]) continue;
       // Collect the face-connected component, then grow from a seeded random face in it.
-      component.assign(1, start);
-      seen[start] = 1;
-      for (size_t h = 0; h < component.size(); ++h) {
-        if ((h & 65535) == 65535) throw_if_cancelled(p_.cancel);
-        for_each_neighbour(component[h], [&](int32_t, int32_t c) {
-          const int32_t g = edges.corner_poly[c];
-          if (!seen[g]) seen[g] = 1, component.push_back(g);
-        });
-      }
-      ++st.components;
+      collect_component(edges, start, seen, component);
+      const int32_t region = int32_t(st.components++);
+      ++st.regions;
       queue.assign(1, component[component_rng.below(uint32_t(component.size()))]);
       state[queue[0]] = 1;
       for (size_t h = 0; h < queue.size(); ++h) {
         // ~200k faces/s: a check every 256 faces is about a millisecond apart.
         if ((++placed & 255) == 0) throw_if_cancelled(p_.cancel);
         const int32_t poly = queue[h];
-        place(poly, edges, search, string, st);
-        state[poly] = 2;
-        for_each_neighbour(poly, [&](int32_t, int32_t c) {
-          const int32_t g = edges.corner_poly[c];
+        place(poly, edges, search, string, counts, false);
+        placed_at_[poly] = placed_count++;
+        face_region[poly] = region;
+        for_each_neighbour(edges, poly, [&](int32_t g) {
           if (state[g] == 0) state[g] = 1, queue.push_back(g);
         });
       }
     }
   }
 
-  void place(int32_t poly, const MeshEdges& edges, TextonSearch& search, TextonString& string, TextonSynthStats& st) {
+  // Several seeds per component (see TextonSynthParams::seeds_per_component). Deterministic
+  // whatever the thread count: regions are labelled sequentially, a region task reads and writes
+  // only its own faces (interior faces have all their neighbours in the region; a seed ignores
+  // its neighbours), and the border pass is sequential.
+  void grow_regions(const MeshEdges& edges, TextonSynthStats& st, GrowCounts& counts,
+                    std::vector<int32_t>& region) {
+    const int32_t F = m_.num_polys;
+    std::vector<int32_t> seeds, component, queue;
+    std::vector<uint8_t> seen(size_t(F), 0);
+    Rng component_rng(p_.seed, 0x636f6d70);  // "comp"
+    for (int32_t start = 0; start < F; ++start) {
+      if (seen[start]) continue;
+      collect_component(edges, start, seen, component);
+      ++st.components;
+      const uint32_t size = uint32_t(component.size());
+      const int32_t wanted = int32_t(std::clamp<int64_t>(size / uint32_t(kMinRegionFaces), 1, p_.seeds_per_component));
+      const size_t first_seed = seeds.size();
+      // Distinct random faces (the first as the sequential growth picks it); a few draws may collide.
+      for (int32_t draw = 0; int32_t(seeds.size() - first_seed) < wanted && draw < 4 * wanted; ++draw) {
+        const int32_t f = component[component_rng.below(size)];
+        if (region[f] >= 0) continue;
+        region[f] = int32_t(seeds.size());
+        seeds.push_back(f);
+      }
+      // Multi-source breadth-first labelling: each face joins the region that reaches it first.
+      queue.assign(seeds.begin() + first_seed, seeds.end());
+      for (size_t h = 0; h < queue.size(); ++h) {
+        if ((h & 65535) == 65535) throw_if_cancelled(p_.cancel);
+        const int32_t r = region[queue[h]];
+        for_each_neighbour(edges, queue[h], [&](int32_t g) {
+          if (region[g] < 0) region[g] = r, queue.push_back(g);
+        });
+      }
+    }
+    const int32_t R = int32_t(seeds.size());
+    st.regions = R;
+    std::vector<uint8_t> interior(size_t(F), 1);
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, F, 8192), [&](const tbb::blocked_range<int32_t>& b) {
+      for (int32_t f = b.begin(); f < b.end(); ++f)
+        for_each_neighbour(edges, f, [&](int32_t g) { interior[f] = interior[f] && region[g] == region[f]; });
+    });
+    // Region pass (parallel): each region grows from its seed over its interior faces.
+    struct Scratch {
+      explicit Scratch(const Preprocessed& pre) : search(pre) {}
+      TextonSearch search;
+      TextonString string;
+      std::vector<int32_t> queue;
+    };
+    tbb::enumerable_thread_specific<Scratch> scratch([&] { return Scratch(pre_); });
+    std::vector<GrowCounts> region_counts(static_cast<size_t>(R));
+    std::vector<int32_t> region_placed(size_t(R) + 1, 0);
+    std::vector<uint8_t> queued(size_t(F), 0);
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, R, 1), [&](const tbb::blocked_range<int32_t>& b) {
+      Scratch& sc = scratch.local();
+      for (int32_t r = b.begin(); r < b.end(); ++r) {
+        sc.queue.assign(1, seeds[r]);
+        queued[seeds[r]] = 1;
+        GrowCounts local;  // not region_counts[r]: neighbouring entries share a cache line across threads
+        for (size_t h = 0; h < sc.queue.size(); ++h) {
+          if ((h & 255) == 255) throw_if_cancelled(p_.cancel);
+          const int32_t poly = sc.queue[h];
+          place(poly, edges, sc.search, sc.string, local, h == 0);
+          placed_at_[poly] = int32_t(h);  // rank within the region; offset below
+          for_each_neighbour(edges, poly, [&](int32_t g) {
+            if (region[g] == r && interior[g] && !queued[g]) queued[g] = 1, sc.queue.push_back(g);
+          });
+        }
+        region_placed[r + 1] = int32_t(sc.queue.size());
+        region_counts[r] = local;
+      }
+    });
+    throw_if_cancelled(p_.cancel);
+    for (int32_t r = 0; r < R; ++r) region_placed[r + 1] += region_placed[r], counts.add(region_counts[r]);
+    // Growth order (vertex mapping owners): regions in order, then the border pass.
+    for (int32_t f = 0; f < F; ++f)
+      if (textured_[f]) placed_at_[f] += region_placed[region[f]];
+    // Border pass (sequential): breadth-first from the textured faces, in face order.
+    int32_t placed_count = region_placed[R];
+    TextonSearch& search = scratch.local().search;
+    TextonString& string = scratch.local().string;
+    queue.clear();
+    for (int32_t f = 0; f < F; ++f) {
+      if (textured_[f]) continue;
+      region[f] = -1;
+      bool touches = false;
+      for_each_neighbour(edges, f, [&](int32_t g) { touches = touches || textured_[g]; });
+      if (touches) queued[f] = 1, queue.push_back(f);
+    }
+    for (size_t h = 0; h < queue.size(); ++h) {
+      if ((h & 255) == 255) throw_if_cancelled(p_.cancel);
+      const int32_t poly = queue[h];
+      place(poly, edges, search, string, counts, false);
+      placed_at_[poly] = placed_count++;
+      for_each_neighbour(edges, poly, [&](int32_t g) {
+        if (!queued[g]) queued[g] = 1, queue.push_back(g);
+      });
+    }
+    st.border_faces = int64_t(queue.size());
+  }
+
+  // Places one face: searched from its textured neighbours, or (seed_face, or none textured) a
+  // random origin. Sets its corner texels and textured_.
+  void place(int32_t poly, const MeshEdges& edges, TextonSearch& search, TextonString& string, GrowCounts& st,
+             bool seed_face) {
     const int32_t first = m_.poly_starts[poly], n = m_.poly_sizes[poly];
     const float* off = &offset_[2 * size_t(first)];
     const uint64_t face_seed = splitmix64(splitmix64(p_.seed ^ 0x7465787430000000ull) + uint64_t(poly));
+    const bool coherence = coherence_bound_ > 0;
+    constexpr int kMaxCoherent = 8;
+    int32_t coherent_xy[2 * kMaxCoherent];
+    int num_coherent = 0;
     string.clear();
     bool predicted = false;
     float phase[2] = {0.f, 0.f}, guess[2] = {0.f, 0.f};
-    for (int32_t i = 0; i < n; ++i) {
+    for (int32_t i = 0; i < n && !seed_face; ++i) {
       const int32_t e = edges.corner_edge[first + i];
       if (e < 0) continue;
       const int32_t va = m_.corner_verts[first + i];
@@ -361,15 +501,28 @@ class TextonSynthesizer {
         const bool same = m_.corner_verts[c] == va;
         const float* ta = &texel_[2 * size_t(same ? c : c_next)];
         const float* tb = &texel_[2 * size_t(same ? c_next : c)];
-        if (!predicted) {  // origin the neighbour predicts: its edge similarity applied to offset 0
-          float q[2];
+        if (!predicted || (coherence && num_coherent < kMaxCoherent)) {
+          // Origin this neighbour predicts: its edge similarity applied to offset 0.
+          float q[2], gx, gy;
           edge_similarity(oa, ob, ta, tb, q);
-          guess[0] = ta[0] - (q[0] * oa[0] - q[1] * oa[1]);
-          guess[1] = ta[1] - (q[1] * oa[0] + q[0] * oa[1]);
-          phase[0] = guess[0] - std::floor(guess[0]), phase[1] = guess[1] - std::floor(guess[1]);
-          if (!(phase[0] >= 0.f && phase[0] < 1.f)) phase[0] = 0.f;
-          if (!(phase[1] >= 0.f && phase[1] < 1.f)) phase[1] = 0.f;
-          predicted = true;
+          gx = ta[0] - (q[0] * oa[0] - q[1] * oa[1]);
+          gy = ta[1] - (q[1] * oa[0] + q[0] * oa[1]);
+          if (!predicted) {
+            guess[0] = gx, guess[1] = gy;
+            phase[0] = guess[0] - std::floor(guess[0]), phase[1] = guess[1] - std::floor(guess[1]);
+            if (!(phase[0] >= 0.f && phase[0] < 1.f)) phase[0] = 0.f;
+            if (!(phase[1] >= 0.f && phase[1] < 1.f)) phase[1] = 0.f;
+            predicted = true;
+          }
+          if (coherence) {  // its continuation on this face's origin grid (exact for the first)
+            int32_t cx = int32_t(std::floor(std::clamp(gx - phase[0] + 0.5f, -1e9f, 1e9f)));
+            int32_t cy = int32_t(std::floor(std::clamp(gy - phase[1] + 0.5f, -1e9f, 1e9f)));
+            if (tileable_) cx = wrap_coordinate(cx, pre_.width), cy = wrap_coordinate(cy, pre_.height);
+            bool known = false;
+            for (int k = 0; k < num_coherent; ++k)
+              known = known || (coherent_xy[2 * k] == cx && coherent_xy[2 * k + 1] == cy);
+            if (!known) coherent_xy[2 * num_coherent] = cx, coherent_xy[2 * num_coherent + 1] = cy, ++num_coherent;
+          }
         }
         append_edge_string(pre_, oa, ob, ta, tb, phase, string);
       }
@@ -377,13 +530,17 @@ class TextonSynthesizer {
     const OriginRange range = origin_range(poly, phase);
     int32_t ox = 0, oy = 0;
     double err = 0;
-    if (predicted && search.search(string, range, p_.search, face_seed, ox, oy, err)) {
-      ++st.searched_faces;
+    if (predicted && coherence &&
+        coherent_origin(pre_, string, coherent_xy, num_coherent, range, coherence_bound_ * double(string.size()), ox,
+                        oy, err)) {
+      ++st.searched, ++st.coherent;
+    } else if (predicted && search.search(string, range, p_.search, face_seed, ox, oy, err)) {
+      ++st.searched;
     } else if (predicted) {  // nothing voted inside the range: continue the neighbour, clamped into the sample
-      ++st.fallback_faces;
+      ++st.fallback;
       ox = int32_t(std::floor(std::clamp(guess[0], -1e9f, 1e9f))), oy = int32_t(std::floor(std::clamp(guess[1], -1e9f, 1e9f)));
       if (!range.wrap) ox = std::clamp(ox, range.x0, range.x1), oy = std::clamp(oy, range.y0, range.y1);
-    } else {  // first face of a component: a random origin
+    } else {  // first face of a component or region: a random origin
       Rng rng(face_seed, 0x73656564);  // "seed"
       ox = range.x0 + int32_t(rng.below(uint32_t(range.x1 - range.x0 + 1)));
       oy = range.y0 + int32_t(rng.below(uint32_t(range.y1 - range.y0 + 1)));
@@ -395,7 +552,11 @@ class TextonSynthesizer {
       texel_[2 * size_t(first + i) + 1] = Y + off[2 * i + 1];
     }
     textured_[poly] = 1;
-    placed_at_[poly] = placed_count_++;
+  }
+
+  static int32_t wrap_coordinate(int32_t v, int32_t n) {
+    v %= n;
+    return v < 0 ? v + n : v;
   }
 
   bool textured(int32_t poly) const { return textured_[poly] != 0; }
@@ -560,7 +721,7 @@ class TextonSynthesizer {
   std::vector<uint8_t> textured_;
   std::vector<FaceFrame> frame_;   // per polygon: its texture frame (face_frame.hpp)
   std::vector<int32_t> placed_at_; // per polygon: when it was textured (growth order)
-  int32_t placed_count_ = 0;
+  double coherence_bound_ = 0;     // coherence_threshold × mean texton distance (0: off)
 };
 
 }  // namespace

@@ -20,6 +20,9 @@
 // touched list, gives the top_m origins (count ties broken by a seeded hash); Eq. 2 over the FULL
 // string picks among them, uniformly at random among near-ties (E <= E_min·(1 + tie_tolerance)).
 // Candidates keep the whole polygon inside the sample (wrap when tileable).
+// Before voting, the origins exactly continuing each textured neighbour are scored with Eq. 2 and
+// the best taken when below SearchParams::coherence_threshold (k-coherence); regions grown in
+// parallel: TextonSynthParams::seeds_per_component.
 //
 // Blend sets (replaces the paper's edge blending, §3.3.1, whose attenuated seams stay visible):
 //  - every vertex v takes the mapping of its incident polygon textured first (its owner). The
@@ -83,6 +86,11 @@ struct SearchParams {
   int max_vote_points = 16;  // string points that vote, rarest textons first (1..255); Eq. 2 uses all
   int max_votes = 1024;      // vote budget per search (bucket entries visited); >= 1
   double tie_tolerance = 0.05;  // relative Eq. 2 tolerance for the random near-tie choice (>= 0)
+  // Coherent candidates (k-coherence style): the origins that exactly continue each textured
+  // neighbour are tried first; the best is taken without voting when its Eq. 2 error per string
+  // point is below coherence_threshold × the mean texton distance. 0 = off (always vote); [0, 1e6].
+  // 0.5: chosen by bench_texton_speed.py (E_t falls as the threshold rises, speed-up levels off).
+  double coherence_threshold = 0.5;
 };
 
 struct TextonSynthParams {
@@ -92,6 +100,13 @@ struct TextonSynthParams {
   const float* scale_multiplier = nullptr;  // optional, num_vertices floats > 0 (borrowed)
   bool allow_oversized = false;
   SearchParams search;
+  // Parallel growth: each face-connected component of at least 2 × kMinRegionFaces faces gets up to
+  // this many seeds (one per kMinRegionFaces faces), chosen from the seed alone; the regions they
+  // reach first (multi-source breadth-first) grow in parallel over their interior faces, then the
+  // faces on region borders are grown sequentially, matching both sides. 1 = one seed, sequential
+  // (the original growth); [1, 4096]. Default 1: on the shared 2-core benchmark machine no second
+  // core was free (1 and 2 threads ran equally fast) and 16 regions cost ~5-9% CPU (README).
+  int seeds_per_component = 1;
   // Blending metric: with has_camera, edge_phi = λ·E_t·d/‖v − m‖; with a finite blend_threshold
   // (needs the camera) only edges with Φ > threshold are blended.
   bool has_camera = false;
@@ -105,6 +120,9 @@ struct TextonSynthStats {
   int64_t faces = 0, vertices = 0, corners = 0, components = 0;  // components: face-connected
   int64_t searched_faces = 0;    // faces placed by the texton-string search
   int64_t fallback_faces = 0;    // faces with textured neighbours but no valid voted origin
+  int64_t coherent_faces = 0;    // searched faces that took a neighbour's continuation without voting
+  int64_t regions = 0;           // growth regions (seeds) over all components
+  int64_t border_faces = 0;      // faces grown after the parallel region pass (region borders)
   int64_t oversized_faces = 0;
   double max_oversize_ratio = 0;
   int64_t blended_edges = 0;
@@ -119,7 +137,11 @@ struct TextonSynthResult {
   std::vector<float> edge_error;       // E_t per edge
   std::vector<float> edge_phi;         // Φ per edge, NaN without a camera
   std::vector<uint8_t> edge_blended;   // 1 when the edge is blended (interior, blend, Φ test passed)
+  std::vector<int32_t> face_region;    // per polygon: its growth region, -1 when grown in the border pass
 };
+
+// Faces per seed of the parallel growth (see TextonSynthParams::seeds_per_component).
+constexpr int32_t kMinRegionFaces = 256;
 
 // `orientation`: num_vertices*3 unit tangent "up" vectors (compute_orientation_field).
 // `sample`: the image given to preprocess (same width/height), for E_t.
@@ -152,6 +174,12 @@ struct OriginRange {
 
 // Eq. 2: Σ_k dist(τ[origin + S_o[k]], S_t[k]) (look-ups clamped, or wrapped when range.wrap).
 double string_error(const Preprocessed& pre, const TextonString& s, int32_t x, int32_t y, bool wrap);
+
+// Coherent candidates: among `count` origins (x, y pairs; outside a non-wrapping range skipped),
+// the one with the lowest Eq. 2 error (first on ties) when that error is < max_error; false when
+// none is. Stops summing a candidate as soon as it reaches the best so far.
+bool coherent_origin(const Preprocessed& pre, const TextonString& s, const int32_t* xy, int count,
+                     const OriginRange& range, double max_error, int32_t& x, int32_t& y, double& error);
 
 // Voting + top-m + Eq. 2 search with reusable scratch (one per thread). Not thread-safe.
 class TextonSearch {
