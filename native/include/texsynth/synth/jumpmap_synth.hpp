@@ -48,6 +48,9 @@ struct JumpSynthParams {
   // exact filtered table is built. 0 = always build the exact table (slower, same distribution).
   int max_rejection_draws = 8;
   const std::atomic<bool>* cancel = nullptr;  // raised by another thread: throws texsynth::Cancelled
+  // Benchmark/test switch: the previous pass structure (validity boxes gathered per vertex from
+  // each polygon's data, output pages first touched by the corner pass). Same outputs either way.
+  bool baseline_passes = false;
 };
 
 struct SynthStats {
