@@ -6,6 +6,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <atomic>
@@ -86,8 +87,16 @@ class Synthesizer {
     write_corners(out);
     throw_if_cancelled(p_.cancel);
     r.vertex_address.resize(size_t(m_.num_vertices) * 2);
-    for (int32_t v = 0; v < m_.num_vertices; ++v)
-      r.vertex_address[2 * size_t(v)] = state_[v].address[0], r.vertex_address[2 * size_t(v) + 1] = state_[v].address[1];
+    auto copy_addresses = [&](int32_t begin, int32_t end) {
+      for (int32_t v = begin; v < end; ++v)
+        r.vertex_address[2 * size_t(v)] = state_[v].address[0], r.vertex_address[2 * size_t(v) + 1] = state_[v].address[1];
+    };
+    if (p_.baseline_passes) {
+      copy_addresses(0, m_.num_vertices);
+    } else {  // in parallel: a serial pass (and its fresh pages) after the parallel corner pass
+      tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 16384),
+                        [&](const tbb::blocked_range<int32_t>& range) { copy_addresses(range.begin(), range.end()); });
+    }
     r.stats.faces = m_.num_polys;
     r.stats.vertices = m_.num_vertices;
     r.stats.corners = m_.num_corners;
@@ -323,7 +332,7 @@ class Synthesizer {
   // The order (§4.1) and the walk over it are both serial: with a second thread the order is built
   // there while the walk follows it, a few entries behind. Same order and draws either way. The
   // order is much faster than the walk, so that thread then pre-faults the output pages not yet
-  // touched (all but `scratch`, see measure_faces), off the critical path.
+  // touched (all but the corner boxes in `scratch`, see measure_faces), off the critical path.
   void order_and_walk(SynthStats& st, const CornerMapsView& out, const float* scratch) {
     UninitializedVector<int32_t> order(size_t(m_.num_vertices));
     UninitializedVector<uint32_t> ordered_neighbours(size_t(m_.num_vertices));
@@ -344,7 +353,9 @@ class Synthesizer {
       const size_t L = size_t(out.num_corners), S = size_t(out.num_blend_sets);
       prefault(out.base_uv, 2 * L);
       prefault(out.blend_weights, S * L);
-      if (out.blend_uv != scratch) prefault(out.blend_uv, out.packed_pairs ? (S + 1) / 2 * L * 4 : S * L * 2);
+      const size_t blend_floats = out.packed_pairs ? (S + 1) / 2 * L * 4 : S * L * 2;
+      const size_t touched = out.blend_uv == scratch ? 4 * L : 0;  // the corner boxes' part
+      prefault(out.blend_uv + touched, blend_floats - touched);
     };
     std::thread producer;
     if (usable_threads() > 1) {
@@ -526,13 +537,25 @@ class Synthesizer {
       }
       state_[v].address[0] = x, state_[v].address[1] = y;
     }
-    if (st.fallback_vertices > 0)
-      for (int32_t poly = 0; poly < m_.num_polys; ++poly)
+    if (st.fallback_vertices == 0) return;
+    auto count_faces = [&](int32_t begin, int32_t end) {
+      int64_t faces = 0;
+      for (int32_t poly = begin; poly < end; ++poly)
         for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i)
           if (fell_back[m_.corner_verts[m_.poly_starts[poly] + i]]) {
-            ++st.fallback_faces;
+            ++faces;
             break;
           }
+      return faces;
+    };
+    if (p_.baseline_passes) {
+      st.fallback_faces = count_faces(0, m_.num_polys);
+    } else {  // an exact count, so the same in parallel
+      st.fallback_faces = tbb::parallel_reduce(
+          tbb::blocked_range<int32_t>(0, m_.num_polys, 16384), int64_t(0),
+          [&](const tbb::blocked_range<int32_t>& range, int64_t faces) { return faces + count_faces(range.begin(), range.end()); },
+          [](int64_t a, int64_t b) { return a + b; });
+    }
   }
 
   // Pass 3: consistent per-polygon coordinates and blend sets (§4.3–4.4). Each polygon writes only
