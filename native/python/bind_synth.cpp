@@ -2,6 +2,8 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <chrono>
+
 #include "cancel_arg.hpp"
 #include "field_args.hpp"
 #include "texsynth/preprocess/preprocessed.hpp"
@@ -42,9 +44,12 @@ void bind_synth(py::module_& m) {
                                       blend_weights.mutable_data()};
         view.packed_pairs = pack_sets;
         texsynth::JumpSynthResult r;
+        double mesh_seconds = 0;
         {
           py::gil_scoped_release release;
+          const auto start = std::chrono::steady_clock::now();
           const OrientedMeshArgs::Built built = args.build();
+          mesh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
           r = texsynth::synthesize_jumpmap(pre, built.mesh, built.up.data(), params, view);
         }
         py::dict stats;
@@ -58,6 +63,10 @@ void bind_synth(py::module_& m) {
         stats["oversized_faces"] = r.stats.oversized_faces;
         stats["max_oversize_ratio"] = r.stats.max_oversize_ratio;
         stats["seconds"] = r.stats.seconds;
+        stats["seconds_mesh"] = mesh_seconds;  // build_mesh + orientation field, before `seconds`
+        stats["seconds_faces"] = r.stats.seconds_faces;
+        stats["seconds_walk"] = r.stats.seconds_walk;
+        stats["seconds_corners"] = r.stats.seconds_corners;
         py::dict out;
         out["base_uv"] = base_uv;
         out[pack_sets ? "blend_set_pairs" : "blend_uv"] = blend_uv;
@@ -78,7 +87,9 @@ void bind_synth(py::module_& m) {
       "((S+1)/2, L, 4): (u0, v0, u1, v1), (u2, v2, u3, v3) per corner, 0 in an odd S's last slot), "
       "blend_weights (L, S) float32 (one-hot per corner), "
       "num_blend_sets S (3 all triangles, 4 otherwise, 1 when blend=False) and stats (faces, vertices, corners, "
-      "components, jumps, fallback_vertices, fallback_faces, oversized_faces, max_oversize_ratio, seconds). ValueError on bad input "
+      "components, jumps, fallback_vertices, fallback_faces, oversized_faces, max_oversize_ratio, seconds; "
+      "seconds_mesh: mesh tables and orientation field before that; seconds_faces, seconds_walk, seconds_corners: "
+      "phases within seconds). ValueError on bad input "
       "and, unless allow_oversized, when faces are larger than the sample at this scale. cancel: a CancelToken; "
       "token.cancel() from another thread makes the call raise Cancelled within a fraction of a second. "
       "baseline_passes: benchmark switch, the previous pass structure (same outputs, slower on incoherent meshes).");

@@ -96,6 +96,7 @@ def timing_main():
     times = {True: [], False: []}
     native_seconds = {True: [], False: []}
     cpu = {True: [], False: []}
+    phases = {True: {}, False: {}}
     hashes = {True: set(), False: set()}
     for run in range(args.repeat):
         for new in ((True, False) if run % 2 == 0 else (False, True)):
@@ -104,6 +105,8 @@ def timing_main():
             times[new].append(time.perf_counter() - start)
             cpu[new].append(time.process_time() - start_cpu)
             native_seconds[new].append(out["stats"]["seconds"])
+            for key in ("seconds_mesh", "seconds_faces", "seconds_walk", "seconds_corners"):
+                phases[new].setdefault(key, []).append(out["stats"][key])
             hashes[new].add(digest(out))
             del out
     for new, name in ((False, "old (baseline_passes)"), (True, "new")):
@@ -114,6 +117,8 @@ def timing_main():
                                                  num_vertices / statistics.median(t) / 1e6,
                                           num_vertices / max(t) / 1e6, num_vertices / min(t) / 1e6,
                                           ", ".join(sorted(hashes[new]))))
+        print("%-22s phases (medians): %s" % ("", ", ".join("%s %.3f s" % (key[8:], statistics.median(values))
+                                                              for key, values in phases[new].items())))
     print("identical outputs: %s" % (hashes[True] == hashes[False] and len(hashes[True]) == 1))
 
 

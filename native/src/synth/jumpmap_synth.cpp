@@ -72,19 +72,29 @@ class Synthesizer {
       : pre_(pre), m_(m), p_(p), W_(float(pre.width)), H_(float(pre.height)), tileable_(pre.params.tileable),
         blend_(p.blend) {
     border_ramp_ = p.border_ramp >= 0 ? float(p.border_ramp) : std::max(1.f, 0.05f * std::min(W_, H_));
+    const auto start = std::chrono::steady_clock::now();
     build_frames(orientation);
+    frames_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
 
   JumpSynthResult run(const CornerMapsView& out) {
     JumpSynthResult r;
     throw_if_cancelled(p_.cancel);
+    using Clock = std::chrono::steady_clock;
+    auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+    Clock::time_point t = Clock::now();
     float* scratch_boxes = measure_faces(r.stats, out);
     throw_if_cancelled(p_.cancel);
     check_oversized_faces(r.stats.oversized_faces, r.stats.max_oversize_ratio, m_.num_polys, pre_.width, pre_.height,
                           p_.scale, p_.allow_oversized);
+    r.stats.seconds_faces = since(t) + frames_seconds_;
+    t = Clock::now();
     order_and_walk(r.stats, out, scratch_boxes);
+    r.stats.seconds_walk = since(t);
     throw_if_cancelled(p_.cancel);
+    t = Clock::now();
     write_corners(out);
+    r.stats.seconds_corners = since(t);
     throw_if_cancelled(p_.cancel);
     r.vertex_address.resize(size_t(m_.num_vertices) * 2);
     auto copy_addresses = [&](int32_t begin, int32_t end) {
@@ -621,6 +631,7 @@ class Synthesizer {
   const bool tileable_;
   const bool blend_;
   float border_ramp_;
+  double frames_seconds_ = 0;
   // Everything the walk reads per neighbour in one 32-byte record (one cache line, not four).
   struct VertexState {
     float up[3], right[3];

@@ -61,6 +61,9 @@ struct SynthStats {
   int64_t oversized_faces = 0;     // faces whose texture-space extent exceeds the sample
   double max_oversize_ratio = 0;   // max over faces of extent / sample side (≤ 1 when none)
   double seconds = 0;
+  // Wall seconds of the phases within `seconds`: frames + face measuring (validity boxes), the
+  // order and walk (serial), the corner output.
+  double seconds_faces = 0, seconds_walk = 0, seconds_corners = 0;
 };
 
 struct JumpSynthResult {
