@@ -7,14 +7,15 @@ imported from OBJ, 2 threads"). Not a test. Two steps:
   # 1. in Blender: the bunny with 2 Catmull-Clark levels (as bench_addon.py builds it) written as OBJ,
   #    imported back the way the CLI imports --mesh (compat.import_mesh_file) and read by mesh_io.read_mesh;
   #    the arrays go to out/bench/bunny_subdiv2.npz (and the OBJ to out/bench/bunny_subdiv2.obj; the
-#    mesh as Blender built it, before the export, to bunny_subdiv2_blender.npz: pass it with --npz)
+  #    mesh as Blender built it, before the export, to bunny_subdiv2_blender.npz: pass it with --npz)
   blender -b --factory-startup --python-exit-code 1 --python python_tests/bench/bench_jumpmap_obj.py
   # 2. timing, without Blender: synthesize_jumpmap (mesh build + field + synthesis, as the CLI's
   #    seconds.synthesis) on those arrays, alternating the new path and the old one in the same run
   PYTHONPATH=addon python3.11 python_tests/bench/bench_jumpmap_obj.py [--repeat 7]   # 2 threads on this 2-CPU VM
 
-The old path is the same call with baseline_passes=True (the previous pass structure). Prints medians and ranges in vertices/s and a hash of the outputs of each
-path (they must be equal).
+The old path is the same call with baseline_passes=True (the previous pass structure). Prints
+medians and ranges (seconds, vertices/s, CPU time of all threads, the native phase seconds) and a
+hash of each path's outputs (they must be equal).
 """
 import argparse
 import hashlib
@@ -39,7 +40,6 @@ def blender_main():
     sys.path.insert(0, os.path.join(os.path.dirname(HERE), "blender"))
     sys.path.insert(0, HERE)
     import bpy
-    import numpy as np
 
     import bench_addon
     import harness
