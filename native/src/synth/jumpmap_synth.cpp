@@ -98,8 +98,10 @@ class Synthesizer {
     throw_if_cancelled(p_.cancel);
     r.vertex_address.resize(size_t(m_.num_vertices) * 2);
     auto copy_addresses = [&](int32_t begin, int32_t end) {
-      for (int32_t v = begin; v < end; ++v)
-        r.vertex_address[2 * size_t(v)] = state_[v].address[0], r.vertex_address[2 * size_t(v) + 1] = state_[v].address[1];
+      for (int32_t v = begin; v < end; ++v) {
+        r.vertex_address[2 * size_t(v)] = state_[v].address[0];
+        r.vertex_address[2 * size_t(v) + 1] = state_[v].address[1];
+      }
     };
     if (p_.baseline_passes) {
       copy_addresses(0, m_.num_vertices);
@@ -563,7 +565,9 @@ class Synthesizer {
     } else {  // an exact count, so the same in parallel
       st.fallback_faces = tbb::parallel_reduce(
           tbb::blocked_range<int32_t>(0, m_.num_polys, 16384), int64_t(0),
-          [&](const tbb::blocked_range<int32_t>& range, int64_t faces) { return faces + count_faces(range.begin(), range.end()); },
+          [&](const tbb::blocked_range<int32_t>& range, int64_t faces) {
+            return faces + count_faces(range.begin(), range.end());
+          },
           [](int64_t a, int64_t b) { return a + b; });
     }
   }
