@@ -213,3 +213,29 @@ def test_packed_set_pairs_hold_the_same_sets_as_blend_uv(pre, triangles):
         np.testing.assert_array_equal(pairs[k // 2][:, (k % 2) * 2:(k % 2) * 2 + 2], expected)
     np.testing.assert_array_equal(packed["base_uv"], plain["base_uv"])
     np.testing.assert_array_equal(packed["blend_weights"], plain["blend_weights"])
+
+
+@pytest.mark.parametrize("triangles", [True, False])
+@pytest.mark.parametrize("pack_sets", [True, False])
+@pytest.mark.parametrize("blend", [True, False])
+def test_baseline_passes_give_identical_outputs_on_a_shuffled_mesh(pre, triangles, pack_sets, blend):
+    """baseline_passes=True (the previous pass structure, kept for benchmarks) and the default give
+    the same bytes, with vertex numbering and polygon order unrelated to the surface; phase
+    seconds are reported."""
+    pos, corner_verts, starts, sizes = grid(30, 0.05, triangles=triangles, jitter=0.4)
+    rng = np.random.default_rng(5)
+    new_index = rng.permutation(len(pos)).astype(np.int32)
+    shuffled_pos = np.empty_like(pos)
+    shuffled_pos[new_index] = pos
+    polys = [new_index[corner_verts[s:s + n]] for s, n in zip(starts, sizes)]
+    mesh = pack(shuffled_pos, [polys[i].tolist() for i in rng.permutation(len(polys))])
+    kwargs = dict(scale=40.0, seed=3, pack_sets=pack_sets, blend=blend)
+    new = ts.synthesize_jumpmap(pre, *mesh, **kwargs)
+    old = ts.synthesize_jumpmap(pre, *mesh, baseline_passes=True, **kwargs)
+    sets_key = "blend_set_pairs" if pack_sets else "blend_uv"
+    for key in ("base_uv", sets_key, "blend_weights"):
+        assert new[key].tobytes() == old[key].tobytes(), key
+    for key in ("jumps", "fallback_vertices", "fallback_faces", "oversized_faces"):
+        assert new["stats"][key] == old["stats"][key], key
+    for key in ("seconds_mesh", "seconds_faces", "seconds_walk", "seconds_corners"):
+        assert 0.0 <= new["stats"][key] <= new["stats"]["seconds"] + new["stats"]["seconds_mesh"], key

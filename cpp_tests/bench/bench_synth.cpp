@@ -16,6 +16,7 @@
 #include <cstring>
 #include <ctime>
 #include <malloc.h>
+#include <memory>
 #include <map>
 #include <utility>
 #include <new>
@@ -147,16 +148,25 @@ void BM_MeshAndSynthesize(benchmark::State& state) {
   texsynth::JumpSynthParams params;
   params.scale = 2.0;
   params.seed = 1;
+  params.baseline_passes = state.range(2) != 0;
+  std::unique_ptr<tbb::global_control> one;
+  if (state.range(3) == 1) one = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, 1);
+  double faces = 0, walk = 0, corners = 0;  // phase seconds (JumpSynthResult::stats)
   for (auto _ : state) {
     texsynth::Mesh mesh = texsynth::build_mesh(t.input());
-    benchmark::DoNotOptimize(texsynth::synthesize_jumpmap(sample(), mesh, up.data(), params));
+    const texsynth::JumpSynthResult r = texsynth::synthesize_jumpmap(sample(), mesh, up.data(), params);
+    benchmark::DoNotOptimize(r);
+    faces += r.stats.seconds_faces, walk += r.stats.seconds_walk, corners += r.stats.seconds_corners;
   }
+  state.counters["faces_s"] = faces / double(state.iterations());
+  state.counters["walk_s"] = walk / double(state.iterations());
+  state.counters["corners_s"] = corners / double(state.iterations());
   state.SetItemsProcessed(state.iterations() * t.num_vertices());
   state.counters["faces"] = double(t.poly_starts.size());
 }
 BENCHMARK(BM_MeshAndSynthesize)
-    ->ArgsProduct({{1000000}, {0, 1}})
-    ->ArgNames({"faces", "shuffled"})
+    ->ArgsProduct({{1000000}, {0, 1}, {1, 0}, {0, 1}})
+    ->ArgNames({"faces", "shuffled", "baseline_passes", "one_thread"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

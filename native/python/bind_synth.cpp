@@ -2,6 +2,8 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
+#include <chrono>
+
 #include "cancel_arg.hpp"
 #include "field_args.hpp"
 #include "texsynth/preprocess/preprocessed.hpp"
@@ -18,7 +20,7 @@ void bind_synth(py::module_& m) {
          py::object poly_sizes, double scale, double jump_rate, uint64_t seed, bool blend, const std::string& orientation,
          py::object axis, py::object direction, py::object anchor_vertices, py::object anchor_directions,
          py::object sources, py::object sinks, py::object normals, py::object scale_multiplier, bool allow_oversized,
-         py::object cancel, bool pack_sets) {
+         py::object cancel, bool pack_sets, bool baseline_passes) {
         OrientedMeshArgs args = oriented_mesh_args(positions, corner_verts, poly_starts, poly_sizes, normals, orientation,
                                                    axis, direction, anchor_vertices, anchor_directions, sources, sinks);
         const texsynth::PolyMeshInput& input = args.arrays.input;
@@ -29,6 +31,7 @@ void bind_synth(py::module_& m) {
         params.seed = seed;
         params.blend = blend;
         params.allow_oversized = allow_oversized;
+        params.baseline_passes = baseline_passes;
         params.scale_multiplier = scale_multiplier.is_none() ? nullptr : multiplier.data();
         params.cancel = args.field.params.cancel = cancel_flag(cancel);
         // Outputs allocated here (uninitialised) and written once by the core, no copies.
@@ -41,9 +44,12 @@ void bind_synth(py::module_& m) {
                                       blend_weights.mutable_data()};
         view.packed_pairs = pack_sets;
         texsynth::JumpSynthResult r;
+        double mesh_seconds = 0;
         {
           py::gil_scoped_release release;
+          const auto start = std::chrono::steady_clock::now();
           const OrientedMeshArgs::Built built = args.build();
+          mesh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
           r = texsynth::synthesize_jumpmap(pre, built.mesh, built.up.data(), params, view);
         }
         py::dict stats;
@@ -57,6 +63,10 @@ void bind_synth(py::module_& m) {
         stats["oversized_faces"] = r.stats.oversized_faces;
         stats["max_oversize_ratio"] = r.stats.max_oversize_ratio;
         stats["seconds"] = r.stats.seconds;
+        stats["seconds_mesh"] = mesh_seconds;  // build_mesh + orientation field, before `seconds`
+        stats["seconds_faces"] = r.stats.seconds_faces;
+        stats["seconds_walk"] = r.stats.seconds_walk;
+        stats["seconds_corners"] = r.stats.seconds_corners;
         py::dict out;
         out["base_uv"] = base_uv;
         out[pack_sets ? "blend_set_pairs" : "blend_uv"] = blend_uv;
@@ -71,12 +81,16 @@ void bind_synth(py::module_& m) {
       py::arg("anchor_vertices") = py::none(), py::arg("anchor_directions") = py::none(), py::arg("sources") = py::none(),
       py::arg("sinks") = py::none(), py::arg("normals") = py::none(), py::arg("scale_multiplier") = py::none(),
       py::arg("allow_oversized") = false, py::arg("cancel") = py::none(), py::arg("pack_sets") = false,
+      py::arg("baseline_passes") = false,
       "Jump-map synthesis (Zelinka & Garland 2003) on a Blender-layout mesh. scale = texels per object unit.\n"
       "Returns dict: base_uv (L, 2), blend_uv (S, L, 2) (with pack_sets=True instead blend_set_pairs "
       "((S+1)/2, L, 4): (u0, v0, u1, v1), (u2, v2, u3, v3) per corner, 0 in an odd S's last slot), "
       "blend_weights (L, S) float32 (one-hot per corner), "
       "num_blend_sets S (3 all triangles, 4 otherwise, 1 when blend=False) and stats (faces, vertices, corners, "
-      "components, jumps, fallback_vertices, fallback_faces, oversized_faces, max_oversize_ratio, seconds). ValueError on bad input "
+      "components, jumps, fallback_vertices, fallback_faces, oversized_faces, max_oversize_ratio, seconds; "
+      "seconds_mesh: mesh tables and orientation field before that; seconds_faces, seconds_walk, seconds_corners: "
+      "phases within seconds). ValueError on bad input "
       "and, unless allow_oversized, when faces are larger than the sample at this scale. cancel: a CancelToken; "
-      "token.cancel() from another thread makes the call raise Cancelled within a fraction of a second.");
+      "token.cancel() from another thread makes the call raise Cancelled within a fraction of a second. "
+      "baseline_passes: benchmark switch, the previous pass structure (same outputs, slower on incoherent meshes).");
 }

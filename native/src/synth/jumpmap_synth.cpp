@@ -6,6 +6,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <atomic>
@@ -71,23 +72,43 @@ class Synthesizer {
       : pre_(pre), m_(m), p_(p), W_(float(pre.width)), H_(float(pre.height)), tileable_(pre.params.tileable),
         blend_(p.blend) {
     border_ramp_ = p.border_ramp >= 0 ? float(p.border_ramp) : std::max(1.f, 0.05f * std::min(W_, H_));
+    const auto start = std::chrono::steady_clock::now();
     build_frames(orientation);
+    frames_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   }
 
   JumpSynthResult run(const CornerMapsView& out) {
     JumpSynthResult r;
     throw_if_cancelled(p_.cancel);
-    measure_faces(r.stats);
+    using Clock = std::chrono::steady_clock;
+    auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+    Clock::time_point t = Clock::now();
+    float* scratch_boxes = measure_faces(r.stats, out);
     throw_if_cancelled(p_.cancel);
     check_oversized_faces(r.stats.oversized_faces, r.stats.max_oversize_ratio, m_.num_polys, pre_.width, pre_.height,
                           p_.scale, p_.allow_oversized);
-    order_and_walk(r.stats);
+    r.stats.seconds_faces = since(t) + frames_seconds_;
+    t = Clock::now();
+    order_and_walk(r.stats, out, scratch_boxes);
+    r.stats.seconds_walk = since(t);
     throw_if_cancelled(p_.cancel);
+    t = Clock::now();
     write_corners(out);
+    r.stats.seconds_corners = since(t);
     throw_if_cancelled(p_.cancel);
     r.vertex_address.resize(size_t(m_.num_vertices) * 2);
-    for (int32_t v = 0; v < m_.num_vertices; ++v)
-      r.vertex_address[2 * size_t(v)] = state_[v].address[0], r.vertex_address[2 * size_t(v) + 1] = state_[v].address[1];
+    auto copy_addresses = [&](int32_t begin, int32_t end) {
+      for (int32_t v = begin; v < end; ++v) {
+        r.vertex_address[2 * size_t(v)] = state_[v].address[0];
+        r.vertex_address[2 * size_t(v) + 1] = state_[v].address[1];
+      }
+    };
+    if (p_.baseline_passes) {
+      copy_addresses(0, m_.num_vertices);
+    } else {  // in parallel: a serial pass (and its fresh pages) after the parallel corner pass
+      tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 16384),
+                        [&](const tbb::blocked_range<int32_t>& range) { copy_addresses(range.begin(), range.end()); });
+    }
     r.stats.faces = m_.num_polys;
     r.stats.vertices = m_.num_vertices;
     r.stats.corners = m_.num_corners;
@@ -144,11 +165,49 @@ class Synthesizer {
     return b;
   }
 
+  // The reach box of corner `c` of polygon `poly` (corner i, face box b): the base mapping's
+  // corners and those of the blend set grown from c, relative to c (see measure_faces).
+  template <class Include>
+  void corner_reach(int32_t poly, int32_t c, const Box& b, Include&& include) const {
+    const double x = corner_offset_[2 * size_t(c)], y = corner_offset_[2 * size_t(c) + 1];
+    include(float(b.min_x - x), float(b.min_y - y));  // the base mapping (polygon frame)
+    include(float(b.max_x - x), float(b.max_y - y));
+    if (blend_) {  // the blend set grown from c's vertex (see vertex_mapping_offsets)
+      float offsets[2 * kMaxSetCorners];
+      const int32_t n = m_.poly_sizes[poly];
+      if (n <= kMaxSetCorners) {
+        vertex_mapping_offsets(m_, poly, c - m_.poly_starts[poly], vertex_frame(m_.corner_verts[c]), offsets);
+        for (int32_t i = 0; i < n; ++i) include(offsets[2 * i], offsets[2 * i + 1]);
+      } else {  // n-gon sets follow the polygon frame (see write_corners)
+        include(float(b.min_x - x), float(b.min_y - y));
+        include(float(b.max_x - x), float(b.max_y - y));
+      }
+    }
+  }
+
   // Pass 1: in-face corner offsets (parallel, per polygon), then per-vertex reach boxes (validity,
-  // §4.2.4; parallel, per vertex over its corners in ascending order, so the float min/max are the
-  // same whatever the thread count) and oversized-face statistics (exact max and count).
-  void measure_faces(SynthStats& st) {
+  // §4.2.4) and oversized-face statistics (exact max and count). A vertex's box is the min/max
+  // over its corners' boxes, started at 0: exact, so the same floats in any order or thread count.
+  // The corner boxes need the polygon's corners, positions and frames: on a mesh whose vertex and
+  // polygon orders disagree, gathering them per vertex misses the cache on every corner. So each
+  // polygon pass writes its corners' boxes (16 bytes per corner) and the vertex pass only reads
+  // those. They go into the blend-set output when it has room (written later by write_corners
+  // anyway: no fresh pages for a temporary); returns that buffer, null if another was used.
+  float* measure_faces(SynthStats& st, const CornerMapsView& out) {
     corner_offset_.resize(size_t(m_.num_corners) * 2);
+    const size_t L = size_t(m_.num_corners), S = size_t(out.num_blend_sets);
+    const size_t blend_floats = out.packed_pairs ? (S + 1) / 2 * L * 4 : S * L * 2;
+    UninitializedVector<float> own_boxes;
+    float* corner_box = nullptr;  // 4 floats per corner: min x, min y, max x, max y
+    float* scratch = nullptr;
+    if (!p_.baseline_passes) {
+      if (blend_floats >= 4 * L) {
+        corner_box = scratch = out.blend_uv;
+      } else {
+        own_boxes.resize(4 * L);
+        corner_box = own_boxes.data();
+      }
+    }
     std::atomic<int32_t> first_huge_face{std::numeric_limits<int32_t>::max()};
     const double w = pre_.width, h = pre_.height;
     struct Oversize {
@@ -173,6 +232,16 @@ class Synthesizer {
         const double ratio = std::max((double(b.max_x) - b.min_x) / w, (double(b.max_y) - b.min_y) / h);
         local.max_ratio = std::max(local.max_ratio, ratio);
         if (ratio > 1.0) ++local.count;
+        if (corner_box)
+          for (int32_t c = m_.poly_starts[poly]; c < m_.poly_starts[poly] + m_.poly_sizes[poly]; ++c) {
+            Box reach;
+            corner_reach(poly, c, b, [&reach](float x, float y) {
+              reach.min_x = std::min(reach.min_x, x), reach.max_x = std::max(reach.max_x, x);
+              reach.min_y = std::min(reach.min_y, y), reach.max_y = std::max(reach.max_y, y);
+            });
+            float* to = corner_box + 4 * size_t(c);
+            to[0] = reach.min_x, to[1] = reach.min_y, to[2] = reach.max_x, to[3] = reach.max_y;
+          }
       }
     });
     if (first_huge_face.load() < m_.num_polys)  // the lowest such face, as a serial loop would report
@@ -193,26 +262,18 @@ class Synthesizer {
         };
         for (int32_t k = m_.vertex_corner_start[v]; k < m_.vertex_corner_start[v + 1]; ++k) {
           const int32_t c = m_.vertex_corners[k];
-          const int32_t poly = m_.corner_poly[c];
-          const Box b = face_box(poly);
-          const double x = corner_offset_[2 * size_t(c)], y = corner_offset_[2 * size_t(c) + 1];
-          include(float(b.min_x - x), float(b.min_y - y));  // the base mapping (polygon frame)
-          include(float(b.max_x - x), float(b.max_y - y));
-          if (blend_) {  // the blend set grown from v (see vertex_mapping_offsets)
-            float offsets[2 * kMaxSetCorners];
-            const int32_t n = m_.poly_sizes[poly];
-            if (n <= kMaxSetCorners) {
-              vertex_mapping_offsets(m_, poly, c - m_.poly_starts[poly], vertex_frame(v), offsets);
-              for (int32_t i = 0; i < n; ++i) include(offsets[2 * i], offsets[2 * i + 1]);
-            } else {  // n-gon sets follow the polygon frame (see write_corners)
-              include(float(b.min_x - x), float(b.min_y - y));
-              include(float(b.max_x - x), float(b.max_y - y));
-            }
+          if (corner_box) {
+            const float* from = corner_box + 4 * size_t(c);
+            include(from[0], from[1]), include(from[2], from[3]);
+          } else {  // baseline: the polygon's data gathered per corner
+            const int32_t poly = m_.corner_poly[c];
+            corner_reach(poly, c, face_box(poly), include);
           }
         }
         reach_[v] = reach;
       }
     });
+    return scratch;
   }
 
   // Distance (texels) from the reach box placed at (x, y) to the nearest sample border; < 0 = invalid.
@@ -269,9 +330,22 @@ class Synthesizer {
     float texel_weight[4];       // bilinear × the texel's summed jump weights
   };
 
+  // Touches one float per 4 KiB page of an output buffer: the kernel's page faults (zeroing fresh
+  // pages) then happen here instead of in write_corners. Stops early when cancelled.
+  void prefault(float* data, size_t count) const {
+    constexpr size_t kPage = 4096 / sizeof(float);
+    volatile float* p = data;  // stores the compiler must keep (write_corners overwrites them)
+    for (size_t i = 0; i < count; i += kPage) {
+      if ((i / kPage & 255) == 0 && p_.cancel && p_.cancel->load(std::memory_order_relaxed)) return;
+      p[i] = 0.f;
+    }
+  }
+
   // The order (§4.1) and the walk over it are both serial: with a second thread the order is built
-  // there while the walk follows it, a few entries behind. Same order and draws either way.
-  void order_and_walk(SynthStats& st) {
+  // there while the walk follows it, a few entries behind. Same order and draws either way. The
+  // order is much faster than the walk, so that thread then pre-faults the output pages not yet
+  // touched (all but the corner boxes in `scratch`, see measure_faces), off the critical path.
+  void order_and_walk(SynthStats& st, const CornerMapsView& out, const float* scratch) {
     UninitializedVector<int32_t> order(size_t(m_.num_vertices));
     UninitializedVector<uint32_t> ordered_neighbours(size_t(m_.num_vertices));
     std::atomic<int32_t> ready{0};
@@ -285,10 +359,20 @@ class Synthesizer {
       }
       order_done.store(true, std::memory_order_release);
     };
+    auto order_then_prefault = [&] {
+      build_order();
+      if (p_.baseline_passes || order_error) return;
+      const size_t L = size_t(out.num_corners), S = size_t(out.num_blend_sets);
+      prefault(out.base_uv, 2 * L);
+      prefault(out.blend_weights, S * L);
+      const size_t blend_floats = out.packed_pairs ? (S + 1) / 2 * L * 4 : S * L * 2;
+      const size_t touched = out.blend_uv == scratch ? 4 * L : 0;  // the corner boxes' part
+      prefault(out.blend_uv + touched, blend_floats - touched);
+    };
     std::thread producer;
     if (usable_threads() > 1) {
       try {
-        producer = std::thread(build_order);
+        producer = std::thread(order_then_prefault);
       } catch (const std::system_error&) {  // no thread to be had: build the order here first
       }
     }
@@ -465,13 +549,27 @@ class Synthesizer {
       }
       state_[v].address[0] = x, state_[v].address[1] = y;
     }
-    if (st.fallback_vertices > 0)
-      for (int32_t poly = 0; poly < m_.num_polys; ++poly)
+    if (st.fallback_vertices == 0) return;
+    auto count_faces = [&](int32_t begin, int32_t end) {
+      int64_t faces = 0;
+      for (int32_t poly = begin; poly < end; ++poly)
         for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i)
           if (fell_back[m_.corner_verts[m_.poly_starts[poly] + i]]) {
-            ++st.fallback_faces;
+            ++faces;
             break;
           }
+      return faces;
+    };
+    if (p_.baseline_passes) {
+      st.fallback_faces = count_faces(0, m_.num_polys);
+    } else {  // an exact count, so the same in parallel
+      st.fallback_faces = tbb::parallel_reduce(
+          tbb::blocked_range<int32_t>(0, m_.num_polys, 16384), int64_t(0),
+          [&](const tbb::blocked_range<int32_t>& range, int64_t faces) {
+            return faces + count_faces(range.begin(), range.end());
+          },
+          [](int64_t a, int64_t b) { return a + b; });
+    }
   }
 
   // Pass 3: consistent per-polygon coordinates and blend sets (§4.3–4.4). Each polygon writes only
@@ -537,6 +635,7 @@ class Synthesizer {
   const bool tileable_;
   const bool blend_;
   float border_ramp_;
+  double frames_seconds_ = 0;
   // Everything the walk reads per neighbour in one 32-byte record (one cache line, not four).
   struct VertexState {
     float up[3], right[3];

@@ -48,6 +48,9 @@ struct JumpSynthParams {
   // exact filtered table is built. 0 = always build the exact table (slower, same distribution).
   int max_rejection_draws = 8;
   const std::atomic<bool>* cancel = nullptr;  // raised by another thread: throws texsynth::Cancelled
+  // Benchmark/test switch: the previous pass structure (validity boxes gathered per vertex from
+  // each polygon's data, output pages first touched by the corner pass). Same outputs either way.
+  bool baseline_passes = false;
 };
 
 struct SynthStats {
@@ -58,6 +61,9 @@ struct SynthStats {
   int64_t oversized_faces = 0;     // faces whose texture-space extent exceeds the sample
   double max_oversize_ratio = 0;   // max over faces of extent / sample side (≤ 1 when none)
   double seconds = 0;
+  // Wall seconds of the phases within `seconds`: frames + face measuring (validity boxes), the
+  // order and walk (serial), the corner output.
+  double seconds_faces = 0, seconds_walk = 0, seconds_corners = 0;
 };
 
 struct JumpSynthResult {
