@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The jump map's pass structure (validity boxes written per corner by the polygon pass and
-// gathered per vertex, in the blend-set output or a buffer of their own; output pages pre-faulted
-// by the order thread; parallel address copy and fallback-face count) against the previous passes
+// gathered per vertex, in the blend-weight output or a buffer of their own; the blend sets'
+// vertex-mapping offsets stored in the blend-set output by that pass and completed by the corner
+// pass; output pages pre-faulted by the order thread; parallel address copy and fallback-face
+// count) against the previous passes
 // (JumpSynthParams::baseline_passes), bit for bit, on meshes whose vertex and polygon orders are
 // shuffled, at 1 and 2 threads, for every blend-set count and output layout.
 #include <gtest/gtest.h>
@@ -136,11 +138,11 @@ TEST(SynthJumpmapPasses, ShuffledMeshesGiveTheBaselineOutputsAtOneAndTwoThreads)
   const TestMesh sphere = shuffled(fixtures::uv_sphere(60, 90, 1.0, 0.05), 4);  // all triangles: S = 3
   const std::vector<Case> cases = {
       {"mixed, S=4, vectors", mixed, true, false, false, 6.0, 256},
-      {"mixed, S=4, packed view", mixed, true, true, true, 6.0, 256},
-      {"sphere, S=3, view", sphere, true, true, false, 40.0, 128},
+      {"mixed, S=4, packed view (boxes in the weights)", mixed, true, true, true, 6.0, 256},
+      {"sphere, S=3, view (boxes in their own buffer)", sphere, true, true, false, 40.0, 128},
       {"sphere, S=3, packed view", sphere, true, true, true, 40.0, 128},
       {"mixed, S=1, vectors (boxes in their own buffer)", mixed, false, false, false, 6.0, 256},
-      {"mixed, S=1, packed view (boxes in the output)", mixed, false, true, true, 6.0, 256},
+      {"mixed, S=1, packed view (no sets stored)", mixed, false, true, true, 6.0, 256},
       // A small sample: many vertices have no valid candidate (fallback faces counted in parallel).
       {"mixed, S=4, small sample", mixed, true, true, true, 9.0, 24},
   };

@@ -36,6 +36,10 @@ struct Box {  // texel-space offsets reachable from a vertex's address through i
   float min_x = 0, min_y = 0, max_x = 0, max_y = 0;
 };
 
+struct Touched {  // output buffers measure_faces wrote (their pages are already faulted in)
+  bool blend_uv = false, blend_weights = false;
+};
+
 void validate_preprocessed(const Preprocessed& pre) {
   if (pre.width <= 0 || pre.height <= 0)
     throw std::invalid_argument("preprocessed sample has no pixels (" + std::to_string(pre.width) + "x" +
@@ -83,13 +87,13 @@ class Synthesizer {
     using Clock = std::chrono::steady_clock;
     auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
     Clock::time_point t = Clock::now();
-    float* scratch_boxes = measure_faces(r.stats, out);
+    const Touched touched = measure_faces(r.stats, out);
     throw_if_cancelled(p_.cancel);
     check_oversized_faces(r.stats.oversized_faces, r.stats.max_oversize_ratio, m_.num_polys, pre_.width, pre_.height,
                           p_.scale, p_.allow_oversized);
     r.stats.seconds_faces = since(t) + frames_seconds_;
     t = Clock::now();
-    order_and_walk(r.stats, out, scratch_boxes);
+    order_and_walk(r.stats, out, touched);
     r.stats.seconds_walk = since(t);
     throw_if_cancelled(p_.cancel);
     t = Clock::now();
@@ -167,8 +171,9 @@ class Synthesizer {
 
   // The reach box of corner `c` of polygon `poly` (corner i, face box b): the base mapping's
   // corners and those of the blend set grown from c, relative to c (see measure_faces).
+  // With `stash`, the blend set grown from c (set i, see write_corners) is stored there as offsets.
   template <class Include>
-  void corner_reach(int32_t poly, int32_t c, const Box& b, Include&& include) const {
+  void corner_reach(int32_t poly, int32_t c, const Box& b, Include&& include, const CornerMapsView* stash = nullptr) const {
     const double x = corner_offset_[2 * size_t(c)], y = corner_offset_[2 * size_t(c) + 1];
     include(float(b.min_x - x), float(b.min_y - y));  // the base mapping (polygon frame)
     include(float(b.max_x - x), float(b.max_y - y));
@@ -176,8 +181,14 @@ class Synthesizer {
       float offsets[2 * kMaxSetCorners];
       const int32_t n = m_.poly_sizes[poly];
       if (n <= kMaxSetCorners) {
-        vertex_mapping_offsets(m_, poly, c - m_.poly_starts[poly], vertex_frame(m_.corner_verts[c]), offsets);
-        for (int32_t i = 0; i < n; ++i) include(offsets[2 * i], offsets[2 * i + 1]);
+        const int32_t i = c - m_.poly_starts[poly];
+        vertex_mapping_offsets(m_, poly, i, vertex_frame(m_.corner_verts[c]), offsets);
+        for (int32_t k = 0; k < n; ++k) include(offsets[2 * k], offsets[2 * k + 1]);
+        if (stash)
+          for (int32_t k = 0; k < n; ++k) {
+            float* to = stash->set_uv(i, size_t(m_.poly_starts[poly]) + k);
+            to[0] = offsets[2 * k], to[1] = offsets[2 * k + 1];
+          }
       } else {  // n-gon sets follow the polygon frame (see write_corners)
         include(float(b.min_x - x), float(b.min_y - y));
         include(float(b.max_x - x), float(b.max_y - y));
@@ -191,22 +202,25 @@ class Synthesizer {
   // The corner boxes need the polygon's corners, positions and frames: on a mesh whose vertex and
   // polygon orders disagree, gathering them per vertex misses the cache on every corner. So each
   // polygon pass writes its corners' boxes (16 bytes per corner) and the vertex pass only reads
-  // those. They go into the blend-set output when it has room (written later by write_corners
-  // anyway: no fresh pages for a temporary); returns that buffer, null if another was used.
-  float* measure_faces(SynthStats& st, const CornerMapsView& out) {
+  // those. They go into the blend-weight output when it has room (written later by write_corners
+  // anyway: no fresh pages for a temporary). The vertex-mapping offsets the boxes are made of are
+  // the blend sets' values less the vertex's address: they are stored in the blend-set output, and
+  // write_corners adds the addresses instead of computing them again (see stashed_sets_).
+  Touched measure_faces(SynthStats& st, const CornerMapsView& out) {
     corner_offset_.resize(size_t(m_.num_corners) * 2);
     const size_t L = size_t(m_.num_corners), S = size_t(out.num_blend_sets);
-    const size_t blend_floats = out.packed_pairs ? (S + 1) / 2 * L * 4 : S * L * 2;
     UninitializedVector<float> own_boxes;
     float* corner_box = nullptr;  // 4 floats per corner: min x, min y, max x, max y
-    float* scratch = nullptr;
+    Touched touched;
     if (!p_.baseline_passes) {
-      if (blend_floats >= 4 * L) {
-        corner_box = scratch = out.blend_uv;
+      if (S >= 4) {
+        corner_box = out.blend_weights;
+        touched.blend_weights = true;
       } else {
         own_boxes.resize(4 * L);
         corner_box = own_boxes.data();
       }
+      stashed_sets_ = touched.blend_uv = blend_;
     }
     std::atomic<int32_t> first_huge_face{std::numeric_limits<int32_t>::max()};
     const double w = pre_.width, h = pre_.height;
@@ -238,7 +252,7 @@ class Synthesizer {
             corner_reach(poly, c, b, [&reach](float x, float y) {
               reach.min_x = std::min(reach.min_x, x), reach.max_x = std::max(reach.max_x, x);
               reach.min_y = std::min(reach.min_y, y), reach.max_y = std::max(reach.max_y, y);
-            });
+            }, stashed_sets_ ? &out : nullptr);
             float* to = corner_box + 4 * size_t(c);
             to[0] = reach.min_x, to[1] = reach.min_y, to[2] = reach.max_x, to[3] = reach.max_y;
           }
@@ -273,7 +287,7 @@ class Synthesizer {
         reach_[v] = reach;
       }
     });
-    return scratch;
+    return touched;
   }
 
   // Distance (texels) from the reach box placed at (x, y) to the nearest sample border; < 0 = invalid.
@@ -344,8 +358,8 @@ class Synthesizer {
   // The order (§4.1) and the walk over it are both serial: with a second thread the order is built
   // there while the walk follows it, a few entries behind. Same order and draws either way. The
   // order is much faster than the walk, so that thread then pre-faults the output pages not yet
-  // touched (all but the corner boxes in `scratch`, see measure_faces), off the critical path.
-  void order_and_walk(SynthStats& st, const CornerMapsView& out, const float* scratch) {
+  // touched (those measure_faces did not write), off the critical path.
+  void order_and_walk(SynthStats& st, const CornerMapsView& out, const Touched& touched) {
     UninitializedVector<int32_t> order(size_t(m_.num_vertices));
     UninitializedVector<uint32_t> ordered_neighbours(size_t(m_.num_vertices));
     std::atomic<int32_t> ready{0};
@@ -364,10 +378,8 @@ class Synthesizer {
       if (p_.baseline_passes || order_error) return;
       const size_t L = size_t(out.num_corners), S = size_t(out.num_blend_sets);
       prefault(out.base_uv, 2 * L);
-      prefault(out.blend_weights, S * L);
-      const size_t blend_floats = out.packed_pairs ? (S + 1) / 2 * L * 4 : S * L * 2;
-      const size_t touched = out.blend_uv == scratch ? 4 * L : 0;  // the corner boxes' part
-      prefault(out.blend_uv + touched, blend_floats - touched);
+      if (!touched.blend_weights) prefault(out.blend_weights, S * L);
+      if (!touched.blend_uv) prefault(out.blend_uv, out.packed_pairs ? (S + 1) / 2 * L * 4 : S * L * 2);
     };
     std::thread producer;
     if (usable_threads() > 1) {
@@ -602,7 +614,14 @@ class Synthesizer {
           if (n > kMaxSetCorners) return grow(from, set);
           float offsets[2 * kMaxSetCorners];
           const int32_t v = m_.corner_verts[first + from];
-          vertex_mapping_offsets(m_, poly, from, vertex_frame(v), offsets);
+          if (stashed_sets_ && set == from) {  // stored by measure_faces (corner_reach)
+            for (int32_t i = 0; i < n; ++i) {
+              const float* from_stash = out.set_uv(set, first + i);
+              offsets[2 * i] = from_stash[0], offsets[2 * i + 1] = from_stash[1];
+            }
+          } else {
+            vertex_mapping_offsets(m_, poly, from, vertex_frame(v), offsets);
+          }
           for (int32_t i = 0; i < n; ++i) put(set, i, state_[v].address[0] + offsets[2 * i], state_[v].address[1] + offsets[2 * i + 1]);
         };
         const int32_t base = int32_t(((splitmix64(poly_seed + uint64_t(poly)) >> 32) * uint64_t(n)) >> 32);
@@ -636,6 +655,9 @@ class Synthesizer {
   const bool blend_;
   float border_ramp_;
   double frames_seconds_ = 0;
+  // measure_faces stored the vertex-mapping offsets of every polygon of at most kMaxSetCorners
+  // corners in the blend-set output (set i: grown from corner i).
+  bool stashed_sets_ = false;
   // Everything the walk reads per neighbour in one 32-byte record (one cache line, not four).
   struct VertexState {
     float up[3], right[3];
