@@ -22,57 +22,12 @@
 #include "texsynth/synth/jumpmap_synth.hpp"
 
 using fixtures::TestMesh;
+using fixtures::mixed_mesh;
+using fixtures::shuffled;
 using texsynth::JumpSynthParams;
 
 namespace {
 
-// Vertex indices permuted and polygons shuffled, each polygon's corner cycle kept (rotated by a
-// random start): an order unrelated to the surface, as after some importers and subdivisions.
-TestMesh shuffled(const TestMesh& t, uint64_t seed) {
-  texsynth::Rng rng(seed);
-  const int32_t nv = t.num_vertices(), np = int32_t(t.poly_starts.size());
-  std::vector<int32_t> new_index(nv), poly_order(np);
-  for (int32_t i = 0; i < nv; ++i) new_index[i] = i;
-  for (int32_t i = 0; i < np; ++i) poly_order[i] = i;
-  for (int32_t i = nv - 1; i > 0; --i) std::swap(new_index[i], new_index[rng.below(uint32_t(i + 1))]);
-  for (int32_t i = np - 1; i > 0; --i) std::swap(poly_order[i], poly_order[rng.below(uint32_t(i + 1))]);
-  TestMesh out;
-  out.positions.resize(t.positions.size());
-  for (int32_t v = 0; v < nv; ++v)
-    for (int a = 0; a < 3; ++a) out.positions[3 * size_t(new_index[v]) + a] = t.positions[3 * size_t(v) + a];
-  for (int32_t p : poly_order) {
-    const int32_t n = t.poly_sizes[p], start = int32_t(rng.below(uint32_t(n)));
-    std::vector<int32_t> verts;
-    for (int32_t i = 0; i < n; ++i) verts.push_back(new_index[t.corner_verts[t.poly_starts[p] + (start + i) % n]]);
-    out.add_poly(verts);
-  }
-  return out;
-}
-
-// Jittered quads, triangles of a noisy sphere and a strip of hexagons (n-gons: n > 4 sets).
-TestMesh mixed_mesh() {
-  TestMesh m = fixtures::grid(70, 60, 1.0, false, 0.35, 9);
-  auto append = [&m](const TestMesh& part, double dx) {
-    const int32_t offset = m.num_vertices();
-    for (int32_t v = 0; v < part.num_vertices(); ++v)
-      m.add_vertex(part.positions[3 * v] + dx, part.positions[3 * v + 1], part.positions[3 * v + 2]);
-    for (size_t p = 0; p < part.poly_starts.size(); ++p) {
-      std::vector<int32_t> poly;
-      for (int32_t i = 0; i < part.poly_sizes[p]; ++i) poly.push_back(part.corner_verts[part.poly_starts[p] + i] + offset);
-      m.add_poly(poly);
-    }
-  };
-  append(fixtures::uv_sphere(30, 50, 8.0, 0.05), 100.0);
-  TestMesh hexagons;  // two rows of vertices, each hexagon 0-1-2 on the bottom, 2'-1'-0' on top
-  for (int row = 0; row < 2; ++row)
-    for (int i = 0; i <= 40; ++i) hexagons.add_vertex(i * 0.6, row * 1.3 + ((i % 2) ? 0.2 : 0.0), 0.1 * (i % 3));
-  for (int h = 0; h < 20; ++h) {
-    const int32_t b = 2 * h, t = 41 + 2 * h;
-    hexagons.add_poly({b, b + 1, b + 2, t + 2, t + 1, t});
-  }
-  append(hexagons, -50.0);
-  return m;
-}
 
 struct Outputs {
   texsynth::JumpSynthResult result;

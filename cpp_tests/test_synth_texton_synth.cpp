@@ -4,9 +4,12 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "blend_checks.hpp"
 #include "mesh_fixtures.hpp"
@@ -388,3 +391,95 @@ TEST(TextonSynth, BadGrowthParametersAreRefused) {
 }
 
 }  // namespace
+
+// The parallel edge table against its definition, built by brute force: edges are the distinct
+// (a, b), a < b, of consecutive corners, sorted; each lists its corners ascending. On a shuffled
+// mixed mesh plus a non-manifold fan (three triangles on one edge) and a polygon with a repeated
+// vertex (a zero-length corner edge: -1).
+TEST(TextonSynth, EdgeTableMatchesItsDefinitionAtOneAndTwoThreads) {
+  fixtures::TestMesh tm = fixtures::shuffled(fixtures::mixed_mesh(), 11);
+  const int32_t a = tm.add_vertex(500, 0, 0), b = tm.add_vertex(501, 0, 0);
+  for (int k = 0; k < 3; ++k) tm.add_poly({a, b, tm.add_vertex(500.5, 1, k)});
+  const int32_t c = tm.add_vertex(510, 0, 0), d = tm.add_vertex(511, 0, 0), f = tm.add_vertex(511, 1, 0);
+  tm.add_poly({c, d, d, f});
+  const texsynth::Mesh mesh = texsynth::build_mesh(tm.input());
+  std::vector<std::pair<int32_t, int32_t>> pairs;
+  std::vector<std::pair<int32_t, int32_t>> corner_pair(tm.corner_verts.size(), {-1, -1});
+  for (size_t p = 0; p < tm.poly_starts.size(); ++p)
+    for (int32_t i = 0; i < tm.poly_sizes[p]; ++i) {
+      const int32_t first = tm.poly_starts[p];
+      const int32_t u = tm.corner_verts[first + i], w = tm.corner_verts[first + (i + 1) % tm.poly_sizes[p]];
+      if (u == w) continue;
+      corner_pair[first + i] = {std::min(u, w), std::max(u, w)};
+      pairs.push_back(corner_pair[first + i]);
+    }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  for (int threads : {1, 2}) {
+    tbb::global_control control(tbb::global_control::max_allowed_parallelism, threads);
+    const texsynth::MeshEdges e = texsynth::build_mesh_edges(mesh);
+    ASSERT_EQ(e.num_edges(), int32_t(pairs.size())) << threads << " threads";
+    for (size_t i = 0; i < pairs.size(); ++i)
+      ASSERT_EQ(std::make_pair(e.vertices[2 * i], e.vertices[2 * i + 1]), pairs[i]) << "edge " << i;
+    std::vector<std::vector<int32_t>> expected(pairs.size());
+    int32_t degenerate = 0;
+    for (size_t corner = 0; corner < corner_pair.size(); ++corner) {
+      ASSERT_EQ(e.corner_poly[corner], mesh.corner_poly[corner]);
+      if (corner_pair[corner].first < 0) {
+        EXPECT_EQ(e.corner_edge[corner], -1);
+        ++degenerate;
+        continue;
+      }
+      const size_t id = std::lower_bound(pairs.begin(), pairs.end(), corner_pair[corner]) - pairs.begin();
+      ASSERT_EQ(e.corner_edge[corner], int32_t(id)) << "corner " << corner;
+      expected[id].push_back(int32_t(corner));
+    }
+    EXPECT_EQ(degenerate, 1);
+    size_t non_manifold = 0;
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      non_manifold += expected[i].size() == 3;
+      ASSERT_EQ(std::vector<int32_t>(e.edge_corners.begin() + e.edge_corner_start[i],
+                                     e.edge_corners.begin() + e.edge_corner_start[i + 1]),
+                expected[i])
+          << "edge " << i;
+    }
+    EXPECT_EQ(non_manifold, 1u);
+  }
+}
+
+// Outputs written into caller buffers (the bindings' numpy arrays, uninitialised): every element
+// is written, with the values of the vector form; the packed layout is pack_set_pairs of the sets.
+TEST(TextonSynth, OutputViewWritesEveryElementWithTheVectorValues) {
+  const auto pre = fixtures::label_sample(96, 96, 24, false);
+  const auto pixels = fixtures::label_colours(pre);
+  const fixtures::TestMesh tm = fixtures::shuffled(fixtures::mixed_mesh(), 12);
+  for (bool blend : {true, false})
+    for (bool packed : {false, true}) {
+      texsynth::TextonSynthParams p;
+      p.scale = 4.0;
+      p.seed = 3;
+      p.blend = blend;
+      const SynthRun reference = run(tm, pre, pixels, p);
+      const texsynth::CornerMaps& maps = reference.result.maps;
+      const size_t L = size_t(maps.num_corners), S = size_t(texsynth::texton_blend_sets(blend));
+      ASSERT_EQ(size_t(maps.num_blend_sets), S);
+      std::vector<float> base(L * 2, -7.f), sets(packed ? (S + 1) / 2 * L * 4 : S * L * 2, -7.f), weights(L * S, -7.f);
+      texsynth::CornerMapsView view{maps.num_corners, int32_t(S), base.data(), sets.data(), weights.data()};
+      view.packed_pairs = packed;
+      texsynth::SampleImage s{pixels.data(), pre.width, pre.height, 3};
+      const texsynth::TextonSynthResult r = texsynth::synthesize_texton(pre, reference.mesh, reference.up.data(), s, p, view);
+      EXPECT_TRUE(r.maps.base_uv.empty());
+      EXPECT_EQ(base, maps.base_uv);
+      EXPECT_EQ(weights, maps.blend_weights);
+      std::vector<float> expected_sets = maps.blend_uv;
+      if (packed) {
+        expected_sets.assign(sets.size(), -1.f);
+        texsynth::pack_set_pairs(maps.blend_uv.data(), int32_t(S), int32_t(L), expected_sets.data());
+      }
+      EXPECT_EQ(sets, expected_sets) << "blend " << blend << ", packed " << packed;
+      EXPECT_EQ(r.edge_error, reference.result.edge_error);
+      texsynth::CornerMapsView wrong = view;
+      wrong.num_blend_sets = int32_t(S) + 1;
+      EXPECT_THROW(texsynth::synthesize_texton(pre, reference.mesh, reference.up.data(), s, p, wrong), std::invalid_argument);
+    }
+}

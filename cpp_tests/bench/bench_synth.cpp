@@ -111,29 +111,6 @@ BENCHMARK(BM_SynthesizeOneCore)
     ->ArgNames({"faces", "sphere"})
     ->Unit(benchmark::kMillisecond);
 
-// Vertex indices randomly permuted and polygons shuffled (corner cycles kept): the incoherent
-// order Blender's subdivision gives (the bunny), against the grid's row-major order.
-fixtures::TestMesh shuffled(const fixtures::TestMesh& t, uint64_t seed) {
-  texsynth::Rng rng(seed);
-  const int32_t nv = t.num_vertices(), np = int32_t(t.poly_starts.size());
-  std::vector<int32_t> new_index(nv), poly_order(np);
-  for (int32_t i = 0; i < nv; ++i) new_index[i] = i;
-  for (int32_t i = 0; i < np; ++i) poly_order[i] = i;
-  for (int32_t i = nv - 1; i > 0; --i) std::swap(new_index[i], new_index[rng.below(uint32_t(i + 1))]);
-  for (int32_t i = np - 1; i > 0; --i) std::swap(poly_order[i], poly_order[rng.below(uint32_t(i + 1))]);
-  fixtures::TestMesh out;
-  out.positions.resize(t.positions.size());
-  for (int32_t v = 0; v < nv; ++v)
-    for (int a = 0; a < 3; ++a) out.positions[3 * size_t(new_index[v]) + a] = t.positions[3 * size_t(v) + a];
-  std::vector<int32_t> verts;
-  for (int32_t p : poly_order) {
-    verts.assign(t.corner_verts.begin() + t.poly_starts[p], t.corner_verts.begin() + t.poly_starts[p] + t.poly_sizes[p]);
-    for (int32_t& v : verts) v = new_index[v];
-    out.add_poly(verts);
-  }
-  return out;
-}
-
 // The whole native call as the add-on makes it (build_mesh + synthesize_jumpmap, all threads) on
 // ~1M jittered quads (the bunny's size and polygon type), grid-ordered or shuffled.
 void BM_MeshAndSynthesize(benchmark::State& state) {
@@ -142,7 +119,7 @@ void BM_MeshAndSynthesize(benchmark::State& state) {
   if (t.poly_starts.empty()) {
     const int n = int(std::sqrt(double(state.range(0))));
     t = fixtures::grid(n, n, 1.0, false, 0.4);
-    if (state.range(1)) t = shuffled(t, 7);
+    if (state.range(1)) t = fixtures::shuffled(t, 7, false);
     up = texsynth::compute_orientation_field(texsynth::build_mesh(t.input()), texsynth::FieldParams());
   }
   texsynth::JumpSynthParams params;

@@ -1,7 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
+#include <chrono>
 #include <cmath>
 
 #include "cancel_arg.hpp"
@@ -79,7 +82,20 @@ void bind_texton(py::module_& m) {
           if (std::isnan(params.blend_threshold)) throw std::invalid_argument("blend_threshold must not be NaN");
         }
         texsynth::TextonSynthResult r;
-        std::vector<float> pairs;  // pack_sets: the sets in the add-on's RGBA-pair layout
+        // Outputs allocated here (uninitialised) and written once by the core, no copies.
+        const py::ssize_t L = args.arrays.input.num_corners;
+        const int32_t S = texsynth::texton_blend_sets(blend);
+        py::array_t<float> base_uv({L, py::ssize_t(2)}), blend_weights({L, py::ssize_t(S)});
+        py::array_t<float> blend_uv = pack_sets ? py::array_t<float>({py::ssize_t((S + 1) / 2), L, py::ssize_t(4)})
+                                                : py::array_t<float>({py::ssize_t(S), L, py::ssize_t(2)});
+        texsynth::CornerMapsView view{int32_t(L), S, base_uv.mutable_data(), blend_uv.mutable_data(),
+                                      blend_weights.mutable_data()};
+        view.packed_pairs = pack_sets;
+        py::array_t<bool> corner_blended({L});
+        py::array_t<float> corner_error({L});
+        bool* corner_blended_out = corner_blended.mutable_data();
+        float* corner_error_out = corner_error.mutable_data();
+        double mesh_seconds = 0;
         {
           py::gil_scoped_release release;
           if (scale_down) {
@@ -89,22 +105,20 @@ void bind_texton(py::module_& m) {
             sample.width = pre.width;
             sample.height = pre.height;
           }
+          const auto start = std::chrono::steady_clock::now();
           const OrientedMeshArgs::Built built = args.build();
-          r = texsynth::synthesize_texton(pre, built.mesh, built.up.data(), sample, params);
-          if (pack_sets) {
-            pairs.resize(size_t((r.maps.num_blend_sets + 1) / 2) * size_t(r.maps.num_corners) * 4);
-            texsynth::pack_set_pairs(r.maps.blend_uv.data(), r.maps.num_blend_sets, r.maps.num_corners, pairs.data());
-            std::vector<float>().swap(r.maps.blend_uv);
-          }
+          mesh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+          r = texsynth::synthesize_texton(pre, built.mesh, built.up.data(), sample, params, view);
+          // Per corner: the edge from this corner to the next (what the add-on shows as attributes).
+          tbb::parallel_for(tbb::blocked_range<py::ssize_t>(0, L, 65536), [&](const tbb::blocked_range<py::ssize_t>& range) {
+            for (py::ssize_t c = range.begin(); c < range.end(); ++c) {
+              const int32_t e = r.edges.corner_edge[c];
+              corner_blended_out[c] = e >= 0 && r.edge_blended[e];
+              corner_error_out[c] = e >= 0 ? r.edge_error[e] : 0.f;
+            }
+          });
         }
-        const py::ssize_t L = r.maps.num_corners, S = r.maps.num_blend_sets, E = r.edges.num_edges();
-        // Per corner: the edge from this corner to the next (what the add-on shows as attributes).
-        std::vector<uint8_t> corner_blended(size_t(L), 0);
-        std::vector<float> corner_error(size_t(L), 0.f);
-        for (py::ssize_t c = 0; c < L; ++c) {
-          const int32_t e = r.edges.corner_edge[c];
-          if (e >= 0) corner_blended[c] = r.edge_blended[e], corner_error[c] = r.edge_error[e];
-        }
+        const py::ssize_t E = r.edges.num_edges();
         py::dict stats;
         stats["faces"] = r.stats.faces;
         stats["vertices"] = r.stats.vertices;
@@ -120,21 +134,24 @@ void bind_texton(py::module_& m) {
         stats["blended_edges"] = r.stats.blended_edges;
         stats["clipped_blend_sets"] = r.stats.clipped_blend_sets;
         stats["seconds"] = r.stats.seconds;
+        stats["seconds_mesh"] = mesh_seconds;  // build_mesh + orientation field, before `seconds`
+        stats["seconds_edges"] = r.stats.seconds_edges;
+        stats["seconds_faces"] = r.stats.seconds_faces;
+        stats["seconds_grow"] = r.stats.seconds_grow;
+        stats["seconds_error"] = r.stats.seconds_error;
+        stats["seconds_blend"] = r.stats.seconds_blend;
         py::dict out;
-        out["base_uv"] = to_numpy(std::move(r.maps.base_uv), {L, 2});
-        if (pack_sets)
-          out["blend_set_pairs"] = to_numpy(std::move(pairs), {(S + 1) / 2, L, 4});
-        else
-          out["blend_uv"] = to_numpy(std::move(r.maps.blend_uv), {S, L, 2});
-        out["blend_weights"] = to_numpy(std::move(r.maps.blend_weights), {L, S});
-        out["num_blend_sets"] = r.maps.num_blend_sets;
+        out["base_uv"] = base_uv;
+        out[pack_sets ? "blend_set_pairs" : "blend_uv"] = blend_uv;
+        out["blend_weights"] = blend_weights;
+        out["num_blend_sets"] = S;
         out["stats"] = stats;
         out["edge_vertices"] = edge_vertex_array(std::move(r.edges.vertices));
         out["edge_error"] = to_numpy(std::move(r.edge_error), {E});
         out["edge_phi"] = to_numpy(std::move(r.edge_phi), {E});
         out["edge_blended"] = to_numpy(std::move(r.edge_blended), {E}).attr("astype")("bool");
-        out["corner_edge_blended"] = to_numpy(std::move(corner_blended), {L}).attr("astype")("bool");
-        out["corner_edge_error"] = to_numpy(std::move(corner_error), {L});
+        out["corner_edge_blended"] = corner_blended;
+        out["corner_edge_error"] = corner_error;
         const py::ssize_t F = py::ssize_t(r.face_region.size());
         out["face_region"] = to_numpy(std::move(r.face_region), {F});
         return out;

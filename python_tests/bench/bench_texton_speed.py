@@ -11,19 +11,40 @@ Mesh: out/bench/bunny_cc2.npz (904,896 quads) or, when missing, a synthetic jitt
 Samples: blend_samples/bricks.png (structured) and a value-noise image (stochastic), scale as bench_addon.py
 (the sample spans a quarter of the mesh). Threads: TBB's default (every core). A configuration is
 coherence_threshold:seeds_per_component. Prints per configuration: median wall seconds of the native call
-(range), faces/s, median process CPU seconds (all threads), E_t mean / p95 over interior edges, E_t mean on region-border edges, coherent / border faces.
+(range), faces/s, median process CPU seconds (all threads), E_t mean / p95 over interior edges, E_t mean on region-border edges, coherent / border faces,
+and the native phases (medians). The call is the add-on's (pack_sets=True).
+
+Another build of the module as a baseline in the same run (e.g. the previous commit's, built in a worktree):
+  PYTHONPATH=addon /usr/bin/python3.11 python_tests/bench/bench_texton_speed.py --baseline OLD_MODULE_DIR [--repeat 5]
+runs every repeat once per build, each in its own process, alternating the order, and prints both builds'
+medians and whether their outputs are identical (hash of every output array).
 """
 import argparse
+import hashlib
+import json
 import os
 import statistics
+import subprocess
 import sys
 import time
 
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-sys.path.insert(0, os.path.join(ROOT, "addon"))
+MODULE_DIR = (sys.argv[sys.argv.index("--module") + 1] if "--module" in sys.argv
+              else os.path.join(ROOT, "addon"))
+sys.path.insert(0, MODULE_DIR)
 import texsynth_native as ts  # noqa: E402
+
+OUTPUT_KEYS = ("base_uv", "blend_set_pairs", "blend_weights", "edge_error", "edge_phi", "edge_blended",
+               "corner_edge_blended", "corner_edge_error", "face_region", "edge_vertices")
+
+
+def output_hash(out):
+    digest = hashlib.sha256()
+    for key in OUTPUT_KEYS:
+        digest.update(np.ascontiguousarray(out[key]).tobytes())
+    return digest.hexdigest()[:16]
 
 
 def synthetic_grid(n=951, jitter=0.3, seed=1):
@@ -84,7 +105,12 @@ def main():
     parser.add_argument("--configs", default="0:1,0.5:1,0:16,0.5:16")
     parser.add_argument("--samples", default="bricks,noise")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--module", default=MODULE_DIR, help="directory of the texsynth_native module to time")
+    parser.add_argument("--baseline", default="", help="another module build to time in the same run")
+    parser.add_argument("--json", action="store_true", help="(child process) one JSON line of raw figures")
     args = parser.parse_args()
+    if args.baseline:
+        return compare_builds(args)
     if os.path.isfile(args.mesh):
         data = np.load(args.mesh)
         mesh = (data["positions"], data["corner_verts"], data["poly_starts"], data["poly_sizes"])
@@ -105,15 +131,24 @@ def main():
                                                                   pre.num_textons, scale))
         times = {c: [] for c in configs}
         cpu = {c: [] for c in configs}
+        phases = {c: {} for c in configs}
         results = {}
         for _ in range(args.repeat):
             for c in configs:  # alternate: machine load drifts the same way for every configuration
                 t0, c0 = time.perf_counter(), time.process_time()
                 out = ts.synthesize_texton(pre, pixels, *mesh, scale=scale, seed=args.seed, coherence_threshold=c[0],
-                                           seeds_per_component=c[1])
+                                           seeds_per_component=c[1], pack_sets=True)
                 times[c].append(time.perf_counter() - t0)
                 cpu[c].append(time.process_time() - c0)
+                for key, value in out["stats"].items():
+                    if key.startswith("seconds_"):
+                        phases[c].setdefault(key[8:], []).append(value)
                 results[c] = out
+        if args.json:
+            print(json.dumps({"sample": sample_name, "faces": faces, "configs": [
+                {"config": "%g:%d" % c, "wall": times[c], "cpu": cpu[c], "hash": output_hash(results[c]),
+                 "phases": {key: statistics.median(v) for key, v in phases[c].items()}} for c in configs]}))
+            continue
         ef = edge_faces(mesh, results[configs[0]]["edge_vertices"])
         interior = ef[:, 1] >= 0
         print("  %-10s %22s %9s %7s %17s %10s %8s %7s" % ("coh:seeds", "wall s median [range]", "faces/s", "CPU s",
@@ -130,6 +165,40 @@ def main():
                 "%g:%d" % c, med, min(times[c]), max(times[c]), faces / med, statistics.median(cpu[c]), et.mean(),
                 np.quantile(et, 0.95),
                 "%.4f" % et[border].mean() if border.any() else "-", st["coherent_faces"], st["border_faces"]))
+            if phases[c]:
+                print("  %-10s phases (medians): %s" % ("", ", ".join("%s %.3f s" % (key, statistics.median(v))
+                                                                   for key, v in phases[c].items())))
+
+
+def compare_builds(args):
+    """Each repeat runs this script once per build (its own process, --json), alternating the order."""
+    builds = [("new", os.path.abspath(args.module)), ("baseline", os.path.abspath(args.baseline))]
+    runs = {name: [] for name, _ in builds}
+    for repeat in range(args.repeat):
+        for name, directory in (builds if repeat % 2 == 0 else builds[::-1]):
+            command = [sys.executable, os.path.abspath(__file__), "--module", directory, "--json", "--repeat", "1",
+                       "--mesh", args.mesh, "--configs", args.configs, "--samples", args.samples, "--seed", str(args.seed)]
+            lines = subprocess.run(command, check=True, capture_output=True, text=True).stdout.splitlines()
+            runs[name] += [json.loads(line) for line in lines if line.startswith("{")]
+    print("builds: new %s, baseline %s; %d repeats each, alternating" % (builds[0][1], builds[1][1], args.repeat))
+    for sample in args.samples.split(","):
+        print("\nsample %s" % sample)
+        for config in args.configs.split(","):
+            figures = {}
+            for name, _ in builds:
+                rows = [c for run in runs[name] if run["sample"] == sample for c in run["configs"]
+                        if c["config"] == "%g:%d" % (float(config.split(":")[0]), int(config.split(":")[1]))]
+                wall = [w for row in rows for w in row["wall"]]
+                figures[name] = (statistics.median(wall), min(wall), max(wall),
+                                 statistics.median(c for row in rows for c in row["cpu"]),
+                                 {row["hash"] for row in rows}, rows[-1]["phases"], runs[name][0]["faces"])
+            for name, (wall, low, high, cpu, hashes, phase, faces) in figures.items():
+                print("  %-6s %-9s wall %.3f s median [%.3f-%.3f], %7.0f faces/s, CPU %.3f s, outputs %s" % (
+                    config, name, wall, low, high, faces / wall, cpu, ",".join(sorted(hashes))))
+                if phase:
+                    print("  %-16s phases: %s" % ("", ", ".join("%s %.3f" % kv for kv in phase.items())))
+            print("  %-6s new / baseline wall: %.2fx; identical outputs: %s" % (
+                config, figures["new"][0] / figures["baseline"][0], figures["new"][4] == figures["baseline"][4]))
 
 
 main()

@@ -6,6 +6,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <atomic>
@@ -128,81 +129,119 @@ inline int32_t corner_at(const Mesh& m, int32_t poly, int32_t v) {
 }  // namespace
 
 MeshEdges build_mesh_edges(const Mesh& m) {
+  // In parallel, with the serial definition's result: edge ids number the CSR slots (a -> b) with
+  // a < b in order (so edges are sorted by (a, b)), and each edge lists its corners ascending.
   MeshEdges e;
-  // Edge ids: the CSR slots (a -> b) with a < b, numbered in order (so sorted by (a, b)).
-  std::vector<int32_t> slot_edge(m.neighbours.size(), -1);
-  for (int32_t a = 0; a < m.num_vertices; ++a)
-    for (int32_t k = m.neighbour_start[a]; k < m.neighbour_start[a + 1]; ++k)
-      if (m.neighbours[k] > a) {
-        slot_edge[k] = int32_t(e.vertices.size() / 2);
-        e.vertices.push_back(a), e.vertices.push_back(m.neighbours[k]);
-      }
-  const int32_t E = e.num_edges();
-  e.corner_edge.assign(size_t(m.num_corners), -1);
-  e.corner_poly.assign(size_t(m.num_corners), -1);
-  e.edge_corner_start.assign(size_t(E) + 1, 0);
-  for (int32_t poly = 0; poly < m.num_polys; ++poly) {
-    const int32_t first = m.poly_starts[poly], n = m.poly_sizes[poly];
-    for (int32_t i = 0; i < n; ++i) {
-      const int32_t c = first + i;
-      e.corner_poly[c] = poly;
-      int32_t a = m.corner_verts[c], b = m.corner_verts[first + (i + 1) % n];
-      if (a == b) continue;
-      if (a > b) std::swap(a, b);
-      const int32_t* begin = m.neighbours.data() + m.neighbour_start[a];
+  const int32_t V = m.num_vertices, L = m.num_corners;
+  constexpr int32_t kGrain = 16384;
+  std::vector<int32_t> first_edge(size_t(V) + 1, 0);  // edges owned by vertices < v
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, V, kGrain), [&](const tbb::blocked_range<int32_t>& r) {
+    for (int32_t a = r.begin(); a < r.end(); ++a) {
       const int32_t* end = m.neighbours.data() + m.neighbour_start[a + 1];
-      const int32_t* it = std::lower_bound(begin, end, b);
-      e.corner_edge[c] = slot_edge[it - m.neighbours.data()];
-      ++e.edge_corner_start[e.corner_edge[c] + 1];
+      first_edge[a + 1] = int32_t(end - std::upper_bound(m.neighbours.data() + m.neighbour_start[a], end, a));
     }
-  }
-  for (int32_t i = 0; i < E; ++i) e.edge_corner_start[i + 1] += e.edge_corner_start[i];
+  });
+  for (int32_t a = 0; a < V; ++a) first_edge[a + 1] += first_edge[a];
+  const int32_t E = first_edge[V];
+  e.vertices.resize(size_t(E) * 2);
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, V, kGrain), [&](const tbb::blocked_range<int32_t>& r) {
+    for (int32_t a = r.begin(); a < r.end(); ++a) {
+      const int32_t* end = m.neighbours.data() + m.neighbour_start[a + 1];
+      int32_t id = first_edge[a];
+      for (const int32_t* b = end - (first_edge[a + 1] - first_edge[a]); b < end; ++b, ++id)
+        e.vertices[2 * size_t(id)] = a, e.vertices[2 * size_t(id) + 1] = *b;
+    }
+  });
+  e.corner_poly = m.corner_poly;
+  e.corner_edge.resize(size_t(L));
+  e.edge_corner_start.assign(size_t(E) + 1, 0);
+  std::vector<std::atomic<int32_t>> count(static_cast<size_t>(E));
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, m.num_polys, kGrain / 4), [&](const tbb::blocked_range<int32_t>& r) {
+    for (int32_t poly = r.begin(); poly < r.end(); ++poly) {
+      const int32_t first = m.poly_starts[poly], n = m.poly_sizes[poly];
+      for (int32_t i = 0; i < n; ++i) {
+        const int32_t c = first + i;
+        int32_t a = m.corner_verts[c], b = m.corner_verts[first + (i + 1) % n];
+        e.corner_edge[c] = -1;
+        if (a == b) continue;
+        if (a > b) std::swap(a, b);
+        const int32_t* begin = m.neighbours.data() + m.neighbour_start[a];
+        const int32_t* end = m.neighbours.data() + m.neighbour_start[a + 1];
+        // a's edges to larger neighbours are its last ones, numbered from first_edge[a].
+        const int32_t id = first_edge[a + 1] - int32_t(end - std::lower_bound(begin, end, b));
+        e.corner_edge[c] = id;
+        count[id].fetch_add(1, std::memory_order_relaxed);
+      }
+    }
+  });
+  for (int32_t i = 0; i < E; ++i) e.edge_corner_start[i + 1] = e.edge_corner_start[i] + count[i].load(std::memory_order_relaxed);
   e.edge_corners.resize(size_t(e.edge_corner_start[E]));
-  std::vector<int32_t> fill(e.edge_corner_start.begin(), e.edge_corner_start.end() - 1);
-  for (int32_t c = 0; c < m.num_corners; ++c)
-    if (e.corner_edge[c] >= 0) e.edge_corners[fill[e.corner_edge[c]]++] = c;
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, E, kGrain), [&](const tbb::blocked_range<int32_t>& r) {
+    for (int32_t i = r.begin(); i < r.end(); ++i) count[i].store(e.edge_corner_start[i], std::memory_order_relaxed);
+  });
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, L, kGrain), [&](const tbb::blocked_range<int32_t>& r) {
+    for (int32_t c = r.begin(); c < r.end(); ++c)
+      if (e.corner_edge[c] >= 0) e.edge_corners[count[e.corner_edge[c]].fetch_add(1, std::memory_order_relaxed)] = c;
+  });
+  // Slots were taken in thread order: sort each edge's corners (usually 2) to ascending.
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, E, kGrain), [&](const tbb::blocked_range<int32_t>& r) {
+    for (int32_t i = r.begin(); i < r.end(); ++i)
+      std::sort(e.edge_corners.begin() + e.edge_corner_start[i], e.edge_corners.begin() + e.edge_corner_start[i + 1]);
+  });
   return e;
 }
 
-std::vector<float> edge_continuity_error(const Mesh& m, const MeshEdges& edges, const float* base_uv,
-                                         const SampleImage& s, bool tileable) {
-  for (int64_t i = 0; i < int64_t(m.num_corners) * 2; ++i)
+namespace {
+
+void validate_base_uv(const float* base_uv, int32_t num_corners) {
+  for (int64_t i = 0; i < int64_t(num_corners) * 2; ++i)
     if (!std::isfinite(base_uv[i]) || std::fabs(base_uv[i]) > 1e6f)
       throw std::invalid_argument("base_uv of corner " + std::to_string(i / 2) + " is NaN, infinite or beyond 1e6");
+}
+
+// E_t of edge e (see edge_continuity_error): 0 when fewer than two corners use it.
+float edge_error_at(const Mesh& m, const MeshEdges& edges, const float* base_uv, const SampleImage& s, bool tileable,
+                    int32_t e) {
+  const int32_t begin = edges.edge_corner_start[e], end = edges.edge_corner_start[e + 1];
+  if (end - begin < 2) return 0.f;
+  const int32_t max_points = 4 * std::max(s.width, s.height);
+  const int32_t va = edges.vertices[2 * size_t(e)], vb = edges.vertices[2 * size_t(e) + 1];
+  auto ends = [&](int32_t corner, double* xy) {
+    const int32_t poly = edges.corner_poly[corner];
+    uv_to_texel(base_uv + 2 * size_t(corner_at(m, poly, va)), s, xy[0], xy[1]);
+    uv_to_texel(base_uv + 2 * size_t(corner_at(m, poly, vb)), s, xy[2], xy[3]);
+  };
+  float ca[4], cb[4];
+  double p[4], q[4];
+  ends(edges.edge_corners[begin], p);
+  float worst = 0.f;
+  for (int32_t j = begin + 1; j < end; ++j) {
+    ends(edges.edge_corners[j], q);
+    const double len = std::max(std::hypot(p[2] - p[0], p[3] - p[1]), std::hypot(q[2] - q[0], q[3] - q[1]));
+    const int32_t count = len < 1 ? 1 : len < max_points ? int32_t(std::ceil(len)) : max_points;
+    double sum = 0;
+    for (int32_t i = 0; i < count; ++i) {
+      const double t = (i + 0.5) / count;
+      bilinear(s, tileable, p[0] + t * (p[2] - p[0]), p[1] + t * (p[3] - p[1]), ca);
+      bilinear(s, tileable, q[0] + t * (q[2] - q[0]), q[1] + t * (q[3] - q[1]), cb);
+      double d2 = 0;
+      for (int c = 0; c < s.channels; ++c) d2 += double(ca[c] - cb[c]) * (ca[c] - cb[c]);
+      sum += std::sqrt(d2);
+    }
+    worst = std::max(worst, float(sum / count));
+  }
+  return worst;
+}
+
+}  // namespace
+
+std::vector<float> edge_continuity_error(const Mesh& m, const MeshEdges& edges, const float* base_uv,
+                                         const SampleImage& s, bool tileable) {
+  validate_base_uv(base_uv, m.num_corners);
   const int32_t E = edges.num_edges();
   std::vector<float> error(size_t(E), 0.f);
-  const int32_t max_points = 4 * std::max(s.width, s.height);
   tbb::parallel_for(tbb::blocked_range<int32_t>(0, E, 1024), [&](const tbb::blocked_range<int32_t>& r) {
-    float ca[4], cb[4];
-    for (int32_t e = r.begin(); e < r.end(); ++e) {
-      const int32_t begin = edges.edge_corner_start[e], end = edges.edge_corner_start[e + 1];
-      if (end - begin < 2) continue;
-      const int32_t va = edges.vertices[2 * size_t(e)], vb = edges.vertices[2 * size_t(e) + 1];
-      auto ends = [&](int32_t corner, double* xy) {
-        const int32_t poly = edges.corner_poly[corner];
-        uv_to_texel(base_uv + 2 * size_t(corner_at(m, poly, va)), s, xy[0], xy[1]);
-        uv_to_texel(base_uv + 2 * size_t(corner_at(m, poly, vb)), s, xy[2], xy[3]);
-      };
-      double p[4], q[4];
-      ends(edges.edge_corners[begin], p);
-      float worst = 0.f;
-      for (int32_t j = begin + 1; j < end; ++j) {
-        ends(edges.edge_corners[j], q);
-        const double len = std::max(std::hypot(p[2] - p[0], p[3] - p[1]), std::hypot(q[2] - q[0], q[3] - q[1]));
-        const int32_t count = len < 1 ? 1 : len < max_points ? int32_t(std::ceil(len)) : max_points;
-        double sum = 0;
-        for (int32_t i = 0; i < count; ++i) {
-          const double t = (i + 0.5) / count;
-          bilinear(s, tileable, p[0] + t * (p[2] - p[0]), p[1] + t * (p[3] - p[1]), ca);
-          bilinear(s, tileable, q[0] + t * (q[2] - q[0]), q[1] + t * (q[3] - q[1]), cb);
-          double d2 = 0;
-          for (int c = 0; c < s.channels; ++c) d2 += double(ca[c] - cb[c]) * (ca[c] - cb[c]);
-          sum += std::sqrt(d2);
-        }
-        worst = std::max(worst, float(sum / count));
-      }
-      error[e] = worst;
-    }
+    for (int32_t e = r.begin(); e < r.end(); ++e) error[e] = edge_error_at(m, edges, base_uv, s, tileable, e);
   });
   return error;
 }
@@ -216,21 +255,36 @@ class TextonSynthesizer {
       : pre_(pre), m_(m), orientation_(orientation), sample_(sample), p_(p), W_(float(pre.width)),
         H_(float(pre.height)), tileable_(pre.params.tileable) {}
 
-  TextonSynthResult run() {
+  TextonSynthResult run(const CornerMapsView& out) {
     TextonSynthResult r;
+    using Clock = std::chrono::steady_clock;
+    Clock::time_point t = Clock::now();
+    auto lap = [&t] {
+      const Clock::time_point now = Clock::now();
+      const double seconds = std::chrono::duration<double>(now - t).count();
+      t = now;
+      return seconds;
+    };
     throw_if_cancelled(p_.cancel);
     r.edges = build_mesh_edges(m_);
+    r.stats.seconds_edges = lap();
     throw_if_cancelled(p_.cancel);
-    measure_faces(r.stats);
+    // The growth's serial component search (breadth-first, ~15 % of the growth) alongside the
+    // parallel face pass: both need only the mesh and its edges.
+    tbb::parallel_invoke([&] { measure_faces(r.stats); }, [&] { collect_components(r.edges); });
     check_oversized_faces(r.stats.oversized_faces, r.stats.max_oversize_ratio, m_.num_polys, pre_.width, pre_.height,
                           p_.scale, p_.allow_oversized);
+    r.stats.seconds_faces = lap();
     grow(r.edges, r.stats, r.face_region);
+    r.stats.seconds_grow = lap();
     throw_if_cancelled(p_.cancel);
-    write_base(r.maps);
-    r.edge_error = edge_continuity_error(m_, r.edges, r.maps.base_uv.data(), sample_, tileable_);
+    write_base(out);
+    r.edge_error = edge_continuity_error(m_, r.edges, out.base_uv, sample_, tileable_);
     throw_if_cancelled(p_.cancel);
     blending_metric(r);
-    write_blend_sets(r);
+    r.stats.seconds_error = lap();
+    write_blend_sets(r, out);
+    r.stats.seconds_blend = lap();
     throw_if_cancelled(p_.cancel);
     r.stats.faces = m_.num_polys;
     r.stats.vertices = m_.num_vertices;
@@ -309,18 +363,31 @@ class TextonSynthesizer {
     }
   }
 
-  // Collects the face-connected component of `start` (appends to `component`, marks `seen`).
-  void collect_component(const MeshEdges& edges, int32_t start, std::vector<uint8_t>& seen,
-                         std::vector<int32_t>& component) const {
-    component.assign(1, start);
-    seen[start] = 1;
-    for (size_t h = 0; h < component.size(); ++h) {
-      if ((h & 65535) == 65535) throw_if_cancelled(p_.cancel);
-      for_each_neighbour(edges, component[h], [&](int32_t g) {
-        if (!seen[g]) seen[g] = 1, component.push_back(g);
-      });
+  // The face-connected components in the order the growth meets them (that of their lowest face),
+  // each in breadth-first order from that face: component k is component_faces_[
+  // component_start_[k] .. component_start_[k + 1]).
+  void collect_components(const MeshEdges& edges) {
+    const int32_t F = m_.num_polys;
+    std::vector<uint8_t> seen(size_t(F), 0);
+    component_faces_.clear();
+    component_faces_.reserve(size_t(F));
+    component_start_.assign(1, 0);
+    for (int32_t start = 0; start < F; ++start) {
+      if (seen[start]) continue;
+      component_faces_.push_back(start);
+      seen[start] = 1;
+      for (size_t h = size_t(component_start_.back()); h < component_faces_.size(); ++h) {
+        if ((h & 65535) == 65535) throw_if_cancelled(p_.cancel);
+        for_each_neighbour(edges, component_faces_[h], [&](int32_t g) {
+          if (!seen[g]) seen[g] = 1, component_faces_.push_back(g);
+        });
+      }
+      component_start_.push_back(int32_t(component_faces_.size()));
     }
   }
+  int32_t num_components() const { return int32_t(component_start_.size()) - 1; }
+  const int32_t* component_begin(int32_t k) const { return component_faces_.data() + component_start_[k]; }
+  uint32_t component_size(int32_t k) const { return uint32_t(component_start_[k + 1] - component_start_[k]); }
 
   // Pass 2: breadth-first growth and search (one RNG stream per face).
   void grow(const MeshEdges& edges, TextonSynthStats& st, std::vector<int32_t>& face_region) {
@@ -344,20 +411,17 @@ class TextonSynthesizer {
                        std::vector<int32_t>& face_region) {
     int32_t placed_count = 0;
     std::vector<uint8_t> state(size_t(m_.num_polys), 0);  // 0 new, 1 queued/visited
-    std::vector<int32_t> queue, component;
+    std::vector<int32_t> queue;
     queue.reserve(size_t(m_.num_polys));
     TextonSearch search(pre_);
     TextonString string;
     Rng component_rng(p_.seed, 0x636f6d70);  // "comp"
-    std::vector<uint8_t> seen(size_t(m_.num_polys), 0);
     uint32_t placed = 0;
-    for (int32_t start = 0; start < m_.num_polys; ++start) {
-      if (seen[start]) continue;
-      // Collect the face-connected component, then grow from a seeded random face in it.
-      collect_component(edges, start, seen, component);
+    for (int32_t k = 0; k < num_components(); ++k) {
+      // Grow each face-connected component from a seeded random face in it.
       const int32_t region = int32_t(st.components++);
       ++st.regions;
-      queue.assign(1, component[component_rng.below(uint32_t(component.size()))]);
+      queue.assign(1, component_begin(k)[component_rng.below(component_size(k))]);
       state[queue[0]] = 1;
       for (size_t h = 0; h < queue.size(); ++h) {
         // ~200k faces/s: a check every 256 faces is about a millisecond apart.
@@ -380,14 +444,12 @@ class TextonSynthesizer {
   void grow_regions(const MeshEdges& edges, TextonSynthStats& st, GrowCounts& counts,
                     std::vector<int32_t>& region) {
     const int32_t F = m_.num_polys;
-    std::vector<int32_t> seeds, component, queue;
-    std::vector<uint8_t> seen(size_t(F), 0);
+    std::vector<int32_t> seeds, queue;
     Rng component_rng(p_.seed, 0x636f6d70);  // "comp"
-    for (int32_t start = 0; start < F; ++start) {
-      if (seen[start]) continue;
-      collect_component(edges, start, seen, component);
+    for (int32_t k = 0; k < num_components(); ++k) {
+      const int32_t* component = component_begin(k);
       ++st.components;
-      const uint32_t size = uint32_t(component.size());
+      const uint32_t size = component_size(k);
       const int32_t wanted = int32_t(std::clamp<int64_t>(size / uint32_t(kMinRegionFaces), 1, p_.seeds_per_component));
       const size_t first_seed = seeds.size();
       // Distinct random faces (the first as the sequential growth picks it); a few draws may collide.
@@ -580,11 +642,10 @@ class TextonSynthesizer {
     uv[1] = 1.f - y / H_;
   }
 
-  void write_base(CornerMaps& out) const {
-    const size_t L = size_t(m_.num_corners);
-    out.num_corners = m_.num_corners;
-    out.base_uv.resize(L * 2);
-    for (size_t c = 0; c < L; ++c) texel_to_uv(texel_[2 * c], texel_[2 * c + 1], &out.base_uv[2 * c]);
+  void write_base(const CornerMapsView& out) const {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, size_t(m_.num_corners), 16384), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t c = r.begin(); c < r.end(); ++c) texel_to_uv(texel_[2 * c], texel_[2 * c + 1], out.base_uv + 2 * c);
+    });
   }
 
   void blending_metric(TextonSynthResult& r) const {
@@ -593,21 +654,24 @@ class TextonSynthesizer {
     r.edge_blended.assign(size_t(E), 0);
     const bool threshold = !std::isnan(p_.blend_threshold);
     const V3 camera{p_.camera[0], p_.camera[1], p_.camera[2]};
-    for (int32_t e = 0; e < E; ++e) {
-      const V3 a = v3(m_.positions + 3 * size_t(r.edges.vertices[2 * size_t(e)]));
-      const V3 b = v3(m_.positions + 3 * size_t(r.edges.vertices[2 * size_t(e) + 1]));
-      double phi = std::numeric_limits<double>::quiet_NaN();
-      if (p_.has_camera) {
-        const double dist = norm(camera - (a + b) * 0.5);
-        const double num = p_.lambda * double(r.edge_error[e]) * norm(b - a);
-        phi = num == 0 ? 0.0 : dist > 0 ? num / dist : std::numeric_limits<double>::infinity();
-        r.edge_phi[e] = float(phi);
+    // Per edge, independent: in parallel, then the blended edges counted.
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, E, 16384), [&](const tbb::blocked_range<int32_t>& range) {
+      for (int32_t e = range.begin(); e < range.end(); ++e) {
+        const V3 a = v3(m_.positions + 3 * size_t(r.edges.vertices[2 * size_t(e)]));
+        const V3 b = v3(m_.positions + 3 * size_t(r.edges.vertices[2 * size_t(e) + 1]));
+        double phi = std::numeric_limits<double>::quiet_NaN();
+        if (p_.has_camera) {
+          const double dist = norm(camera - (a + b) * 0.5);
+          const double num = p_.lambda * double(r.edge_error[e]) * norm(b - a);
+          phi = num == 0 ? 0.0 : dist > 0 ? num / dist : std::numeric_limits<double>::infinity();
+          r.edge_phi[e] = float(phi);
+        }
+        const bool interior = r.edges.edge_corner_start[e + 1] - r.edges.edge_corner_start[e] >= 2;
+        // Compare in float, as reported, so the flag agrees exactly with edge_phi > threshold.
+        r.edge_blended[e] = p_.blend && interior && (!threshold || r.edge_phi[e] > float(p_.blend_threshold));
       }
-      const bool interior = r.edges.edge_corner_start[e + 1] - r.edges.edge_corner_start[e] >= 2;
-      // Compare in float, as reported, so the flag agrees exactly with edge_phi > threshold.
-      r.edge_blended[e] = p_.blend && interior && (!threshold || r.edge_phi[e] > float(p_.blend_threshold));
-      r.stats.blended_edges += r.edge_blended[e];
-    }
+    });
+    for (uint8_t blended : r.edge_blended) r.stats.blended_edges += blended;
   }
 
   // Vertex mappings (see texton_synth.hpp): each vertex takes the mapping of one incident polygon
@@ -618,9 +682,11 @@ class TextonSynthesizer {
   };
   // Owner: the incident polygon textured first among those whose mapping, extended over every
   // polygon around the vertex, stays inside a non-tileable sample (else clamped: smeared); when
-  // none does, the first textured.
-  std::vector<VertexMapping> vertex_mappings() const {
-    std::vector<VertexMapping> out(size_t(m_.num_vertices));
+  // none does, the first textured. Stores, for each corner of the vertex in a polygon of at most 4
+  // corners, the owner's mapping over that polygon as texels in the corner's blend set
+  // (kCornerSet) of `out`, which write_blend_sets then turns into UVs. Each (set, polygon) slot
+  // belongs to one corner, so one vertex: vertices run in parallel.
+  void store_vertex_mappings(const CornerMapsView& out) const {
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 1024), [&](const tbb::blocked_range<int32_t>& r) {
       std::vector<int32_t> candidates;
       for (int32_t v = r.begin(); v < r.end(); ++v) {
@@ -630,27 +696,34 @@ class TextonSynthesizer {
         std::sort(candidates.begin(), candidates.end(), [&](int32_t a, int32_t b) {
           return placed_at_[m_.corner_poly[a]] < placed_at_[m_.corner_poly[b]];
         });
-        out[v] = {texel_[2 * size_t(candidates[0])], texel_[2 * size_t(candidates[0]) + 1], m_.corner_poly[candidates[0]]};
-        if (tileable_) continue;
-        for (int32_t c : candidates) {
-          const VertexMapping vm{texel_[2 * size_t(c)], texel_[2 * size_t(c) + 1], m_.corner_poly[c]};
-          bool inside = true;
-          for (int32_t k = m_.vertex_corner_start[v]; k < m_.vertex_corner_start[v + 1] && inside; ++k) {
+        auto mapping = [&](int32_t c) { return VertexMapping{texel_[2 * size_t(c)], texel_[2 * size_t(c) + 1], m_.corner_poly[c]}; };
+        // Writes vm over every polygon around v; false (and stops) at the first that leaves the
+        // sample when `check`. The slots of a rejected candidate are rewritten by the next one.
+        auto store = [&](const VertexMapping& vm, bool check) {
+          for (int32_t k = m_.vertex_corner_start[v]; k < m_.vertex_corner_start[v + 1]; ++k) {
             const int32_t corner = m_.vertex_corners[k], poly = m_.corner_poly[corner];
-            if (m_.poly_sizes[poly] > 4) continue;
+            const int32_t n = m_.poly_sizes[poly], first = m_.poly_starts[poly];
+            if (n > 4) continue;
             float xy[8];
-            vertex_set_values(vm, poly, corner - m_.poly_starts[poly], xy);
-            for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i)
-              inside = inside && xy[2 * i] >= 0.f && xy[2 * i] <= W_ && xy[2 * i + 1] >= 0.f && xy[2 * i + 1] <= H_;
+            vertex_set_values(vm, poly, corner - first, xy);
+            const int32_t set = kCornerSet[n - 3][corner - first];
+            for (int32_t i = 0; i < n; ++i) {
+              float* to = out.set_uv(set, size_t(first + i));
+              to[0] = xy[2 * i], to[1] = xy[2 * i + 1];
+            }
+            if (check)
+              for (int32_t i = 0; i < n; ++i)
+                if (!(xy[2 * i] >= 0.f && xy[2 * i] <= W_ && xy[2 * i + 1] >= 0.f && xy[2 * i + 1] <= H_)) return false;
           }
-          if (inside) {
-            out[v] = vm;
-            break;
-          }
-        }
+          return true;
+        };
+        bool stored = false;
+        if (!tileable_)
+          for (int32_t c : candidates)
+            if ((stored = store(mapping(c), true))) break;
+        if (!stored) store(mapping(candidates[0]), false);
       }
     });
-    return out;
   }
 
   // Texels of vertex mapping vm over polygon `poly` (at most 4 corners), whose corner i is the vertex:
@@ -661,44 +734,42 @@ class TextonSynthesizer {
   }
 
   // Pass 3 (parallel, each polygon writes its own corners): blend sets, see texton_synth.hpp.
-  void write_blend_sets(TextonSynthResult& r) const {
-    CornerMaps& out = r.maps;
+  void write_blend_sets(TextonSynthResult& r, const CornerMapsView& out) const {
     const MeshEdges& edges = r.edges;
-    const int32_t S = p_.blend ? 4 : 1;
-    const size_t L = size_t(m_.num_corners);
-    out.num_blend_sets = S;
-    out.blend_uv.resize(size_t(S) * L * 2);
-    out.blend_weights.assign(L * S, 0.f);
-    const std::vector<VertexMapping> mapping = S > 1 ? vertex_mappings() : std::vector<VertexMapping>();
+    const int32_t S = out.num_blend_sets;
+    if (S > 1) store_vertex_mappings(out);
     std::atomic<int64_t> clipped_sets{0};
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_polys, 2048), [&](const tbb::blocked_range<int32_t>& range) {
       throw_if_cancelled(p_.cancel);
       for (int32_t poly = range.begin(); poly < range.end(); ++poly) {
         const int32_t first = m_.poly_starts[poly], n = m_.poly_sizes[poly];
-        const int32_t* cv = m_.corner_verts + first;
-        for (int32_t set = 0; set < S; ++set)  // unused sets: the base, weight 0
-          std::copy(&out.base_uv[2 * size_t(first)], &out.base_uv[2 * size_t(first + n)],
-                    out.blend_uv.data() + (size_t(set) * L + first) * 2);
-        if (S == 1) {
-          for (int32_t i = 0; i < n; ++i) out.blend_weights[first + i] = 1.f;
-          continue;
-        }
         bool blended = false;
-        for (int32_t i = 0; i < n; ++i) {
+        for (int32_t i = 0; i < n && S > 1; ++i) {
           const int32_t e = edges.corner_edge[first + i];
           blended = blended || (e >= 0 && r.edge_blended[e]);
         }
-        if (!blended || n > 4) continue;  // its own patch only (n-gons: no edge zones)
+        blended = blended && n <= 4;  // else its own patch only (n-gons: no edge zones)
+        // Sets a blended polygon's corners use hold vertex mappings (below); the others the base, weight 0.
+        const int32_t* used = blended ? kCornerSet[n - 3] : nullptr;
+        for (int32_t i = 0; i < n; ++i) {
+          const float* base = out.base_uv + 2 * size_t(first + i);
+          for (int32_t set = 0; set < S; ++set) {
+            if (used && std::find(used, used + n, set) != used + n) continue;
+            float* uv = out.set_uv(set, size_t(first + i));
+            uv[0] = base[0], uv[1] = base[1];
+          }
+          if (out.packed_pairs && S % 2 == 1) out.set_uv(S, size_t(first + i))[0] = out.set_uv(S, size_t(first + i))[1] = 0.f;
+          std::fill_n(out.blend_weights + size_t(first + i) * S, S, S == 1 ? 1.f : 0.f);
+        }
+        if (!blended) continue;
         bool clipped = false;
         for (int32_t i = 0; i < n; ++i) {
           const int32_t set = kCornerSet[n - 3][i];
-          float xy[8];
-          vertex_set_values(mapping[cv[i]], poly, i, xy);
-          float* uv = out.blend_uv.data() + (size_t(set) * L + first) * 2;
-          for (int32_t k = 0; k < n; ++k) {
-            clipped = clipped || (!tileable_ && !(xy[2 * k] >= 0.f && xy[2 * k] <= W_ && xy[2 * k + 1] >= 0.f &&
-                                                  xy[2 * k + 1] <= H_));
-            texel_to_uv(xy[2 * k], xy[2 * k + 1], uv + 2 * k);
+          for (int32_t k = 0; k < n; ++k) {  // the texels store_vertex_mappings left in the set, to UVs
+            float* uv = out.set_uv(set, size_t(first + k));
+            const float x = uv[0], y = uv[1];
+            clipped = clipped || (!tileable_ && !(x >= 0.f && x <= W_ && y >= 0.f && y <= H_));
+            texel_to_uv(x, y, uv);
           }
           out.blend_weights[(first + i) * size_t(S) + set] = 1.f;
         }
@@ -721,19 +792,43 @@ class TextonSynthesizer {
   std::vector<uint8_t> textured_;
   std::vector<FaceFrame> frame_;   // per polygon: its texture frame (face_frame.hpp)
   std::vector<int32_t> placed_at_; // per polygon: when it was textured (growth order)
+  std::vector<int32_t> component_faces_, component_start_;  // see collect_components
   double coherence_bound_ = 0;     // coherence_threshold × mean texton distance (0: off)
 };
 
 }  // namespace
 
 TextonSynthResult synthesize_texton(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
-                                    const SampleImage& sample, const TextonSynthParams& params) {
+                                    const SampleImage& sample, const TextonSynthParams& params,
+                                    const CornerMapsView& out) {
   const auto start = std::chrono::steady_clock::now();
   validate_textons(pre);
   validate_sample(pre, sample);
   validate_params(mesh, orientation, params);
-  TextonSynthResult r = TextonSynthesizer(pre, mesh, orientation, sample, params).run();
+  const int32_t S = texton_blend_sets(params.blend);
+  if (out.num_corners != mesh.num_corners || out.num_blend_sets != S ||
+      (mesh.num_corners > 0 && (!out.base_uv || !out.blend_uv || !out.blend_weights)))
+    throw std::invalid_argument("synthesize_texton: output buffers are missing or sized for " +
+                                std::to_string(out.num_corners) + " corners and " + std::to_string(out.num_blend_sets) +
+                                " blend sets, expected " + std::to_string(mesh.num_corners) + " and " + std::to_string(S));
+  TextonSynthResult r = TextonSynthesizer(pre, mesh, orientation, sample, params).run(out);
   r.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+TextonSynthResult synthesize_texton(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
+                                    const SampleImage& sample, const TextonSynthParams& params) {
+  CornerMaps maps;
+  maps.num_corners = mesh.num_corners;
+  maps.num_blend_sets = texton_blend_sets(params.blend);
+  const size_t L = size_t(mesh.num_corners), S = size_t(maps.num_blend_sets);
+  maps.base_uv.resize(L * 2);
+  maps.blend_uv.resize(S * L * 2);
+  maps.blend_weights.resize(L * S);
+  TextonSynthResult r = synthesize_texton(
+      pre, mesh, orientation, sample, params,
+      CornerMapsView{maps.num_corners, maps.num_blend_sets, maps.base_uv.data(), maps.blend_uv.data(), maps.blend_weights.data()});
+  r.maps = std::move(maps);
   return r;
 }
 

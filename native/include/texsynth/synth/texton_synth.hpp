@@ -128,6 +128,8 @@ struct TextonSynthStats {
   int64_t blended_edges = 0;
   int64_t clipped_blend_sets = 0;  // blended polygons where a vertex mapping leaves the sample (clamped there)
   double seconds = 0;
+  // Phases within `seconds`: edge table, face frames, growth, base UVs + E_t + Φ, blend sets.
+  double seconds_edges = 0, seconds_faces = 0, seconds_grow = 0, seconds_error = 0, seconds_blend = 0;
 };
 
 struct TextonSynthResult {
@@ -149,6 +151,16 @@ constexpr int32_t kMinRegionFaces = 256;
 // oversized faces (unless allow_oversized); texsynth::Cancelled when params.cancel is raised.
 TextonSynthResult synthesize_texton(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
                                     const SampleImage& sample, const TextonSynthParams& params);
+
+// Number of blend sets synthesize_texton writes: 4 with params.blend, else 1.
+inline int32_t texton_blend_sets(bool blend) { return blend ? 4 : 1; }
+
+// The same, writing the corner maps into caller buffers (e.g. numpy arrays): out.num_corners must
+// be mesh.num_corners and out.num_blend_sets texton_blend_sets(params.blend). Every element of the
+// buffers is written (no zero-filled temporaries); the result's `maps` stays empty.
+TextonSynthResult synthesize_texton(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
+                                    const SampleImage& sample, const TextonSynthParams& params,
+                                    const CornerMapsView& out);
 
 // ---- search primitives (exposed for tests and benchmarks)
 
