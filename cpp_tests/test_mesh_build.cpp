@@ -1,11 +1,14 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "mesh_fixtures.hpp"
 #include "texsynth/mesh/mesh.hpp"
@@ -165,4 +168,40 @@ TEST(MeshBuild, ToleratesDegenerateButValidMeshes) {
   EXPECT_EQ(m.degree(b), 7);  // a, c, d, (0,1,0) and the three fan tips
   EXPECT_EQ(m.max_poly_size(), 20);
   EXPECT_FALSE(m.all_triangles());
+}
+
+// Components from the parallel union-find against a breadth-first search from each lowest unvisited
+// used vertex (the definition of the ids), on a shuffled mesh of several parts with loose vertices
+// and a polygon whose corners are all one vertex, at 1 and 2 threads.
+TEST(MeshBuild, ComponentIdsFollowTheLowestVertexAtAnyThreadCount) {
+  fixtures::TestMesh t = fixtures::shuffled(fixtures::mixed_mesh(), 21);
+  for (int k = 0; k < 5; ++k) t.add_vertex(900 + k, 0, 0);  // loose
+  const int32_t lone = t.add_vertex(950, 0, 0);
+  t.add_poly({lone, lone, lone});
+  for (int k = 0; k < 3; ++k) t.add_vertex(960 + k, 0, 0);  // loose, after it
+  const fixtures::TestMesh shuffled_again = fixtures::shuffled(t, 22);
+  const texsynth::Mesh reference_adjacency = texsynth::build_mesh(shuffled_again.input());
+  const int32_t nv = reference_adjacency.num_vertices;
+  std::vector<char> used(size_t(nv), 0);
+  for (int32_t v : shuffled_again.corner_verts) used[v] = 1;
+  std::vector<int32_t> expected(size_t(nv), -1), queue;
+  int32_t count = 0;
+  for (int32_t s = 0; s < nv; ++s) {
+    if (!used[s] || expected[s] >= 0) continue;
+    expected[s] = count;
+    queue.assign(1, s);
+    for (size_t h = 0; h < queue.size(); ++h)
+      for (int32_t k = reference_adjacency.neighbour_start[queue[h]]; k < reference_adjacency.neighbour_start[queue[h] + 1]; ++k)
+        if (expected[reference_adjacency.neighbours[k]] < 0)
+          expected[reference_adjacency.neighbours[k]] = count, queue.push_back(reference_adjacency.neighbours[k]);
+    ++count;
+  }
+  EXPECT_EQ(count, 4);  // grid, sphere, hexagon strip, the one-vertex polygon
+  EXPECT_EQ(std::count(expected.begin(), expected.end(), -1), 8);
+  for (int threads : {1, 2}) {
+    tbb::global_control control(tbb::global_control::max_allowed_parallelism, threads);
+    const texsynth::Mesh m = texsynth::build_mesh(shuffled_again.input());
+    EXPECT_EQ(m.num_components, count) << threads << " threads";
+    EXPECT_EQ(m.component, expected) << threads << " threads";
+  }
 }

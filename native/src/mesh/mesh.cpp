@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -156,29 +157,47 @@ void build_normals(Mesh& m, const float* given, const std::atomic<bool>* cancel)
   });
 }
 
+// Connected components by a lock-free union-find over the edges (a root is always linked under a
+// smaller one, so every root is its component's lowest vertex), then numbered by that vertex:
+// the ids a serial search from each lowest unvisited vertex would give, whatever the thread count.
 void build_components(Mesh& m, const std::atomic<bool>* cancel) {
   const int32_t nv = m.num_vertices;
-  m.component.assign(nv, -1);
-  std::vector<char> used(nv, 0);
+  std::unique_ptr<std::atomic<int32_t>[]> parent(new std::atomic<int32_t>[size_t(nv)]);
+  std::vector<char> used(size_t(nv), 0);
+  parallel_range(nv, 16384, cancel, [&](int32_t v) { parent[v].store(v, std::memory_order_relaxed); });
   for (int32_t c = 0; c < m.num_corners; ++c) used[m.corner_verts[c]] = 1;
-  std::vector<int32_t> stack;
-  int32_t id = 0;
-  int64_t visited = 0;
-  for (int32_t s = 0; s < nv; ++s) {
-    if (!used[s] || m.component[s] >= 0) continue;
-    m.component[s] = id;
-    stack.push_back(s);
-    while (!stack.empty()) {
-      int32_t v = stack.back();
-      stack.pop_back();
-      if ((++visited & 0xFFFF) == 0) throw_if_cancelled(cancel);
-      for (int32_t k = m.neighbour_start[v]; k < m.neighbour_start[v + 1]; ++k) {
-        int32_t w = m.neighbours[k];
-        if (m.component[w] < 0) m.component[w] = id, stack.push_back(w);
+  auto find = [&](int32_t x) {  // with path halving: parents only ever move to ancestors
+    while (true) {
+      int32_t p = parent[x].load(std::memory_order_relaxed);
+      if (p == x) return x;
+      const int32_t grandparent = parent[p].load(std::memory_order_relaxed);
+      if (grandparent != p) parent[x].compare_exchange_weak(p, grandparent, std::memory_order_relaxed);
+      x = grandparent;
+    }
+  };
+  parallel_range(nv, 4096, cancel, [&](int32_t v) {
+    for (int32_t k = m.neighbour_start[v]; k < m.neighbour_start[v + 1]; ++k) {
+      int32_t a = v, b = m.neighbours[k];
+      if (b < a) continue;  // each edge once
+      while (true) {
+        a = find(a), b = find(b);
+        if (a == b) break;
+        if (a < b) std::swap(a, b);
+        int32_t expected = a;  // link root a under the smaller root b, unless a was linked meanwhile
+        if (parent[a].compare_exchange_strong(expected, b, std::memory_order_relaxed)) break;
       }
     }
-    ++id;
-  }
+  });
+  throw_if_cancelled(cancel);
+  m.component.resize(size_t(nv));
+  parallel_range(nv, 16384, cancel, [&](int32_t v) { m.component[v] = used[v] ? find(v) : -1; });
+  int32_t id = 0;
+  std::vector<int32_t> root_id(size_t(nv), -1);
+  for (int32_t v = 0; v < nv; ++v)
+    if (m.component[v] == v) root_id[v] = id++;
+  parallel_range(nv, 16384, cancel, [&](int32_t v) {
+    if (m.component[v] >= 0) m.component[v] = root_id[m.component[v]];
+  });
   m.num_components = id;
 }
 
@@ -213,7 +232,7 @@ Mesh build_mesh(const PolyMeshInput& in, const float* normals, const std::atomic
     build_one_rings(m, corner_ring, cancel);
   }
   throw_if_cancelled(cancel);
-  // Independent (different outputs): the serial component search runs next to the parallel normals.
+  // Independent (different outputs).
   tbb::parallel_invoke([&] { build_normals(m, normals, cancel); }, [&] { build_components(m, cancel); });
   return m;
 }
