@@ -16,11 +16,17 @@ imported from OBJ, 2 threads"). Not a test. Two steps:
 The old path is the same call with baseline_passes=True (the previous pass structure). Prints
 medians and ranges (seconds, vertices/s, CPU time of all threads, the native phase seconds) and a
 hash of each path's outputs (they must be equal).
+
+  PYTHONPATH=addon python3.11 python_tests/bench/bench_jumpmap_obj.py --baseline OLD_MODULE_DIR [--repeat 7]
+times another build of the module (e.g. an earlier commit's, built in a worktree) against this one
+instead, each call in its own process, alternating builds, and compares their outputs.
 """
 import argparse
 import hashlib
+import json
 import os
 import statistics
+import subprocess
 import sys
 import time
 
@@ -74,7 +80,13 @@ def timing_main():
     parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--npz", default=NPZ_PATH)
     parser.add_argument("--sample", default=os.path.join(ROOT, "blend_samples", "bricks.png"))
+    parser.add_argument("--baseline", default="", help="another module build to time against this one")
+    parser.add_argument("--module", default="", help="(child process) directory of the module to time")
     args = parser.parse_args()
+    if args.baseline:
+        return compare_builds(args)
+    if args.module:
+        sys.path.insert(0, args.module)
     import tempfile
 
     import numpy as np
@@ -93,6 +105,13 @@ def timing_main():
     # The operator's arguments (pipeline.synthesize): sample a quarter of the mesh, blended, packed sets.
     kwargs = dict(scale=float(pre.width) / (float(data["size"]) / 4.0), seed=1, pack_sets=True, blend=True,
                   jump_rate=20.0, orientation="axis", axis=(0.0, 0.0, 1.0))
+    if args.module:  # child: one call of the default path, raw figures as JSON
+        start = time.perf_counter()
+        out = native.synthesize_jumpmap(pre, *mesh, **kwargs)
+        seconds = time.perf_counter() - start
+        print(json.dumps({"seconds": seconds, "vertices": num_vertices, "hash": digest(out),
+                          "phases": {key[8:]: out["stats"][key] for key in out["stats"] if key.startswith("seconds_")}}))
+        return
     times = {True: [], False: []}
     native_seconds = {True: [], False: []}
     cpu = {True: [], False: []}
@@ -120,6 +139,31 @@ def timing_main():
         print("%-22s phases (medians): %s" % ("", ", ".join("%s %.3f s" % (key[8:], statistics.median(values))
                                                               for key, values in phases[new].items())))
     print("identical outputs: %s" % (hashes[True] == hashes[False] and len(hashes[True]) == 1))
+
+
+def compare_builds(args):
+    """Each repeat: one call per build, each in its own process, alternating the order."""
+    builds = [("new", os.path.abspath(os.path.join(ROOT, "addon"))), ("baseline", os.path.abspath(args.baseline))]
+    runs = {name: [] for name, _ in builds}
+    for repeat in range(args.repeat):
+        for name, directory in (builds if repeat % 2 == 0 else builds[::-1]):
+            command = [sys.executable, os.path.abspath(__file__), "--module", directory, "--npz", args.npz,
+                       "--sample", args.sample]
+            lines = subprocess.run(command, check=True, capture_output=True, text=True).stdout.splitlines()
+            runs[name] += [json.loads(line) for line in lines if line.startswith("{")]
+    print("builds: new %s, baseline %s; %d calls each, alternating" % (builds[0][1], builds[1][1], args.repeat))
+    for name, _ in builds:
+        seconds = [run["seconds"] for run in runs[name]]
+        vertices = runs[name][0]["vertices"]
+        print("%-9s call %.3f s median (%.3f-%.3f); %.2f M vertices/s median; outputs %s" % (
+            name, statistics.median(seconds), min(seconds), max(seconds), vertices / statistics.median(seconds) / 1e6,
+            ",".join(sorted({run["hash"] for run in runs[name]}))))
+        print("%-9s phases (medians): %s" % ("", ", ".join("%s %.3f s" % (key, statistics.median(
+            run["phases"][key] for run in runs[name])) for key in runs[name][0]["phases"])))
+    print("new / baseline: %.2fx; identical outputs: %s" % (
+        statistics.median(run["seconds"] for run in runs["new"]) /
+        statistics.median(run["seconds"] for run in runs["baseline"]),
+        {run["hash"] for run in runs["new"]} == {run["hash"] for run in runs["baseline"]}))
 
 
 if __name__ == "__main__":
