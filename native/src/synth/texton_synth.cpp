@@ -17,6 +17,7 @@
 
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/common/uninitialized_vector.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 #include "texsynth/synth/face_frame.hpp"
 
@@ -271,6 +272,7 @@ class TextonSynthesizer {
     throw_if_cancelled(p_.cancel);
     // The growth's serial component search (breadth-first, ~15 % of the growth) alongside the
     // parallel face pass: both need only the mesh and its edges.
+    find_twins(r.edges);
     tbb::parallel_invoke([&] { measure_faces(r.stats); }, [&] { collect_components(r.edges); });
     check_oversized_faces(r.stats.oversized_faces, r.stats.max_oversize_ratio, m_.num_polys, pre_.width, pre_.height,
                           p_.scale, p_.allow_oversized);
@@ -350,17 +352,40 @@ class TextonSynthesizer {
     void add(const GrowCounts& o) { searched += o.searched, fallback += o.fallback, coherent += o.coherent; }
   };
 
+  // Per corner, the other corner on its edge when the edge has exactly two (the growth's serial
+  // passes then take one look-up instead of the edge's list, far away in memory); kNoTwin on a
+  // border or zero-length edge, kSharedEdge when more than two polygons share it.
+  static constexpr int32_t kNoTwin = -1, kSharedEdge = -2;
+  void find_twins(const MeshEdges& edges) {
+    twin_.resize(size_t(m_.num_corners));
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_corners, 16384), [&](const tbb::blocked_range<int32_t>& r) {
+      for (int32_t c = r.begin(); c < r.end(); ++c) {
+        const int32_t e = edges.corner_edge[c];
+        const int32_t count = e < 0 ? 0 : edges.edge_corner_start[e + 1] - edges.edge_corner_start[e];
+        const int32_t* corners = e < 0 ? nullptr : edges.edge_corners.data() + edges.edge_corner_start[e];
+        twin_[c] = count == 2 ? corners[corners[0] == c ? 1 : 0] : count > 2 ? kSharedEdge : kNoTwin;
+      }
+    });
+  }
+
+  // Calls fn(c2) for each corner c2 on corner c's edge except c, in ascending order.
+  template <class Fn>
+  void for_each_edge_corner(const MeshEdges& edges, int32_t c, Fn&& fn) const {
+    const int32_t twin = twin_[c];
+    if (twin >= 0) return fn(twin);
+    if (twin == kNoTwin) return;
+    const int32_t e = edges.corner_edge[c];
+    for (int32_t j = edges.edge_corner_start[e]; j < edges.edge_corner_start[e + 1]; ++j)
+      if (edges.edge_corners[j] != c) fn(edges.edge_corners[j]);
+  }
+
   template <class Fn>
   void for_each_neighbour(const MeshEdges& edges, int32_t poly, Fn&& fn) const {
     const int32_t first = m_.poly_starts[poly];
-    for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i) {
-      const int32_t e = edges.corner_edge[first + i];
-      if (e < 0) continue;
-      for (int32_t j = edges.edge_corner_start[e]; j < edges.edge_corner_start[e + 1]; ++j) {
-        const int32_t c = edges.edge_corners[j];
+    for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i)
+      for_each_edge_corner(edges, first + i, [&](int32_t c) {
         if (edges.corner_poly[c] != poly) fn(edges.corner_poly[c]);
-      }
-    }
+      });
   }
 
   // The face-connected components in the order the growth meets them (that of their lowest face),
@@ -550,15 +575,12 @@ class TextonSynthesizer {
     bool predicted = false;
     float phase[2] = {0.f, 0.f}, guess[2] = {0.f, 0.f};
     for (int32_t i = 0; i < n && !seed_face; ++i) {
-      const int32_t e = edges.corner_edge[first + i];
-      if (e < 0) continue;
       const int32_t va = m_.corner_verts[first + i];
       const float* oa = off + 2 * i;
       const float* ob = off + 2 * ((i + 1) % n);
-      for (int32_t j = edges.edge_corner_start[e]; j < edges.edge_corner_start[e + 1]; ++j) {
-        const int32_t c = edges.edge_corners[j];
+      for_each_edge_corner(edges, first + i, [&](int32_t c) {
         const int32_t g = edges.corner_poly[c];
-        if (g == poly || !textured(g)) continue;
+        if (g == poly || !textured(g)) return;
         const int32_t c_next = m_.poly_starts[g] + (c - m_.poly_starts[g] + 1) % m_.poly_sizes[g];
         const bool same = m_.corner_verts[c] == va;
         const float* ta = &texel_[2 * size_t(same ? c : c_next)];
@@ -587,7 +609,7 @@ class TextonSynthesizer {
           }
         }
         append_edge_string(pre_, oa, ob, ta, tb, phase, string);
-      }
+      });
     }
     const OriginRange range = origin_range(poly, phase);
     int32_t ox = 0, oy = 0;
@@ -793,6 +815,7 @@ class TextonSynthesizer {
   std::vector<FaceFrame> frame_;   // per polygon: its texture frame (face_frame.hpp)
   std::vector<int32_t> placed_at_; // per polygon: when it was textured (growth order)
   std::vector<int32_t> component_faces_, component_start_;  // see collect_components
+  UninitializedVector<int32_t> twin_;  // see find_twins
   double coherence_bound_ = 0;     // coherence_threshold × mean texton distance (0: off)
 };
 
