@@ -14,9 +14,13 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <system_error>
+#include <thread>
+#include <utility>
 
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/common/threads.hpp"
 #include "texsynth/common/uninitialized_vector.hpp"
 #include "texsynth/mesh/vec_math.hpp"
 #include "texsynth/synth/face_frame.hpp"
@@ -277,7 +281,28 @@ class TextonSynthesizer {
     check_oversized_faces(r.stats.oversized_faces, r.stats.max_oversize_ratio, m_.num_polys, pre_.width, pre_.height,
                           p_.scale, p_.allow_oversized);
     r.stats.seconds_faces = lap();
-    grow(r.edges, r.stats, r.face_region);
+    {
+      // The growth is serial (one region) or ends with a serial border pass: meanwhile a second
+      // thread touches the output pages, so the kernel zeroes them off the critical path.
+      std::atomic<bool> stop{false};
+      std::thread prefaulter;
+      if (usable_threads() > 1 && p_.seeds_per_component <= 1) {
+        try {
+          prefaulter = std::thread([&] { prefault_outputs(out, stop); });
+        } catch (const std::system_error&) {  // no thread: the passes below fault the pages in
+        }
+      }
+      struct Join {
+        std::thread& thread;
+        std::atomic<bool>& stop;
+        ~Join() {
+          if (!thread.joinable()) return;
+          stop.store(true, std::memory_order_relaxed);
+          thread.join();
+        }
+      } join{prefaulter, stop};
+      grow(r.edges, r.stats, r.face_region);
+    }
     r.stats.seconds_grow = lap();
     throw_if_cancelled(p_.cancel);
     write_base(out);
@@ -295,6 +320,24 @@ class TextonSynthesizer {
   }
 
  private:
+  // Touches one float per 4 KiB page of the output buffers (see the growth in run()); stops early
+  // when `stop` or cancel is raised.
+  void prefault_outputs(const CornerMapsView& out, const std::atomic<bool>& stop) const {
+    const size_t L = size_t(out.num_corners), S = size_t(out.num_blend_sets);
+    const std::pair<float*, size_t> buffers[] = {
+        {out.base_uv, 2 * L}, {out.blend_uv, out.packed_pairs ? (S + 1) / 2 * L * 4 : S * L * 2}, {out.blend_weights, S * L}};
+    constexpr size_t kPage = 4096 / sizeof(float);
+    for (const auto& [data, count] : buffers) {
+      volatile float* p = data;  // stores the compiler must keep (the passes overwrite them)
+      for (size_t i = 0; i < count; i += kPage) {
+        if ((i / kPage & 255) == 0 &&
+            (stop.load(std::memory_order_relaxed) || (p_.cancel && p_.cancel->load(std::memory_order_relaxed))))
+          return;
+        p[i] = 0.f;
+      }
+    }
+  }
+
   // Pass 1 (parallel): per-corner offsets in the face frame, per-face bounding boxes.
   void measure_faces(TextonSynthStats& st) {
     offset_.resize(size_t(m_.num_corners) * 2);
@@ -710,14 +753,14 @@ class TextonSynthesizer {
   // belongs to one corner, so one vertex: vertices run in parallel.
   void store_vertex_mappings(const CornerMapsView& out) const {
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 1024), [&](const tbb::blocked_range<int32_t>& r) {
-      std::vector<int32_t> candidates;
+      std::vector<std::pair<int32_t, int32_t>> candidates;  // (when its polygon was textured, corner)
       for (int32_t v = r.begin(); v < r.end(); ++v) {
-        candidates.assign(m_.vertex_corners.begin() + m_.vertex_corner_start[v],
-                          m_.vertex_corners.begin() + m_.vertex_corner_start[v + 1]);
+        candidates.clear();
+        for (int32_t k = m_.vertex_corner_start[v]; k < m_.vertex_corner_start[v + 1]; ++k)
+          candidates.emplace_back(placed_at_[m_.corner_poly[m_.vertex_corners[k]]], m_.vertex_corners[k]);
         if (candidates.empty()) continue;
-        std::sort(candidates.begin(), candidates.end(), [&](int32_t a, int32_t b) {
-          return placed_at_[m_.corner_poly[a]] < placed_at_[m_.corner_poly[b]];
-        });
+        // Ties (a polygon through v twice) keep ascending corners, as the corners are listed.
+        std::sort(candidates.begin(), candidates.end());
         auto mapping = [&](int32_t c) { return VertexMapping{texel_[2 * size_t(c)], texel_[2 * size_t(c) + 1], m_.corner_poly[c]}; };
         // Writes vm over every polygon around v; false (and stops) at the first that leaves the
         // sample when `check`. The slots of a rejected candidate are rewritten by the next one.
@@ -741,9 +784,9 @@ class TextonSynthesizer {
         };
         bool stored = false;
         if (!tileable_)
-          for (int32_t c : candidates)
-            if ((stored = store(mapping(c), true))) break;
-        if (!stored) store(mapping(candidates[0]), false);
+          for (const auto& candidate : candidates)
+            if ((stored = store(mapping(candidate.second), true))) break;
+        if (!stored) store(mapping(candidates[0].second), false);
       }
     });
   }
