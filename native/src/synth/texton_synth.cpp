@@ -402,6 +402,7 @@ class TextonSynthesizer {
   void find_twins(const MeshEdges& edges) {
     twin_.resize(size_t(m_.num_corners));
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_corners, 16384), [&](const tbb::blocked_range<int32_t>& r) {
+      throw_if_cancelled(p_.cancel);
       for (int32_t c = r.begin(); c < r.end(); ++c) {
         const int32_t e = edges.corner_edge[c];
         const int32_t count = e < 0 ? 0 : edges.edge_corner_start[e + 1] - edges.edge_corner_start[e];
@@ -753,6 +754,7 @@ class TextonSynthesizer {
   // belongs to one corner, so one vertex: vertices run in parallel.
   void store_vertex_mappings(const CornerMapsView& out) const {
     tbb::parallel_for(tbb::blocked_range<int32_t>(0, m_.num_vertices, 1024), [&](const tbb::blocked_range<int32_t>& r) {
+      throw_if_cancelled(p_.cancel);
       std::vector<std::pair<int32_t, int32_t>> candidates;  // (when its polygon was textured, corner)
       for (int32_t v = r.begin(); v < r.end(); ++v) {
         candidates.clear();
