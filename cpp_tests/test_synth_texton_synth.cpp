@@ -116,17 +116,27 @@ TEST(TextonSynth, QuadsAreSimilaritiesWithFourBlendSets) {
   EXPECT_GT(fixtures::expect_c0_across_edges(tm, r.result.maps, 4), int(tm.poly_starts.size()));
 }
 
-// Random labels (K = 64) on a tileable sample: the continuing origin is the only zero of Eq. 2,
-// so on a flat grid with one frame every face continues its neighbours: shared vertices get the
-// same texel from both sides and E_t vanishes on every edge.
+// The planted flat grid: random labels (K = 64) on a tileable 64² sample, a 6×6 triangle grid with
+// one frame, 7 texels per unit.
+struct PlantedGrid {
+  texsynth::Preprocessed pre = fixtures::label_sample(64, 64, 64, true, 31);
+  std::vector<float> pixels = fixtures::label_colours(pre);
+  fixtures::TestMesh tm = fixtures::grid(6, 6, 1.0, true);
+  static texsynth::TextonSynthParams params() {
+    texsynth::TextonSynthParams p;
+    p.scale = 7.0;
+    return p;
+  }
+};
+
+// The continuing origin is the only zero of Eq. 2, so every face of the planted grid continues its
+// neighbours: shared vertices get the same texel from both sides and E_t vanishes on every edge.
 TEST(TextonSynth, PlantedFlatGridContinuesEveryNeighbour) {
-  const auto pre = fixtures::label_sample(64, 64, 64, true, 31);
-  const auto pixels = fixtures::label_colours(pre);
-  const auto tm = fixtures::grid(6, 6, 1.0, true);
-  texsynth::TextonSynthParams p;
-  p.scale = 7.0;
+  const PlantedGrid g;
+  const auto& tm = g.tm;
+  texsynth::TextonSynthParams p = PlantedGrid::params();
   p.seed = 3;
-  const SynthRun r = run(tm, pre, pixels, p);
+  const SynthRun r = run(tm, g.pre, g.pixels, p);
   EXPECT_EQ(r.result.stats.searched_faces, int64_t(tm.poly_starts.size()) - 1);
   EXPECT_EQ(r.result.stats.fallback_faces, 0);
   for (float e : r.result.edge_error) EXPECT_LT(e, 1e-3f);
@@ -146,15 +156,12 @@ TEST(TextonSynth, PlantedFlatGridContinuesEveryNeighbour) {
 }
 
 TEST(TextonSynth, RandomPlacementHasLargeEdgeErrorSoThePlantedTestCanFail) {
-  // Same set-up with one voting point and m = 1: Eq. 2 can no longer reject wrong origins.
-  const auto pre = fixtures::label_sample(64, 64, 64, true, 31);
-  const auto pixels = fixtures::label_colours(pre);
-  const auto tm = fixtures::grid(6, 6, 1.0, true);
-  texsynth::TextonSynthParams p;
-  p.scale = 7.0;
+  // The planted grid with one voting point and m = 1: Eq. 2 can no longer reject wrong origins.
+  const PlantedGrid g;
+  texsynth::TextonSynthParams p = PlantedGrid::params();
   p.search.top_m = 1, p.search.max_vote_points = 1;
   p.search.coherence_threshold = 0;  // else the continuation is taken without any vote
-  const SynthRun r = run(tm, pre, pixels, p);
+  const SynthRun r = run(g.tm, g.pre, g.pixels, p);
   double sum = 0;
   for (float e : r.result.edge_error) sum += e;
   EXPECT_GT(sum / r.result.edge_error.size(), 0.05);
@@ -306,20 +313,17 @@ double mean_error(const texsynth::TextonSynthResult& r) {
 // With coherence on, every face of the planted flat grid takes its neighbour's exact continuation
 // without voting, and E_t still vanishes.
 TEST(TextonSynth, CoherenceTakesThePlantedContinuationWithoutVoting) {
-  const auto pre = fixtures::label_sample(64, 64, 64, true, 31);
-  const auto pixels = fixtures::label_colours(pre);
-  const auto tm = fixtures::grid(6, 6, 1.0, true);
-  texsynth::TextonSynthParams p;
-  p.scale = 7.0;
+  const PlantedGrid g;
+  texsynth::TextonSynthParams p = PlantedGrid::params();
   p.seed = 3;
   p.search.coherence_threshold = 0.05;
-  const SynthRun r = run(tm, pre, pixels, p);
-  const int64_t faces = int64_t(tm.poly_starts.size());
+  const SynthRun r = run(g.tm, g.pre, g.pixels, p);
+  const int64_t faces = int64_t(g.tm.poly_starts.size());
   EXPECT_EQ(r.result.stats.searched_faces, faces - 1);
   EXPECT_EQ(r.result.stats.coherent_faces, faces - 1);
   for (float e : r.result.edge_error) EXPECT_LT(e, 1e-3f);
   p.search.coherence_threshold = 0;
-  EXPECT_EQ(run(tm, pre, pixels, p).result.stats.coherent_faces, 0);
+  EXPECT_EQ(run(g.tm, g.pre, g.pixels, p).result.stats.coherent_faces, 0);
 }
 
 // Regions: several per component, deterministic at 1, 2 and 4 threads, every face textured once

@@ -10,6 +10,7 @@
 #include <tbb/global_control.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -148,20 +149,29 @@ Summary summarize(const std::vector<float>& error, const texsynth::MeshEdges& ed
   return s;
 }
 
+// The quality reports' 160×160 samples (bricks, value noise) and meshes (~3.3k triangles each, with
+// their scale in texels per unit).
+std::array<Sample, 2> quality_samples() {
+  return {make_sample(texsynth_test::brick_texture(160, 160, 4)), make_sample(noise_texture(160, 160, 4))};
+}
+struct MeshCase {
+  const char* name;
+  fixtures::TestMesh t;
+  double scale;
+};
+std::array<MeshCase, 3> quality_meshes() {
+  return {MeshCase{"jittered grid 3.2k, 8/cell", fixtures::grid(40, 40, 1.0, true, 0.4), 8.0},
+          MeshCase{"jittered grid 3.2k, 16/cell", fixtures::grid(40, 40, 1.0, true, 0.4), 16.0},
+          MeshCase{"noisy sphere 3.4k", fixtures::uv_sphere(30, 58, 1.0, 0.05), 120.0}};
+}
+
 void quality_report() {
   std::printf("\nquality: E_t over interior edges (mean / p95; lower = fewer seams), 5 seeds pooled by mean\n");
-  std::printf("  %-26s %-26s %8s %21s %21s\n", "sample (160x160)", "mesh", "texels/cell", "texton mean / p95",
+  std::printf("  %-26s %-28s %8s %21s %21s\n", "sample (160x160)", "mesh", "texels/cell", "texton mean / p95",
               "jump map mean / p95");
-  const Sample samples[2] = {make_sample(texsynth_test::brick_texture(160, 160, 4)), make_sample(noise_texture(160, 160, 4))};
+  const std::array<Sample, 2> samples = quality_samples();
   const char* names[2] = {"bricks (structured)", "value noise (stochastic)"};
-  struct MeshCase {
-    const char* name;
-    fixtures::TestMesh t;
-    double scale;
-  };
-  MeshCase meshes[3] = {{"jittered grid 3.2k tris", fixtures::grid(40, 40, 1.0, true, 0.4), 8.0},
-                        {"jittered grid 3.2k tris", fixtures::grid(40, 40, 1.0, true, 0.4), 16.0},
-                        {"noisy sphere 3.4k tris", fixtures::uv_sphere(30, 58, 1.0, 0.05), 120.0}};
+  std::array<MeshCase, 3> meshes = quality_meshes();
   for (int si = 0; si < 2; ++si)
     for (auto& mc : meshes) {
       Prepared p;
@@ -178,7 +188,7 @@ void quality_report() {
             texsynth::edge_continuity_error(p.mesh, edges, jr.maps.base_uv.data(), samples[si].view(), false), edges);
         t_sum.mean += a.mean / seeds, t_sum.p95 += a.p95 / seeds, j_sum.mean += b.mean / seeds, j_sum.p95 += b.p95 / seeds;
       }
-      std::printf("  %-26s %-26s %8.0f %10.4f / %8.4f %10.4f / %8.4f\n", names[si], mc.name, mc.scale, t_sum.mean,
+      std::printf("  %-26s %-28s %8.0f %10.4f / %8.4f %10.4f / %8.4f\n", names[si], mc.name, mc.scale, t_sum.mean,
                   t_sum.p95, j_sum.mean, j_sum.p95);
     }
 }
@@ -223,16 +233,9 @@ double wall_seconds() {
 void growth_report(const std::vector<Growth>& configs) {
   std::printf("\ngrowth: coherence_threshold:seeds_per_component (0:1 = original path), same run\n");
   std::printf("  E_t mean / p95 over interior edges, 5 seeds, 160x160 samples\n");
-  const Sample samples[2] = {make_sample(texsynth_test::brick_texture(160, 160, 4)), make_sample(noise_texture(160, 160, 4))};
+  const std::array<Sample, 2> samples = quality_samples();
   const char* names[2] = {"bricks", "value noise"};
-  struct MeshCase {
-    const char* name;
-    fixtures::TestMesh t;
-    double scale;
-  };
-  MeshCase meshes[3] = {{"jittered grid 3.2k, 8/cell", fixtures::grid(40, 40, 1.0, true, 0.4), 8.0},
-                        {"jittered grid 3.2k, 16/cell", fixtures::grid(40, 40, 1.0, true, 0.4), 16.0},
-                        {"noisy sphere 3.4k", fixtures::uv_sphere(30, 58, 1.0, 0.05), 120.0}};
+  std::array<MeshCase, 3> meshes = quality_meshes();
   std::printf("  %-12s %-28s", "sample", "mesh");
   for (const Growth& g : configs)
     if (g.threads == 2) std::printf("  %8g:%-4d     ", g.coherence, g.seeds);

@@ -26,7 +26,6 @@ import hashlib
 import json
 import os
 import statistics
-import subprocess
 import sys
 import time
 
@@ -143,14 +142,11 @@ def timing_main():
 
 def compare_builds(args):
     """Each repeat: one call per build, each in its own process, alternating the order."""
+    import module_builds
+
     builds = [("new", os.path.abspath(os.path.join(ROOT, "addon"))), ("baseline", os.path.abspath(args.baseline))]
-    runs = {name: [] for name, _ in builds}
-    for repeat in range(args.repeat):
-        for name, directory in (builds if repeat % 2 == 0 else builds[::-1]):
-            command = [sys.executable, os.path.abspath(__file__), "--module", directory, "--npz", args.npz,
-                       "--sample", args.sample]
-            lines = subprocess.run(command, check=True, capture_output=True, text=True).stdout.splitlines()
-            runs[name] += [json.loads(line) for line in lines if line.startswith("{")]
+    runs = module_builds.run_alternating(builds, args.repeat, lambda directory: [
+        sys.executable, os.path.abspath(__file__), "--module", directory, "--npz", args.npz, "--sample", args.sample])
     print("builds: new %s, baseline %s; %d calls each, alternating" % (builds[0][1], builds[1][1], args.repeat))
     for name, _ in builds:
         seconds = [run["seconds"] for run in runs[name]]

@@ -24,7 +24,6 @@ import hashlib
 import json
 import os
 import statistics
-import subprocess
 import sys
 import time
 
@@ -172,14 +171,12 @@ def main():
 
 def compare_builds(args):
     """Each repeat runs this script once per build (its own process, --json), alternating the order."""
+    import module_builds
+
     builds = [("new", os.path.abspath(args.module)), ("baseline", os.path.abspath(args.baseline))]
-    runs = {name: [] for name, _ in builds}
-    for repeat in range(args.repeat):
-        for name, directory in (builds if repeat % 2 == 0 else builds[::-1]):
-            command = [sys.executable, os.path.abspath(__file__), "--module", directory, "--json", "--repeat", "1",
-                       "--mesh", args.mesh, "--configs", args.configs, "--samples", args.samples, "--seed", str(args.seed)]
-            lines = subprocess.run(command, check=True, capture_output=True, text=True).stdout.splitlines()
-            runs[name] += [json.loads(line) for line in lines if line.startswith("{")]
+    runs = module_builds.run_alternating(builds, args.repeat, lambda directory: [
+        sys.executable, os.path.abspath(__file__), "--module", directory, "--json", "--repeat", "1", "--mesh", args.mesh,
+        "--configs", args.configs, "--samples", args.samples, "--seed", str(args.seed)])
     print("builds: new %s, baseline %s; %d repeats each, alternating" % (builds[0][1], builds[1][1], args.repeat))
     for sample in args.samples.split(","):
         print("\nsample %s" % sample)
