@@ -116,10 +116,10 @@ inline texsynth::Vec3f vec3(py::handle obj, const char* name) {
 }
 
 // A numpy array that takes ownership of `v` (no copy).
-template <class T>
-py::array_t<T> to_numpy(std::vector<T>&& v, std::vector<py::ssize_t> shape) {
-  auto* heap = new std::vector<T>(std::move(v));
-  py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+template <class T, class Allocator>
+py::array_t<T> to_numpy(std::vector<T, Allocator>&& v, std::vector<py::ssize_t> shape) {
+  auto* heap = new std::vector<T, Allocator>(std::move(v));
+  py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<T, Allocator>*>(p); });
   return py::array_t<T>(shape, heap->data(), owner);
 }
 

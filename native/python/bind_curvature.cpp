@@ -36,7 +36,7 @@ void bind_curvature(py::module_& m) {
       "vertex_normals",
       [](py::object positions, py::object corner_verts, py::object poly_starts, py::object poly_sizes) {
         MeshArrays arrays = mesh_arrays(positions, corner_verts, poly_starts, poly_sizes);
-        std::vector<float> normals;
+        texsynth::UninitializedVector<float> normals;
         {
           py::gil_scoped_release release;
           normals = std::move(texsynth::build_mesh(arrays.input).normals);

@@ -51,7 +51,7 @@ void bind_field_mesh(py::module_& m) {
       .def_property_readonly("num_vertices", [](const FieldMesh& self) { return self.mesh.num_vertices; })
       .def_property_readonly("normals",
                              [](const FieldMesh& self) {
-                               std::vector<float> copy = self.mesh.normals;
+                               auto copy = self.mesh.normals;
                                return to_numpy(std::move(copy), {py::ssize_t(self.mesh.num_vertices), 3});
                              },
                              "(N, 3) float32 unit vertex normals (those the field and synthesis use).")

@@ -31,7 +31,7 @@ texsynth::SampleImage sample_image(const FloatArray& a) {
   return s;
 }
 
-py::array_t<int32_t> edge_vertex_array(std::vector<int32_t>&& v) {
+py::array_t<int32_t> edge_vertex_array(texsynth::UninitializedVector<int32_t>&& v) {
   const py::ssize_t E = py::ssize_t(v.size() / 2);
   return to_numpy(std::move(v), {E, 2});
 }

@@ -140,7 +140,7 @@ void build_one_rings(Mesh& m, UninitializedVector<int32_t>& corner_ring, const s
 void build_normals(Mesh& m, const float* given, const std::atomic<bool>* cancel) {
   const int32_t nv = m.num_vertices;
   // Newell's vector = 2 × area × unit normal: summing it weights faces by area.
-  std::vector<V3> newell(size_t(m.num_polys));
+  UninitializedVector<V3> newell(size_t(m.num_polys));
   parallel_range(m.num_polys, 4096, cancel, [&](int32_t p) {
     newell[p] = newell_vector(m.positions, m.corner_verts + m.poly_starts[p], m.poly_sizes[p]);
   });

@@ -666,7 +666,7 @@ class Synthesizer {
   };
   UninitializedVector<VertexState> state_;     // written for every vertex by build_frames
   UninitializedVector<float> corner_offset_;  // per corner: texel offset from its polygon's corner 0 (face frame)
-  std::vector<Box> reach_;
+  UninitializedVector<Box> reach_;
 };
 
 }  // namespace

@@ -853,12 +853,12 @@ class TextonSynthesizer {
   const TextonSynthParams& p_;
   const float W_, H_;
   const bool tileable_;
-  std::vector<float> offset_;   // per corner: texel offset from its polygon's corner 0 (face frame)
-  std::vector<float> box_;      // per polygon: min x, min y, max x, max y of the offsets
-  std::vector<float> texel_;    // per corner: texel coordinate once its polygon is textured
-  std::vector<uint8_t> textured_;
-  std::vector<FaceFrame> frame_;   // per polygon: its texture frame (face_frame.hpp)
-  std::vector<int32_t> placed_at_; // per polygon: when it was textured (growth order)
+  UninitializedVector<float> offset_;   // per corner: texel offset from its polygon's corner 0 (face frame)
+  UninitializedVector<float> box_;      // per polygon: min x, min y, max x, max y of the offsets
+  UninitializedVector<float> texel_;    // per corner: texel coordinate once its polygon is textured
+  UninitializedVector<uint8_t> textured_;
+  UninitializedVector<FaceFrame> frame_;   // per polygon: its texture frame (face_frame.hpp)
+  UninitializedVector<int32_t> placed_at_; // per polygon: when it was textured (growth order)
   std::vector<int32_t> component_faces_, component_start_;  // see collect_components
   UninitializedVector<int32_t> twin_;  // see find_twins
   double coherence_bound_ = 0;     // coherence_threshold × mean texton distance (0: off)

@@ -2,6 +2,7 @@
 #pragma once
 // resize() without zero-filling: for buffers that a parallel pass overwrites completely, so the
 // pages are first touched (and zeroed by the kernel) by the worker threads, not by a serial memset.
+#include <algorithm>
 #include <memory>
 #include <new>
 #include <utility>
@@ -29,5 +30,23 @@ struct UninitializedAllocator : std::allocator<T> {
 };
 template <class T>
 using UninitializedVector = std::vector<T, UninitializedAllocator<T>>;
+
+// Element-wise comparison with plain vectors (tests compare tables against their definitions).
+template <class T>
+bool operator==(const UninitializedVector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin());
+}
+template <class T>
+bool operator==(const std::vector<T>& a, const UninitializedVector<T>& b) {
+  return b == a;
+}
+template <class T>
+bool operator!=(const UninitializedVector<T>& a, const std::vector<T>& b) {
+  return !(a == b);
+}
+template <class T>
+bool operator!=(const std::vector<T>& a, const UninitializedVector<T>& b) {
+  return !(b == a);
+}
 
 }  // namespace texsynth

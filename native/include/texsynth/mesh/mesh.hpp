@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "texsynth/common/uninitialized_vector.hpp"
 #include "texsynth/mesh/poly_mesh.hpp"
 
 namespace texsynth {
@@ -27,17 +28,17 @@ struct Mesh {
   // One-rings in CSR form: distinct edge neighbours of v are
   // neighbours[neighbour_start[v] .. neighbour_start[v+1]), sorted ascending, never v itself.
   // Each undirected edge appears twice (once per endpoint), so num_edges = neighbours.size() / 2.
-  std::vector<int32_t> neighbour_start;  // num_vertices + 1
-  std::vector<int32_t> neighbours;
+  UninitializedVector<int32_t> neighbour_start;  // num_vertices + 1
+  UninitializedVector<int32_t> neighbours;
 
   // Corners of each vertex, ascending (= polygon order): the per-vertex gathers that replace
   // scatter loops, so vertex quantities are built in parallel with a fixed summation order.
-  std::vector<int32_t> vertex_corner_start;  // num_vertices + 1
-  std::vector<int32_t> vertex_corners;       // num_corners
-  std::vector<int32_t> corner_poly;          // num_corners: the polygon each corner belongs to
+  UninitializedVector<int32_t> vertex_corner_start;  // num_vertices + 1
+  UninitializedVector<int32_t> vertex_corners;       // num_corners
+  UninitializedVector<int32_t> corner_poly;          // num_corners: the polygon each corner belongs to
 
-  std::vector<float> normals;       // num_vertices*3, unit length
-  std::vector<int32_t> component;   // per vertex: connected component id, -1 for loose vertices
+  UninitializedVector<float> normals;       // num_vertices*3, unit length
+  UninitializedVector<int32_t> component;   // per vertex: connected component id, -1 for loose vertices
   int32_t num_components = 0;       // components with at least one corner
 
   int64_t num_edges() const { return static_cast<int64_t>(neighbours.size()) / 2; }

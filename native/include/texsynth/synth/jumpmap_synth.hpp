@@ -69,7 +69,7 @@ struct SynthStats {
 struct JumpSynthResult {
   CornerMaps maps;
   SynthStats stats;
-  std::vector<float> vertex_address;  // num_vertices*2 texel coordinates (NaN for loose vertices)
+  UninitializedVector<float> vertex_address;  // num_vertices*2 texel coordinates (NaN for loose vertices)
 };
 
 // Throws std::invalid_argument for bad parameters, an inconsistent Preprocessed, an orientation
