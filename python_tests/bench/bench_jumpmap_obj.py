@@ -105,10 +105,16 @@ def timing_main():
     kwargs = dict(scale=float(pre.width) / (float(data["size"]) / 4.0), seed=1, pack_sets=True, blend=True,
                   jump_rate=20.0, orientation="axis", axis=(0.0, 0.0, 1.0))
     if args.module:  # child: one call of the default path, raw figures as JSON
+        import resource
+
+        before = resource.getrusage(resource.RUSAGE_SELF)
         start = time.perf_counter()
         out = native.synthesize_jumpmap(pre, *mesh, **kwargs)
         seconds = time.perf_counter() - start
+        after = resource.getrusage(resource.RUSAGE_SELF)
+        user, system = after.ru_utime - before.ru_utime, after.ru_stime - before.ru_stime
         print(json.dumps({"seconds": seconds, "vertices": num_vertices, "hash": digest(out),
+                          "cpu_user": user, "cpu_system": system, "threads": os.cpu_count(),
                           "phases": {key[8:]: out["stats"][key] for key in out["stats"] if key.startswith("seconds_")}}))
         return
     times = {True: [], False: []}
@@ -156,6 +162,15 @@ def compare_builds(args):
             ",".join(sorted({run["hash"] for run in runs[name]}))))
         print("%-9s phases (medians): %s" % ("", ", ".join("%s %.3f s" % (key, statistics.median(
             run["phases"][key] for run in runs[name])) for key in runs[name][0]["phases"])))
+        if "cpu_user" in runs[name][0]:
+            # All threads' CPU time bounds the wall time from below, however well the work is spread.
+            cpu = statistics.median(run["cpu_user"] + run["cpu_system"] for run in runs[name])
+            cores = runs[name][0]["threads"]
+            print("%-9s CPU of all threads %.3f s median (user %.3f, system %.3f): spread perfectly over %d CPUs, "
+                  "at best %.3f s = %.2f M vertices/s" % (
+                      "", cpu, statistics.median(run["cpu_user"] for run in runs[name]),
+                      statistics.median(run["cpu_system"] for run in runs[name]), cores, cpu / cores,
+                      vertices / (cpu / cores) / 1e6))
     print("new / baseline: %.2fx; identical outputs: %s" % (
         statistics.median(run["seconds"] for run in runs["new"]) /
         statistics.median(run["seconds"] for run in runs["baseline"]),
