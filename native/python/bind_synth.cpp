@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "cancel_arg.hpp"
+#include "corner_map_arrays.hpp"
 #include "field_args.hpp"
 #include "texsynth/preprocess/preprocessed.hpp"
 #include "texsynth/synth/jumpmap_synth.hpp"
@@ -34,15 +35,8 @@ void bind_synth(py::module_& m) {
         params.baseline_passes = baseline_passes;
         params.scale_multiplier = scale_multiplier.is_none() ? nullptr : multiplier.data();
         params.cancel = args.field.params.cancel = cancel_flag(cancel);
-        // Outputs allocated here (uninitialised) and written once by the core, no copies.
-        const py::ssize_t L = input.num_corners;
-        const int32_t S = texsynth::jumpmap_blend_sets(input.poly_sizes, input.num_polys, blend);
-        py::array_t<float> base_uv({L, py::ssize_t(2)}), blend_weights({L, py::ssize_t(S)});
-        py::array_t<float> blend_uv = pack_sets ? py::array_t<float>({py::ssize_t((S + 1) / 2), L, py::ssize_t(4)})
-                                                : py::array_t<float>({py::ssize_t(S), L, py::ssize_t(2)});
-        texsynth::CornerMapsView view{input.num_corners, S, base_uv.mutable_data(), blend_uv.mutable_data(),
-                                      blend_weights.mutable_data()};
-        view.packed_pairs = pack_sets;
+        const CornerMapArrays maps(input.num_corners,
+                                   texsynth::jumpmap_blend_sets(input.poly_sizes, input.num_polys, blend), pack_sets);
         texsynth::JumpSynthResult r;
         double mesh_seconds = 0;
         {
@@ -50,7 +44,7 @@ void bind_synth(py::module_& m) {
           const auto start = std::chrono::steady_clock::now();
           const OrientedMeshArgs::Built built = args.build();
           mesh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-          r = texsynth::synthesize_jumpmap(pre, built.mesh, built.up.data(), params, view);
+          r = texsynth::synthesize_jumpmap(pre, built.mesh, built.up.data(), params, maps.view);
         }
         py::dict stats;
         stats["faces"] = r.stats.faces;
@@ -68,10 +62,7 @@ void bind_synth(py::module_& m) {
         stats["seconds_walk"] = r.stats.seconds_walk;
         stats["seconds_corners"] = r.stats.seconds_corners;
         py::dict out;
-        out["base_uv"] = base_uv;
-        out[pack_sets ? "blend_set_pairs" : "blend_uv"] = blend_uv;
-        out["blend_weights"] = blend_weights;
-        out["num_blend_sets"] = S;
+        maps.put(out);
         out["stats"] = stats;
         return out;
       },

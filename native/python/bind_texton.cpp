@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "cancel_arg.hpp"
+#include "corner_map_arrays.hpp"
 #include "field_args.hpp"
 #include "texsynth/mesh/mesh.hpp"
 #include "texsynth/preprocess/preprocessed.hpp"
@@ -82,15 +83,8 @@ void bind_texton(py::module_& m) {
           if (std::isnan(params.blend_threshold)) throw std::invalid_argument("blend_threshold must not be NaN");
         }
         texsynth::TextonSynthResult r;
-        // Outputs allocated here (uninitialised) and written once by the core, no copies.
         const py::ssize_t L = args.arrays.input.num_corners;
-        const int32_t S = texsynth::texton_blend_sets(blend);
-        py::array_t<float> base_uv({L, py::ssize_t(2)}), blend_weights({L, py::ssize_t(S)});
-        py::array_t<float> blend_uv = pack_sets ? py::array_t<float>({py::ssize_t((S + 1) / 2), L, py::ssize_t(4)})
-                                                : py::array_t<float>({py::ssize_t(S), L, py::ssize_t(2)});
-        texsynth::CornerMapsView view{int32_t(L), S, base_uv.mutable_data(), blend_uv.mutable_data(),
-                                      blend_weights.mutable_data()};
-        view.packed_pairs = pack_sets;
+        const CornerMapArrays maps(L, texsynth::texton_blend_sets(blend), pack_sets);
         py::array_t<bool> corner_blended({L});
         py::array_t<float> corner_error({L});
         bool* corner_blended_out = corner_blended.mutable_data();
@@ -108,7 +102,7 @@ void bind_texton(py::module_& m) {
           const auto start = std::chrono::steady_clock::now();
           const OrientedMeshArgs::Built built = args.build();
           mesh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-          r = texsynth::synthesize_texton(pre, built.mesh, built.up.data(), sample, params, view);
+          r = texsynth::synthesize_texton(pre, built.mesh, built.up.data(), sample, params, maps.view);
           // Per corner: the edge from this corner to the next (what the add-on shows as attributes).
           tbb::parallel_for(tbb::blocked_range<py::ssize_t>(0, L, 65536), [&](const tbb::blocked_range<py::ssize_t>& range) {
             for (py::ssize_t c = range.begin(); c < range.end(); ++c) {
@@ -141,10 +135,7 @@ void bind_texton(py::module_& m) {
         stats["seconds_error"] = r.stats.seconds_error;
         stats["seconds_blend"] = r.stats.seconds_blend;
         py::dict out;
-        out["base_uv"] = base_uv;
-        out[pack_sets ? "blend_set_pairs" : "blend_uv"] = blend_uv;
-        out["blend_weights"] = blend_weights;
-        out["num_blend_sets"] = S;
+        maps.put(out);
         out["stats"] = stats;
         out["edge_vertices"] = edge_vertex_array(std::move(r.edges.vertices));
         out["edge_error"] = to_numpy(std::move(r.edge_error), {E});

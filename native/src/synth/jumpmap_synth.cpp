@@ -21,6 +21,7 @@
 #include <utility>
 
 #include "texsynth/common/errors.hpp"
+#include "texsynth/common/prefault.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/common/threads.hpp"
 #include "texsynth/common/uninitialized_vector.hpp"
@@ -344,17 +345,6 @@ class Synthesizer {
     float texel_weight[4];       // bilinear × the texel's summed jump weights
   };
 
-  // Touches one float per 4 KiB page of an output buffer: the kernel's page faults (zeroing fresh
-  // pages) then happen here instead of in write_corners. Stops early when cancelled.
-  void prefault(float* data, size_t count) const {
-    constexpr size_t kPage = 4096 / sizeof(float);
-    volatile float* p = data;  // stores the compiler must keep (write_corners overwrites them)
-    for (size_t i = 0; i < count; i += kPage) {
-      if ((i / kPage & 255) == 0 && p_.cancel && p_.cancel->load(std::memory_order_relaxed)) return;
-      p[i] = 0.f;
-    }
-  }
-
   // The order (§4.1) and the walk over it are both serial: with a second thread the order is built
   // there while the walk follows it, a few entries behind. Same order and draws either way. The
   // order is much faster than the walk, so that thread then pre-faults the output pages not yet
@@ -377,9 +367,10 @@ class Synthesizer {
       build_order();
       if (p_.baseline_passes || order_error) return;
       const size_t L = size_t(out.num_corners), S = size_t(out.num_blend_sets);
-      prefault(out.base_uv, 2 * L);
-      if (!touched.blend_weights) prefault(out.blend_weights, S * L);
-      if (!touched.blend_uv) prefault(out.blend_uv, out.packed_pairs ? (S + 1) / 2 * L * 4 : S * L * 2);
+      auto cancelled = [this] { return p_.cancel && p_.cancel->load(std::memory_order_relaxed); };
+      prefault_pages(out.base_uv, 2 * L, cancelled);
+      if (!touched.blend_weights) prefault_pages(out.blend_weights, S * L, cancelled);
+      if (!touched.blend_uv) prefault_pages(out.blend_uv, out.packed_pairs ? (S + 1) / 2 * L * 4 : S * L * 2, cancelled);
     };
     std::thread producer;
     if (usable_threads() > 1) {
@@ -671,17 +662,6 @@ class Synthesizer {
 
 }  // namespace
 
-void pack_set_pairs(const float* blend_uv, int32_t num_blend_sets, int32_t num_corners, float* pairs) {
-  const size_t L = size_t(num_corners);
-  for (int32_t set = 0; set < num_blend_sets + num_blend_sets % 2; ++set)
-    for (size_t c = 0; c < L; ++c) {
-      float* to = pairs + (size_t(set / 2) * L + c) * 4 + size_t(set % 2) * 2;
-      const bool used = set < num_blend_sets;
-      to[0] = used ? blend_uv[(size_t(set) * L + c) * 2] : 0.f;
-      to[1] = used ? blend_uv[(size_t(set) * L + c) * 2 + 1] : 0.f;
-    }
-}
-
 int32_t jumpmap_blend_sets(const int32_t* poly_sizes, int32_t num_polys, bool blend) {
   if (!blend) return 1;
   for (int32_t p = 0; p < num_polys; ++p)
@@ -695,11 +675,7 @@ JumpSynthResult synthesize_jumpmap(const Preprocessed& pre, const Mesh& mesh, co
   validate_preprocessed(pre);
   validate_params(mesh, orientation, params);
   const int32_t S = jumpmap_blend_sets(mesh.poly_sizes, mesh.num_polys, params.blend);
-  if (out.num_corners != mesh.num_corners || out.num_blend_sets != S ||
-      (mesh.num_corners > 0 && (!out.base_uv || !out.blend_uv || !out.blend_weights)))
-    throw std::invalid_argument("synthesize_jumpmap: output buffers are missing or sized for " +
-                                std::to_string(out.num_corners) + " corners and " + std::to_string(out.num_blend_sets) +
-                                " blend sets, expected " + std::to_string(mesh.num_corners) + " and " + std::to_string(S));
+  check_corner_maps_view(out, mesh.num_corners, S, "synthesize_jumpmap");
   JumpSynthResult r = Synthesizer(pre, mesh, orientation, params).run(out);
   r.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
@@ -707,16 +683,9 @@ JumpSynthResult synthesize_jumpmap(const Preprocessed& pre, const Mesh& mesh, co
 
 JumpSynthResult synthesize_jumpmap(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
                                    const JumpSynthParams& params) {
-  CornerMaps maps;
-  maps.num_corners = mesh.num_corners;
-  maps.num_blend_sets = jumpmap_blend_sets(mesh.poly_sizes, mesh.num_polys, params.blend);
-  const size_t L = size_t(mesh.num_corners), S = size_t(maps.num_blend_sets);
-  maps.base_uv.resize(L * 2);
-  maps.blend_uv.resize(S * L * 2);
-  maps.blend_weights.resize(L * S);
-  JumpSynthResult r = synthesize_jumpmap(
-      pre, mesh, orientation, params,
-      CornerMapsView{maps.num_corners, maps.num_blend_sets, maps.base_uv.data(), maps.blend_uv.data(), maps.blend_weights.data()});
+  CornerMaps maps =
+      allocate_corner_maps(mesh.num_corners, jumpmap_blend_sets(mesh.poly_sizes, mesh.num_polys, params.blend));
+  JumpSynthResult r = synthesize_jumpmap(pre, mesh, orientation, params, view_of(maps));
   r.maps = std::move(maps);
   return r;
 }

@@ -19,6 +19,7 @@
 #include <utility>
 
 #include "texsynth/common/errors.hpp"
+#include "texsynth/common/prefault.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/common/threads.hpp"
 #include "texsynth/common/uninitialized_vector.hpp"
@@ -157,7 +158,6 @@ MeshEdges build_mesh_edges(const Mesh& m) {
         e.vertices[2 * size_t(id)] = a, e.vertices[2 * size_t(id) + 1] = *b;
     }
   });
-  e.corner_poly = m.corner_poly;
   e.corner_edge.resize(size_t(L));
   e.edge_corner_start.assign(size_t(E) + 1, 0);
   std::vector<std::atomic<int32_t>> count(static_cast<size_t>(E));
@@ -212,7 +212,7 @@ float edge_error_at(const Mesh& m, const MeshEdges& edges, const float* base_uv,
   const int32_t max_points = 4 * std::max(s.width, s.height);
   const int32_t va = edges.vertices[2 * size_t(e)], vb = edges.vertices[2 * size_t(e) + 1];
   auto ends = [&](int32_t corner, double* xy) {
-    const int32_t poly = edges.corner_poly[corner];
+    const int32_t poly = m.corner_poly[corner];
     uv_to_texel(base_uv + 2 * size_t(corner_at(m, poly, va)), s, xy[0], xy[1]);
     uv_to_texel(base_uv + 2 * size_t(corner_at(m, poly, vb)), s, xy[2], xy[3]);
   };
@@ -320,22 +320,16 @@ class TextonSynthesizer {
   }
 
  private:
-  // Touches one float per 4 KiB page of the output buffers (see the growth in run()); stops early
-  // when `stop` or cancel is raised.
+  // Faults the output buffers' pages in (see the growth in run()); stops early when `stop` or
+  // cancel is raised.
   void prefault_outputs(const CornerMapsView& out, const std::atomic<bool>& stop) const {
     const size_t L = size_t(out.num_corners), S = size_t(out.num_blend_sets);
-    const std::pair<float*, size_t> buffers[] = {
-        {out.base_uv, 2 * L}, {out.blend_uv, out.packed_pairs ? (S + 1) / 2 * L * 4 : S * L * 2}, {out.blend_weights, S * L}};
-    constexpr size_t kPage = 4096 / sizeof(float);
-    for (const auto& [data, count] : buffers) {
-      volatile float* p = data;  // stores the compiler must keep (the passes overwrite them)
-      for (size_t i = 0; i < count; i += kPage) {
-        if ((i / kPage & 255) == 0 &&
-            (stop.load(std::memory_order_relaxed) || (p_.cancel && p_.cancel->load(std::memory_order_relaxed))))
-          return;
-        p[i] = 0.f;
-      }
-    }
+    auto stopped = [&] {
+      return stop.load(std::memory_order_relaxed) || (p_.cancel && p_.cancel->load(std::memory_order_relaxed));
+    };
+    prefault_pages(out.base_uv, 2 * L, stopped);
+    prefault_pages(out.blend_uv, out.packed_pairs ? (S + 1) / 2 * L * 4 : S * L * 2, stopped);
+    prefault_pages(out.blend_weights, S * L, stopped);
   }
 
   // Pass 1 (parallel): per-corner offsets in the face frame, per-face bounding boxes.
@@ -428,7 +422,7 @@ class TextonSynthesizer {
     const int32_t first = m_.poly_starts[poly];
     for (int32_t i = 0; i < m_.poly_sizes[poly]; ++i)
       for_each_edge_corner(edges, first + i, [&](int32_t c) {
-        if (edges.corner_poly[c] != poly) fn(edges.corner_poly[c]);
+        if (m_.corner_poly[c] != poly) fn(m_.corner_poly[c]);
       });
   }
 
@@ -623,7 +617,7 @@ class TextonSynthesizer {
       const float* oa = off + 2 * i;
       const float* ob = off + 2 * ((i + 1) % n);
       for_each_edge_corner(edges, first + i, [&](int32_t c) {
-        const int32_t g = edges.corner_poly[c];
+        const int32_t g = m_.corner_poly[c];
         if (g == poly || !textured(g)) return;
         const int32_t c_next = m_.poly_starts[g] + (c - m_.poly_starts[g] + 1) % m_.poly_sizes[g];
         const bool same = m_.corner_verts[c] == va;
@@ -874,11 +868,7 @@ TextonSynthResult synthesize_texton(const Preprocessed& pre, const Mesh& mesh, c
   validate_sample(pre, sample);
   validate_params(mesh, orientation, params);
   const int32_t S = texton_blend_sets(params.blend);
-  if (out.num_corners != mesh.num_corners || out.num_blend_sets != S ||
-      (mesh.num_corners > 0 && (!out.base_uv || !out.blend_uv || !out.blend_weights)))
-    throw std::invalid_argument("synthesize_texton: output buffers are missing or sized for " +
-                                std::to_string(out.num_corners) + " corners and " + std::to_string(out.num_blend_sets) +
-                                " blend sets, expected " + std::to_string(mesh.num_corners) + " and " + std::to_string(S));
+  check_corner_maps_view(out, mesh.num_corners, S, "synthesize_texton");
   TextonSynthResult r = TextonSynthesizer(pre, mesh, orientation, sample, params).run(out);
   r.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
@@ -886,16 +876,8 @@ TextonSynthResult synthesize_texton(const Preprocessed& pre, const Mesh& mesh, c
 
 TextonSynthResult synthesize_texton(const Preprocessed& pre, const Mesh& mesh, const float* orientation,
                                     const SampleImage& sample, const TextonSynthParams& params) {
-  CornerMaps maps;
-  maps.num_corners = mesh.num_corners;
-  maps.num_blend_sets = texton_blend_sets(params.blend);
-  const size_t L = size_t(mesh.num_corners), S = size_t(maps.num_blend_sets);
-  maps.base_uv.resize(L * 2);
-  maps.blend_uv.resize(S * L * 2);
-  maps.blend_weights.resize(L * S);
-  TextonSynthResult r = synthesize_texton(
-      pre, mesh, orientation, sample, params,
-      CornerMapsView{maps.num_corners, maps.num_blend_sets, maps.base_uv.data(), maps.blend_uv.data(), maps.blend_weights.data()});
+  CornerMaps maps = allocate_corner_maps(mesh.num_corners, texton_blend_sets(params.blend));
+  TextonSynthResult r = synthesize_texton(pre, mesh, orientation, sample, params, view_of(maps));
   r.maps = std::move(maps);
   return r;
 }

@@ -37,6 +37,15 @@ struct CornerMapsView {
   }
 };
 
+// Buffers sized for the outputs, and a view that writes into them.
+CornerMaps allocate_corner_maps(int32_t num_corners, int32_t num_blend_sets);
+CornerMapsView view_of(CornerMaps& maps);
+
+// Throws std::invalid_argument, naming `synthesizer`, unless `out` has every buffer and is sized for
+// num_corners corners and num_blend_sets sets.
+void check_corner_maps_view(const CornerMapsView& out, int32_t num_corners, int32_t num_blend_sets,
+                            const char* synthesizer);
+
 // Set-major blend UVs (S × L × 2) repacked into pairs ((S+1)/2 × L × 4, see packed_pairs; 0 where
 // an odd S leaves a slot).
 void pack_set_pairs(const float* blend_uv, int32_t num_blend_sets, int32_t num_corners, float* pairs);

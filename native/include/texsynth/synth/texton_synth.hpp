@@ -64,7 +64,6 @@ constexpr int32_t kCornerSet[2][4] = {{0, 1, 3, -1}, {0, 1, 2, 3}};
 struct MeshEdges {
   UninitializedVector<int32_t> vertices;      // num_edges*2, (a, b) with a < b, sorted
   UninitializedVector<int32_t> corner_edge;   // per corner: edge from this corner's vertex to the next corner's; -1 if equal
-  UninitializedVector<int32_t> corner_poly;   // per corner: its polygon
   UninitializedVector<int32_t> edge_corner_start;  // num_edges + 1 (CSR)
   UninitializedVector<int32_t> edge_corners;       // corners c with corner_edge[c] == e
   int32_t num_edges() const { return int32_t(vertices.size() / 2); }
