@@ -3,6 +3,8 @@
 // std::invalid_argument -> ValueError (pybind11 default); CacheError and Cancelled get their own types.
 #include <pybind11/pybind11.h>
 
+#include <Eigen/Core>
+
 #include "texsynth/common/errors.hpp"
 
 namespace py = pybind11;
@@ -42,6 +44,13 @@ PYBIND11_MODULE(texsynth_native, m) {
       PyErr_SetString(cancelled, e.what());
     }
   });
+
+  // For the cross-CPU test only (python_tests/test_cross_cpu.py): the cache sizes Eigen reads with cpuid
+  // and sizes its matrix-product blocks from, set as another CPU would report them.
+  m.def("_set_matrix_cache_sizes", [](std::ptrdiff_t l1, std::ptrdiff_t l2, std::ptrdiff_t l3) {
+    if (l1 < 1024 || l2 < l1 || l3 < l2) throw std::invalid_argument("cache sizes must be l1 >= 1024 <= l2 <= l3 bytes");
+    Eigen::setCpuCacheSizes(l1, l2, l3);
+  }, py::arg("l1"), py::arg("l2"), py::arg("l3"));
 
   bind_image(m);
   bind_preprocess(m);

@@ -31,6 +31,7 @@
 
 #include "texsynth/common/byte_writer.hpp"
 #include "texsynth/common/errors.hpp"
+#include "texsynth/common/fixed_order_product.hpp"
 #include "texsynth/common/hash.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/image/border.hpp"
@@ -129,7 +130,7 @@ Pca fit_pca(int raw, int out, int64_t total, int64_t samples, const Gather& gath
       const int64_t n = std::min(kBlock, b1 - s);
       for (int64_t k = 0; k < n; ++k) gather(sample_id(s + k), block.col(k).data());
       const auto cols = block.leftCols(n);
-      product.noalias() = cols * cols.transpose();
+      product_fixed_order(product, cols, cols.transpose());
       cov[size_t(c)] += product.cast<double>();
       sum[size_t(c)] += cols.rowwise().sum().cast<double>();
     }
@@ -267,7 +268,7 @@ ExemplarAppearance appearance_impl(const ExemplarSample& s, int dims, bool tilea
       throw_if_cancelled(cancel);
       for (int32_t x = 0; x < W; ++x) gather(int64_t(y) * W + x, windows.col(x).data());
       Eigen::Map<Eigen::MatrixXf> out(a.values.data() + size_t(y) * size_t(W) * size_t(dims), dims, W);
-      out.noalias() = pca.basis * windows;
+      product_fixed_order(out, pca.basis, windows);
       out.colwise() -= projected_mean;
     }
     progress.set(0.4 + 0.6 * double(rows_done += int32_t(rows.size())) / s.height);

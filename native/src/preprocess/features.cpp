@@ -10,6 +10,7 @@
 #include <numeric>
 
 #include "texsynth/common/errors.hpp"
+#include "texsynth/common/fixed_order_product.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/image/border.hpp"
 
@@ -104,7 +105,9 @@ Features compute_features(const Image& image, int neighbourhood, int feature_dim
   throw_if_cancelled(cancel);
   if (reduce) {
     samples.colwise() -= mean_f;
-    const Eigen::MatrixXf cov_f = (samples * samples.transpose()) / float(sample_count);
+    Eigen::MatrixXf cov_f;
+    product_fixed_order(cov_f, samples, samples.transpose());
+    cov_f /= float(sample_count);
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(cov_f.cast<double>());
     const Eigen::MatrixXd& vectors = solver.eigenvectors();  // ascending eigenvalues
     projection.resize(out_dims, full_dims);
@@ -132,7 +135,7 @@ Features compute_features(const Image& image, int neighbourhood, int feature_dim
       for (int x = 0; x < width; ++x) gatherer.gather(x, y, windows.col(x).data());
       float* out = features.values.data() + size_t(y) * size_t(width) * size_t(out_dims);
       if (reduce) {
-        reduced.noalias() = projection * windows;
+        product_fixed_order(reduced, projection, windows);
         reduced.colwise() -= projected_mean;
         std::copy(reduced.data(), reduced.data() + reduced.size(), out);
       } else {

@@ -14,6 +14,7 @@
 #endif
 
 #include "texsynth/common/errors.hpp"
+#include "texsynth/common/fixed_order_product.hpp"
 #include "texsynth/common/rng.hpp"
 
 namespace texsynth {
@@ -151,7 +152,7 @@ JumpMap build_jump_map(const Features& features, int width, int height, const st
         // goes into the queries: scaling by a power of two is exact, so the products are bit-identical to
         // scaling them afterwards, without that extra pass over c_n × block_size values.
         scaled_queries.noalias() = queries * -2.0f;
-        products.noalias() = candidate_matrix.transpose() * scaled_queries;  // c_n × block_size
+        product_fixed_order(products, candidate_matrix.transpose(), scaled_queries);  // c_n × block_size
         products.colwise() += candidate_norms;
         for (int qi = 0; qi < block_size; ++qi) {
           const size_t query_at = size_t(block + qi);
