@@ -143,23 +143,28 @@ def test_cancel_raises_cancelled_and_returns_nothing():
         ts.round_synthesize(ctx, sample_image(64), up(pos), cancel=token)
     with pytest.raises(ts.Cancelled):
         ts.RoundSynthesisContext(pos, tris, uvs, width=64, height=64, texels_per_unit=64, cancel=token)
-    # From another thread, mid-run.
-    token = ts.CancelToken()
-    result = {}
+    # From another thread, mid-run. On a loaded machine this thread can be descheduled after seeing 30 %
+    # until the call has finished; such an attempt proves nothing either way and is repeated.
+    for _attempt in range(5):
+        token = ts.CancelToken()
+        result = {}
 
-    def run():
-        try:
-            result["out"] = ts.round_synthesize(ctx, sample_image(64), up(pos), cancel=token)
-        except ts.Cancelled:
-            result["cancelled"] = True
+        def run():
+            try:
+                result["out"] = ts.round_synthesize(ctx, sample_image(64), up(pos), cancel=token)
+            except ts.Cancelled:
+                result["cancelled"] = True
 
-    worker = threading.Thread(target=run)
-    worker.start()
-    deadline = time.time() + 30
-    while token.progress < 0.3 and worker.is_alive() and time.time() < deadline:
-        time.sleep(0.0005)
-    token.cancel()
-    worker.join()
+        worker = threading.Thread(target=run)
+        worker.start()
+        deadline = time.time() + 30
+        while token.progress < 0.3 and worker.is_alive() and time.time() < deadline:
+            time.sleep(0.0005)
+        raised_while_running = worker.is_alive() and token.progress < 1.0
+        token.cancel()
+        worker.join()
+        if raised_while_running and "out" not in result:
+            break
     assert result.get("cancelled") and "out" not in result
 
 
