@@ -56,14 +56,11 @@ def _image(name, width, height, rgba_bottom_first, float_buffer, srgb=True):
 
 
 def replace_image(name, width, height, rgba_bottom_first, float_buffer=False, srgb=True):
-    """Image `name` with these pixels: rewritten in place when its size and type match (users keep it),
-    else a new one takes the name."""
+    """A new image `name` with these pixels, taking the place of the old one of that name (its users,
+    the Image Editors showing it, are remapped to the new one; the old one is removed). Never rewritten in
+    place: Blender's undo does not restore the pixels of a packed image rewritten in place (3.4 to 5.2),
+    while a removed image comes back whole, pixels and users."""
     image = bpy.data.images.get(name)
-    if image is not None and tuple(image.size) == (width, height) and bool(image.is_float) == bool(float_buffer):
-        image.pixels.foreach_set(np.ascontiguousarray(rgba_bottom_first, dtype=np.float32).ravel())
-        image.update()
-        image.pack()
-        return image
     new = _image(_TEMP + name, width, height, rgba_bottom_first, float_buffer, srgb)
     if image is not None:
         image.user_remap(new)

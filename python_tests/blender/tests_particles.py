@@ -103,6 +103,29 @@ def test_analyse_lists_the_classes_and_writes_the_segmentation_image():
     assert np.allclose(pixels[8, 12, :3], 1.0, atol=0.02) and np.allclose(pixels[12, 17, :3], 1.0, atol=0.02)
 
 
+def test_undo_of_an_analysis_restores_the_previous_segmentation_image():
+    # Blender's undo does not restore the pixels of a packed image rewritten in place: each analysis must
+    # give the preview as a new image (users remapped), so undo brings back the one before.
+    clean()
+    configure(particle_classes=2)
+    name = "TexSynth Segmentation: pebbles.png"
+    bpy.ops.ed.undo_push(message="before the analyses")
+    assert bpy.ops.texsynth.particle_analyse("EXEC_DEFAULT", True) == {"FINISHED"}
+    first = harness.pixel_digest(bpy.data.images[name])
+    bpy.context.scene.texsynth.particle_classes = 4
+    bpy.ops.ed.undo_push(message="Classes")  # what the sidebar edit pushes
+    assert bpy.ops.texsynth.particle_analyse("EXEC_DEFAULT", True) == {"FINISHED"}
+    assert len(bpy.context.scene.texsynth.particle_rows) == 4
+    assert harness.pixel_digest(bpy.data.images[name]) != first
+    bpy.ops.ed.undo()
+    props = bpy.context.scene.texsynth
+    assert props.particle_classes == 4 and len(props.particle_rows) == 2  # the step before the second analysis
+    images = [image.name for image in bpy.data.images if image.name.startswith("TexSynth Segmentation: ")]
+    assert images == [name], images
+    assert props.particle_preview == bpy.data.images[name]
+    assert harness.pixel_digest(bpy.data.images[name]) == first
+
+
 def test_the_view_and_the_sidebar_draw_the_particle_section():
     clean()
     configure()
