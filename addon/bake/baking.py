@@ -356,6 +356,15 @@ def take_name(image, name):
     image.name = name
 
 
+def keep_unused(datablock):
+    """Gives an output nothing uses yet (a baked image with no material, a baked material not assigned, a
+    surface-colour image with material mode Layers Only) a fake user, so saving the .blend keeps it: a
+    datablock with no user is dropped by the save, whatever the report said. Returns it."""
+    if datablock is not None and datablock.users == 0:
+        datablock.use_fake_user = True
+    return datablock
+
+
 def baked_material(obj, image, uv_map, assign):
     """Material "TexSynth Baked: <object>": UV Map -> Image Texture -> Principled Base Color."""
     material = surface_material.new_material(options.MATERIAL_PREFIX + obj.name, image=image, uv_map=uv_map)
@@ -409,6 +418,7 @@ def bake(obj, request, context=None, progress=None):
         material = None
         if request.material != "NONE":
             material = baked_material(obj, image, uv_map, request.material == "ASSIGN")
+        keep_unused(material if material is not None else image)
         success = True
     finally:
         for material in materials:

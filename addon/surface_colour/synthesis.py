@@ -255,6 +255,7 @@ class Job:
             baking.take_name(image, target.image_name)
             material = surface_material.apply(item.obj, self.material_mode, MATERIAL_PREFIX + item.obj.name,
                                               image=image, uv_map=item.uv_map)
+            baking.keep_unused(image)  # Layers Only: the image is the output, and nothing uses it yet
         except Exception:
             if image.name.startswith(baking.TEMP_PREFIX):  # not yet in place of an older image
                 bpy.data.images.remove(image)

@@ -5,6 +5,7 @@ import hashlib
 import importlib.util
 import os
 import sys
+import tempfile
 import traceback
 
 import bpy
@@ -103,6 +104,23 @@ def save_png(path, rgba_bottom_first):
         image.save()
     finally:
         bpy.data.images.remove(image)
+    return path
+
+
+def pixel_digest(image):
+    """sha256 of an image's float pixels (what Blender shows), to compare an image across a save + reload or undo."""
+    values = np.empty(len(image.pixels), np.float32)
+    image.pixels.foreach_get(values)
+    return hashlib.sha256(values.tobytes()).hexdigest()
+
+
+def save_and_reload(name="reload.blend"):
+    """wm.save_as_mainfile to a new temporary folder, then wm.open_mainfile of that file: only what a .blend
+    keeps survives (datablocks with no user and no fake user are dropped). Every Python reference to a
+    datablock is stale afterwards. Returns the path."""
+    path = os.path.join(tempfile.mkdtemp(prefix="texsynth_reload_"), name)
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
     return path
 
 

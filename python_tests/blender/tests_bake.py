@@ -363,10 +363,34 @@ def test_operator_bakes_the_active_object_with_the_panel_settings():
     assert state_of(obj) == before
 
 
+def test_baked_outputs_nothing_uses_yet_survive_save_and_reload():
+    """Baked Material = Create (the material made, not assigned) and None (the image alone) leave outputs
+    no object uses yet; the report says "packed into the .blend", so a save + reload must keep them: the
+    material with its image, and the lone image, with the same pixels."""
+    obj = plane()
+    synthesize(obj)
+    created = baking.bake(obj, options.BakeRequest(uv_map="UVMap", size=32, margin=1, target="Baked Create",
+                                                   material="CREATE"))
+    alone = baking.bake(obj, options.BakeRequest(uv_map="UVMap", size=32, margin=1, target="Baked Alone"))
+    assert "packed into the .blend" in created.summary("Plane") and "packed into the .blend" in alone.summary("Plane")
+    assert obj.material_slots[0].material.name.startswith("TexSynth: ")  # neither output is on the object
+    digests = {"Baked Create": harness.pixel_digest(created.image), "Baked Alone": harness.pixel_digest(alone.image)}
+    harness.save_and_reload("baked.blend")
+    material = bpy.data.materials.get("TexSynth Baked: Plane")
+    assert material is not None, sorted(m.name for m in bpy.data.materials)
+    texture = next(n for n in material.node_tree.nodes if n.type == "TEX_IMAGE")
+    assert texture.image is not None and texture.image.name == "Baked Create", texture.image
+    assert harness.pixel_digest(texture.image) == digests["Baked Create"]
+    image = bpy.data.images.get("Baked Alone")
+    assert image is not None, sorted(i.name for i in bpy.data.images)
+    assert image.packed_file is not None and harness.pixel_digest(image) == digests["Baked Alone"]
+
+
 TESTS = [test_jumpmap_bake_matches_a_top_view_render, test_texton_cube_smart_uv_bake_covers_islands_and_margin,
          test_gltf_round_trip_keeps_baked_image_and_uv_map, test_failures_change_nothing,
          test_saved_file_and_rebake_replace_the_image, test_surface_colour_hook_dilates_the_margin,
-         test_operator_bakes_the_active_object_with_the_panel_settings]
+         test_operator_bakes_the_active_object_with_the_panel_settings,
+         test_baked_outputs_nothing_uses_yet_survive_save_and_reload]
 
 if __name__ == "__main__":
     harness.Checks().run(TESTS, harness.script_args())

@@ -219,6 +219,20 @@ def test_settings_persist_in_the_blend_file():
     assert abs(s.patch_tolerance - 1.5) < 1e-6
 
 
+def test_layers_only_image_survives_save_and_reload():
+    # Material mode Layers Only: the packed image is the only output and nothing uses it yet.
+    obj = plane()
+    report = surface.synthesize([obj], SAMPLE, settings(), options.BakeRequest(size=64, margin=2), "NONE")
+    assert report.objects == ["Plane"] and not obj.material_slots, report.summary()
+    image = bpy.data.images[IMAGE]
+    assert image.packed_file is not None and "(packed)" in report.summary()
+    digest = harness.pixel_digest(image)
+    harness.save_and_reload("patches.blend")
+    image = bpy.data.images.get(IMAGE)
+    assert image is not None, sorted(i.name for i in bpy.data.images)
+    assert image.packed_file is not None and harness.pixel_digest(image) == digest
+
+
 if __name__ == "__main__":
     harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")],
                          only=harness.script_args())

@@ -292,6 +292,20 @@ def test_settings_persist_in_the_blend_file():
         ("ROUND", "VERTICES", 4, 3, 1, 5, "FULL")
 
 
+def test_layers_only_image_survives_save_and_reload():
+    # Material mode Layers Only: the packed image is the only output and nothing uses it yet.
+    obj = plane()
+    report = run([obj], material_mode="NONE")
+    assert report.objects == ["Plane"] and not obj.material_slots, report.summary()
+    image = bpy.data.images["TexSynth Round: Plane"]
+    assert image.packed_file is not None and "(packed)" in report.summary()
+    digest = harness.pixel_digest(image)
+    harness.save_and_reload("round.blend")
+    image = bpy.data.images.get("TexSynth Round: Plane")
+    assert image is not None, sorted(i.name for i in bpy.data.images)
+    assert image.packed_file is not None and harness.pixel_digest(image) == digest
+
+
 if __name__ == "__main__":
     harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")],
                          only=harness.script_args())
