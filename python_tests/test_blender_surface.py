@@ -19,7 +19,7 @@ def test_surface_suite_inside_blender():
     process = blender_run.blender("--python", os.path.join(blender_run.BLENDER_TESTS, "tests_surface.py"))
     output = process.stdout + process.stderr
     assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-6000:]
-    assert output.count("PASS test_") == 15, output[-3000:]
+    assert output.count("PASS test_") == 16, output[-3000:]
 
 
 @needs_native

@@ -165,7 +165,10 @@ def _set_flags(mesh, flags):
 
 def smart_project(obj, request, context):
     """Adds a UV map (Smart UV Project over all faces, hidden ones too) without changing the others, the
-    active UV map or the mesh's selection and hide state; returns its name."""
+    active UV map or the mesh's selection and hide state; returns its name. A mesh that had no active UV
+    map (no UV map at all) gets the new one as its active map: an active index of -1 next to an existing
+    map stays -1 on Blender 3.4 (4.x clamps it to 0), and Cycles' bake refuses such a mesh ("No active
+    UV layer found")."""
     mesh = obj.data
     flags = _mesh_flags(mesh)
     # Blender 4+ stores these flags as internal attributes, created when first written: remove the
@@ -197,7 +200,10 @@ def smart_project(obj, request, context):
                 created = mesh.attributes.get(".%s_%s" % (flag, kind))
                 if created is not None and created.name not in attributes_before:
                     mesh.attributes.remove(created)
-        mesh.uv_layers.active_index = active_index
+        if active_index >= 0 or mesh.uv_layers.get(name) is None:
+            mesh.uv_layers.active_index = active_index
+        else:
+            mesh.uv_layers.active = mesh.uv_layers[name]
         for layer, flag in zip(mesh.uv_layers, render_active):
             layer.active_render = flag
         mesh.update()
@@ -388,6 +394,7 @@ def bake(obj, request, context=None, progress=None):
     particles = particle_baking.prepare(obj)  # checked before anything changes
     state = _SceneState(scene, view_layer)
     materials, image, created_uv, success = [], None, None, False
+    inactive_uv_index = None
     notes = []
     try:
         state.select_only(obj)
@@ -399,6 +406,12 @@ def bake(obj, request, context=None, progress=None):
         image = new_image(TEMP_PREFIX + target.image_name, request.size, target.float_buffer)
         materials = [_MaterialState(material, node, image) for material, node in groups]
         state.use_cycles(request.samples)
+        uv_layers = obj.data.uv_layers
+        if uv_layers.active is None:
+            # No active UV map (an index of -1, which Blender 3.4 keeps and saves): Cycles refuses to bake
+            # ("No active UV layer found") even with uv_layer given, so the bake's map is active meanwhile.
+            inactive_uv_index = uv_layers.active_index
+            uv_layers.active = uv_layers[uv_map]
         progress(0.1, "TexSynth: baking %s (%d px, Cycles)" % (obj.name, request.size))
         try:
             bpy.ops.object.bake(type="EMIT", margin=request.margin, use_clear=True, use_selected_to_active=False,
@@ -424,6 +437,8 @@ def bake(obj, request, context=None, progress=None):
         for material in materials:
             material.restore()
         state.restore()
+        if inactive_uv_index is not None:
+            obj.data.uv_layers.active_index = inactive_uv_index
         if not success:
             if image is not None:
                 bpy.data.images.remove(image)

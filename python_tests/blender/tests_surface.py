@@ -18,7 +18,7 @@ import harness  # noqa: E402
 
 texsynth = harness.load_addon()
 texsynth.register()
-from texsynth.bake import options  # noqa: E402
+from texsynth.bake import baking, options  # noqa: E402
 from texsynth.bridge import mesh_io  # noqa: E402
 from texsynth.core import pipeline  # noqa: E402
 from texsynth.surface_colour import core, synthesis as surface  # noqa: E402
@@ -304,6 +304,38 @@ def test_layers_only_image_survives_save_and_reload():
     image = bpy.data.images.get("TexSynth Round: Plane")
     assert image is not None, sorted(i.name for i in bpy.data.images)
     assert image.packed_file is not None and harness.pixel_digest(image) == digest
+
+
+def test_a_uv_map_made_for_a_mesh_without_one_is_active_and_bake_works_after():
+    # Smart UV Project on a mesh with no UV map: the mesh had no active UV map (index -1) and must not be left
+    # with that index now that it has one, or Cycles' bake refuses it ("No active UV layer found").
+    harness.reset_scene()
+    obj = harness.add_primitive("cube", "Cube")
+    obj.data.uv_layers.remove(obj.data.uv_layers[0])
+    harness.select_only([obj])
+    assert obj.data.uv_layers.active_index == -1
+    report = run([obj], options.BakeRequest(size=64, margin=2, create_uv=True))
+    assert report.objects == ["Cube"], report.summary()
+    layers = obj.data.uv_layers
+    assert [layer.name for layer in layers] == ["UVMap"]
+    assert 0 <= layers.active_index < len(layers) and layers.active is not None, layers.active_index
+    assert layers[layers.active_index].name == "UVMap"
+    # Then a UV method on the same mesh, and Bake through the map made above.
+    settings_jumpmap = pipeline.Settings(method="JUMPMAP", sample_world_size=3.0, seed=3, axis=(0.0, 1.0, 0.0))
+    uv_report = synthesis.synthesize([obj], synthesis.Sample(path=os.path.join(harness.SAMPLES_DIR, "moss.png")),
+                                     settings_jumpmap, cache_dir=tempfile.mkdtemp(prefix="texsynth_surface_"))
+    assert uv_report.objects == ["Cube"], uv_report.summary()
+    layers = obj.data.uv_layers
+    assert 0 <= layers.active_index < len(layers) and layers.active is not None, layers.active_index
+    result = baking.bake(obj, options.BakeRequest(uv_map="UVMap", size=64, margin=2))
+    assert result.uv_map == "UVMap" and tuple(result.image.size) == (64, 64)
+    assert pixels_of(result.image)[..., 3].max() > 0.99  # something was baked
+    # A mesh saved with no active UV map (Blender 3.4 keeps an index of -1, 4.x clamps it to 0): Bake makes
+    # its map active while Cycles bakes, and leaves the index as it was.
+    obj.data.uv_layers.active_index = -1
+    index = obj.data.uv_layers.active_index
+    result = baking.bake(obj, options.BakeRequest(uv_map="UVMap", size=64, margin=2, target="Baked Again"))
+    assert tuple(result.image.size) == (64, 64) and obj.data.uv_layers.active_index == index
 
 
 if __name__ == "__main__":
