@@ -393,6 +393,11 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
         finest = max(1.0, float(np.max(mesh_arrays.scale_multiplier)))
     sample, texels_per_unit = working_sample(sample, texels_per_unit, density / finest, settings.round_resolution,
                                              2 * settings.patch_size)
+    # The patch size of every exemplar the native synthesis analyses (smaller for a small working sample and
+    # optimisation's coarser levels) bounds the boundary width: refused here, before any analysis.
+    level_sizes = pipeline.patch_level_sizes(sample.shape[1], sample.shape[0], settings.patch_size,
+                                             bool(settings.tileable), settings.patch_mode, PATCH_LEVELS)
+    pipeline.check_patch_boundary(settings.patch_boundary, level_sizes)
     stage("context")
     if target.kind == "IMAGE":
         texels = cached[1] if cached else module.sample_texels(

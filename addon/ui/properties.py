@@ -134,7 +134,8 @@ class TexSynthSettings(bpy.types.PropertyGroup):
     patch_boundary: bpy.props.IntProperty(
         name="Boundary", default=4, min=pipeline.PATCH_BOUNDARY_RANGE[0], max=pipeline.PATCH_BOUNDARY_RANGE[1],
         description="Width in sample pixels of the zone where a new patch is matched and cross-faded into its "
-                    "neighbours")
+                    "neighbours: at most half the patch size (of the smaller patches a small sample or a coarse "
+                    "optimisation level gets)")
     patch_tolerance: bpy.props.FloatProperty(
         name="Tolerance", default=1.2, min=pipeline.PATCH_TOLERANCE_RANGE[0], max=pipeline.PATCH_TOLERANCE_RANGE[1],
         description="Candidates matching within this factor of the best are equally likely: higher gives more "

@@ -233,6 +233,40 @@ def test_layers_only_image_survives_save_and_reload():
     assert image.packed_file is not None and harness.pixel_digest(image) == digest
 
 
+def test_a_boundary_wider_than_half_the_patches_used_is_refused_by_the_addon():
+    # Patch Size 16 allows Boundary 6 (at most half the patch size) for a large enough sample, but here the
+    # sample is reduced to 32² (a 64 px image over 2 units at scale 1: 32 texels per unit) and Optimisation's
+    # coarsest level halves it to 16², which holds 8 px patches only: the native synthesis takes a
+    # boundary of at most 4 there. The add-on must refuse it itself, before any work, naming the setting.
+    obj = plane()
+    before = state(obj)
+    core.exemplars.clear()
+    request = options.BakeRequest(size=64, margin=2)
+    wide = dict(patch_mode="OPTIMISATION", patch_size=16, patch_boundary=6, sample_world_size=1.0)
+    settings(**wide).validate()  # fine as long as the sample is not known
+    report = run([obj], request, **wide)
+    message = report.summary()
+    assert not report.objects and "Boundary" in message and "at most 4" in message, message
+    assert "patch synthesis:" not in message, "refused by the native code, not the add-on: " + message
+    assert core.exemplars.entry is None, "the sample was analysed before the refusal"
+    assert state(obj) == before
+    # The operator turns it into an error report and changes nothing.
+    props = bpy.context.scene.texsynth
+    props.sample_path, props.method, props.scale, props.axis = BRICKS, "PATCHES", 1.0, (0.0, 1.0, 0.0)
+    props.patch_mode, props.patch_size, props.patch_boundary = "OPTIMISATION", 16, 6
+    props.bake_size, props.bake_margin = 64, 2
+    try:
+        bpy.ops.texsynth.synthesize()
+        raise AssertionError("the operator accepted Boundary 6")
+    except RuntimeError as error:
+        assert "at most 4" in str(error), error
+    assert state(obj) == before
+    # The limit the message gives is the one that runs; the UI property's range is the add-on's one range.
+    assert run([obj], request, **dict(wide, patch_boundary=4)).objects == ["Plane"]
+    rna = props.bl_rna.properties["patch_boundary"]
+    assert (rna.hard_min, rna.hard_max) == pipeline.PATCH_BOUNDARY_RANGE, (rna.hard_min, rna.hard_max)
+
+
 if __name__ == "__main__":
     harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")],
                          only=harness.script_args())
