@@ -19,7 +19,7 @@ def test_patches_suite_inside_blender():
     process = blender_run.blender("--python", os.path.join(blender_run.BLENDER_TESTS, "tests_patches.py"))
     output = process.stdout + process.stderr
     assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-6000:]
-    assert output.count("PASS test_") == 13, output[-3000:]
+    assert output.count("PASS test_") == 14, output[-3000:]
 
 
 @needs_native

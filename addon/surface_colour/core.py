@@ -324,12 +324,75 @@ def vertex_samples(positions, triangles):
     return used, positions[used], normals[used].astype(np.float32), tri, bary
 
 
-def estimate_patch_megabytes(samples, mode, patch_size):
-    """Peak memory of a patch synthesis (MB): every grid point (face, barycentrics, position, cell flag:
-    25 B) and every (sample, patch) pair of the coverage, held both ways round (24 B)."""
+# Peak memory of a patch synthesis (estimate_patch_megabytes). Measured (peak RSS less Blender's own 0.26 GB)
+# with a 512² sample at scale 0.3, Full Sample, 32 px patches, a 512² image: 2 x 2 plane, sampling 1.33 GB
+# (estimate 1.48), optimisation 2.21 GB (3.38: no extra patches were appended there); the default cube,
+# sampling 4.73 GB (4.69), 189 s.
+PATCH_CENTRES_PER_SPACING_SQUARED = 0.5  # Poisson-disk patch centres per spacing² of surface (measured 0.44-0.46)
+PATCH_GRID_POINT_BYTES = 37  # face point 12 B + position 12 B + cell flag 1 B, and the largest of those
+                             # arrays copied again while the extra patches are appended
+PATCH_COVERAGE_BYTES = 24    # a (sample, patch) pair with its grid coordinates, held both ways round
+PATCH_SAMPLE_BYTES = 64      # per surface sample: position, normal, face, colour, exemplar source, flags
+
+
+def estimate_exemplar_bytes(width, height, channels, patch_size, tileable, appearance_dims=5, patch_dims=30,
+                            links=16):
+    """Peak bytes of the sample analysis patch_exemplar() makes (the full-patch index with the native
+    defaults): the native estimate_exemplar_bytes (patches/exemplar_index.cpp), which the module does not
+    expose. The appearance image and PCA scratch, then per patch origin (every position a patch fits) its
+    reduced vector, HNSW node, insertion order and feature columns: about 2 kB per origin for 32² patches
+    (0.47 GB for a 512² sample; the native index_bytes measured 0.46 GB)."""
+    width, height, channels, patch_size = int(width), int(height), int(channels), int(patch_size)
+    raw_appearance = 25 * channels
+    total = width * height * appearance_dims * 4 + 8 * raw_appearance ** 2 * 8 + 2 * raw_appearance * width * 4
+    origins = width * height if tileable else max(0, width - patch_size + 1) * max(0, height - patch_size + 1)
+    cells = (patch_size // 4) ** 2
+    raw = cells * appearance_dims
+    dims = min(patch_dims, raw)
+    level0 = 2 * links * 4 + 4 + dims * 4 + 8
+    upper = (links * 4 + 4) // max(1, links - 1) + 1
+    hnsw = origins * (level0 + 4 + 8 + 48 + upper + 2 * 2)
+    return total + (origins * dims * 4 + hnsw + origins * 4 + 8 * raw * raw * 8 + 2 * raw * 1024 * 4
+                    + origins * (raw + cells) * 4)
+
+
+def patch_surface_pixels(positions, triangles, texels_per_unit, scale_multiplier=None):
+    """The surface a patch field steps over, in square sample pixels: the mesh's area x texels_per_unit²,
+    each triangle weighted by the square of its vertices' mean scale multiplier (clamped like the field's
+    step, to [1/4, 4]: a multiplier of 2 halves the step, four times the patches)."""
+    positions = np.asarray(positions, dtype=np.float64)
+    triangles = np.asarray(triangles)
+    if triangles.size == 0:
+        return 0.0
+    corners = positions[triangles]
+    areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    if scale_multiplier is not None:
+        multiplier = np.clip(np.asarray(scale_multiplier, dtype=np.float64), 0.25, 4.0)
+        areas = areas * multiplier[triangles].mean(axis=1) ** 2
+    return float(areas.sum()) * float(texels_per_unit) ** 2
+
+
+def estimate_patch_megabytes(samples, mode, level_sizes, surface_pixels, channels, tileable):
+    """Peak memory of a patch synthesis (MB). level_sizes: pipeline.patch_level_sizes of the working
+    sample; surface_pixels: patch_surface_pixels at its resolution.
+
+    The patches are counted on the surface at the sample's resolution, not the target's: one per
+    PATCH_CENTRES_PER_SPACING_SQUARED spacing² of it (at most one per surface sample, since the centres are
+    surface samples), each traced over (patch size + 2)² grid points. A sample much finer than the target
+    (Synthesis Resolution Full Sample) therefore gives a patch per surface sample, and the patches' grid
+    points outnumber the samples by the patch area. Then the (sample, patch) pairs of the coverage, the
+    per-sample arrays, and the sample analysis (estimate_exemplar_bytes) of every level: the finest is kept
+    while the coarser optimisation levels run (each level's grids are freed before the next finer one's)."""
+    patch_size = level_sizes[0][2]
     spacing = PATCH_CENTRE_SPACING[mode] * patch_size
-    entries = samples * ((patch_size + 2.0) / spacing) ** 2
-    return entries * 49.0 / 1e6
+    side = patch_size + 2  # grid points a side: the patch and a margin of one (patch_synth.hpp)
+    patches = min(float(samples), PATCH_CENTRES_PER_SPACING_SQUARED * float(surface_pixels) / spacing ** 2)
+    coverage = samples * PATCH_CENTRES_PER_SPACING_SQUARED * (side / spacing) ** 2
+    analyses = sum(estimate_exemplar_bytes(width, height, channels, patch, tileable)
+                   for width, height, patch in level_sizes)
+    total = (patches * side * side * PATCH_GRID_POINT_BYTES + coverage * PATCH_COVERAGE_BYTES
+             + samples * PATCH_SAMPLE_BYTES + analyses)
+    return total / 1e6
 
 
 class PatchTargetCache:
@@ -420,11 +483,21 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
     if not cached:
         targets.put(target_key, density, texels)
     mode = settings.patch_mode
-    needed = estimate_patch_megabytes(positions.shape[0], mode, settings.patch_size)
+    surface_pixels = patch_surface_pixels(mesh_arrays.positions, triangles, texels_per_unit,
+                                          mesh_arrays.scale_multiplier)
+    needed = estimate_patch_megabytes(positions.shape[0], mode, level_sizes, surface_pixels, sample.shape[2],
+                                      bool(settings.tileable))
     if needed > PATCH_MAX_MEGABYTES:
+        finer = texels_per_unit / density if density > 0.0 else 1.0
+        if settings.round_resolution == "FULL" and finer > 1.05:
+            advice = ("set Synthesis Resolution to Match Target (CLI --synthesis-resolution auto): at Full Sample "
+                      "the %d x %d sample has %.1f pixels between neighbouring surface samples, and the patches are "
+                      "traced and the sample analysed at its resolution" % (sample.shape[1], sample.shape[0], finer))
+        else:
+            advice = "use a smaller image, Patch Sampling mode, larger patches or a smaller sample"
         raise pipeline.SettingsError(
-            "%d surface samples in %s mode need about %d MB (limit %d MB): use a smaller image, sampling mode or "
-            "larger patches" % (positions.shape[0], mode.lower(), needed, PATCH_MAX_MEGABYTES))
+            "%d surface samples with %d px patches in %s mode need about %d MB (limit %d MB): %s"
+            % (positions.shape[0], level_sizes[0][2], mode.lower(), needed, PATCH_MAX_MEGABYTES, advice))
     exemplar, exemplar_from = cache.get(sample, settings.patch_size, settings.tileable,
                                         cache_dir, cancel)
     field = module.patch_field(mesh_arrays.positions, triangles, up, spacing=1.0 / float(texels_per_unit),

@@ -7,6 +7,7 @@ Expected values come from the sample's own pixels, Blender's data and the settin
 add-on's code. Targets stay small (64-128 px): the machine is shared.
 """
 import os
+import re
 import sys
 import tempfile
 
@@ -231,6 +232,47 @@ def test_layers_only_image_survives_save_and_reload():
     image = bpy.data.images.get(IMAGE)
     assert image is not None, sorted(i.name for i in bpy.data.images)
     assert image.packed_file is not None and harness.pixel_digest(image) == digest
+
+
+def large_sample(side=512):
+    """bricks.png scaled to side x side (Blender's own scaling), saved as a PNG; returns its path."""
+    path = os.path.join(tempfile.mkdtemp(prefix="texsynth_patches_"), "bricks%d.png" % side)
+    image = bpy.data.images.load(BRICKS, check_existing=False)
+    image.scale(side, side)
+    image.filepath_raw, image.file_format = path, "PNG"
+    image.save()
+    bpy.data.images.remove(image)
+    return path
+
+
+def test_full_resolution_sample_over_the_memory_limit_is_refused_before_any_work():
+    # The soak's configuration: Synthesis Resolution Full Sample, a 512² sample at scale 0.3 (1707 sample
+    # pixels per unit), a 512² image on Blender's default cube (its UV map: 98304 texels, 64 per unit). The
+    # sample has 27 pixels per texel, so nearly every texel gets a patch of 34² traced points, and the
+    # sample is analysed at 512²: measured 5.0 GB peak and 189 s here, where the old estimate said 22 MB.
+    path = large_sample()
+    harness.reset_scene()
+    obj = harness.add_primitive("cube", "Cube")
+    harness.select_only([obj])
+    before = state(obj)
+    core.exemplars.clear()
+    core.patch_targets.clear()
+    sample = synthesis.Sample(path=path)
+    report = surface.synthesize([obj], sample, settings(sample_world_size=0.3, round_resolution="FULL", patch_size=32),
+                                options.BakeRequest(size=512, margin=4), "NEW")
+    message = report.summary()
+    assert not report.objects, message
+    found = re.search(r"about (\d+) MB \(limit (\d+) MB\)", message)
+    assert found and int(found.group(1)) > int(found.group(2)) == core.PATCH_MAX_MEGABYTES, message
+    assert "Synthesis Resolution" in message and "Match Target" in message, message
+    # Refused before the sample analysis and the field: nothing of either was built.
+    assert core.exemplars.entry is None and core.patch_targets.field is None
+    assert state(obj) == before
+    # The default Synthesis Resolution (Match Target) analyses the sample reduced to the cube's density.
+    report = surface.synthesize([obj], sample, settings(sample_world_size=0.3, patch_size=32),
+                                options.BakeRequest(size=512, margin=4), "NEW")
+    assert report.objects == ["Cube"], report.summary()
+    assert report.native_stats["Cube"]["working_sample"][0] < 512
 
 
 def test_a_boundary_wider_than_half_the_patches_used_is_refused_by_the_addon():
