@@ -300,6 +300,40 @@ TEST(PatchesSynth, MultiResolutionRunsTheLevelsTheSampleAllows) {
   EXPECT_EQ(texsynth::synthesize_patches_on_surface(scene.field, scene.samples(), ex.index, ex.view(), p).levels, 1);
 }
 
+TEST(PatchesSynth, LevelPlanIsWhatTheSynthesisRuns) {
+  using texsynth::PatchMode;
+  // 48 px, 16 px patches: 48 then 24 (12 cannot hold the smallest exemplar), each fitted.
+  auto plan = texsynth::patch_level_sizes(48, 48, 16, false, PatchMode::kOptimisation, 3);
+  ASSERT_EQ(plan.size(), 2u);
+  EXPECT_EQ(plan[1].width, 24);
+  EXPECT_EQ(plan[1].patch_size, texsynth::fit_patch_size(24, 24, 16));
+  EXPECT_EQ(plan[1].patch_size, 16);  // 24 px sides still hold 16 px patches with 3 px to spare
+  // 36 px: 36 then 18, where 16 px patches lack the 3 px spare and get 8 (the largest multiple of 4 up to 9).
+  plan = texsynth::patch_level_sizes(36, 36, 16, false, PatchMode::kOptimisation, 3);
+  ASSERT_EQ(plan.size(), 2u);
+  EXPECT_EQ(plan[1].patch_size, 8);
+  EXPECT_EQ(texsynth::patch_level_sizes(48, 48, 16, false, PatchMode::kSampling, 3).size(), 1u);
+  plan = texsynth::patch_level_sizes(512, 256, 32, false, PatchMode::kOptimisation, 3);
+  ASSERT_EQ(plan.size(), 3u);
+  EXPECT_EQ(plan[2].width, 128);
+  EXPECT_EQ(plan[2].height, 64);
+  EXPECT_EQ(plan[2].patch_size, 32);
+  EXPECT_THROW(texsynth::patch_level_sizes(48, 48, 16, false, PatchMode::kOptimisation, 0), std::invalid_argument);
+  EXPECT_THROW(texsynth::patch_level_sizes(48, 48, 16, false, PatchMode::kOptimisation,
+                                           texsynth::kMaxPatchLevels + 1),
+               std::invalid_argument);
+  // The synthesis runs exactly the plan's levels.
+  const PlaneScene scene(48);
+  texsynth::SurfacePatchParams p;
+  p.synth.mode = PatchMode::kOptimisation;
+  p.synth.iterations = 1;
+  p.centre_spacing = 0.3;
+  p.levels = 3;
+  const Exemplar ex = noise_exemplar(48, 16, false);
+  EXPECT_EQ(size_t(texsynth::synthesize_patches_on_surface(scene.field, scene.samples(), ex.index, ex.view(), p).levels),
+            texsynth::patch_level_sizes(48, 48, ex.index.patch_size, false, PatchMode::kOptimisation, 3).size());
+}
+
 TEST(PatchesSynth, BadParametersAreRefusedClearly) {
   const PlaneScene scene(32);
   const Exemplar ex = noise_exemplar(40, 16, false);

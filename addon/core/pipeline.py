@@ -26,12 +26,11 @@ WORKING_SIZE_RANGE = (64, 4096)
 ROUND_LEVEL_RANGE, ROUND_RING_RANGE, ROUND_CANDIDATE_RANGE = (1, 6), (1, 6), (0, 16)
 ROUND_RESOLUTIONS = ("AUTO", "FULL")
 # Vector-field patches (patches/patch_synth.hpp): SAMPLING pastes matched patches (paper §5), OPTIMISATION
-# refines that result by texture optimisation (§4.3). Sizes in sample pixels. The add-on's one copy of the
-# native limits (the module does not expose them): patch sizes are multiples of 4 in [kMinPatchSize,
-# kMaxPatchSize] (exemplar_index.hpp); the boundary width is 1 .. half the patch size of each exemplar the
-# synthesis uses, which fit_patch_size lowers for a small sample and for optimisation's coarser levels
-# (patch_level_sizes), so its largest value is half the largest patch; the coarser levels stop at samples
-# below 2 x kMinPatchSize (patch_synth.cpp). The UI properties take their ranges from here.
+# refines that result by texture optimisation (§4.3). Sizes in sample pixels. The UI properties take their
+# ranges from here, before the native module is loaded; python_tests/test_native_module.py checks them
+# against the module's PATCH_SIZE_RANGE. The boundary width is 1 .. half the patch size of every exemplar
+# the synthesis analyses: the module's patch_level_sizes gives that plan (smaller patches for a small
+# sample and for optimisation's coarser levels), and check_patch_boundary refuses before any analysis.
 PATCH_MODES = ("SAMPLING", "OPTIMISATION")
 PATCH_SIZE_RANGE = (8, 64)
 PATCH_BOUNDARY_RANGE = (1, PATCH_SIZE_RANGE[1] // 2)
@@ -270,36 +269,9 @@ def max_patch_boundary(patch_size):
     return min(PATCH_BOUNDARY_RANGE[1], int(patch_size) // 2)
 
 
-def fit_patch_size(width, height, requested, tileable=False):
-    """The patch size the native analysis uses for a width x height sample (exemplar_index.cpp's
-    fit_patch_size): `requested` when each side holds it with 3 pixels to spare (or at all, tileable), else
-    the largest multiple of 4 up to half the smaller side. SettingsError below the smallest patch."""
-    side = min(int(width), int(height))
-    if side >= (requested if tileable else requested + 3):
-        return int(requested)
-    fitted = min(int(requested), (side // 2) // 4 * 4)
-    if fitted < PATCH_SIZE_RANGE[0]:
-        raise SettingsError("a %d x %d sample is too small for patches (the smallest, %d², needs sides of at least "
-                            "%d)" % (width, height, PATCH_SIZE_RANGE[0], 2 * PATCH_SIZE_RANGE[0]))
-    return fitted
-
-
-def patch_level_sizes(width, height, patch_size, tileable, mode, levels):
-    """[(width, height, patch size)] of every exemplar a patch synthesis on a width x height working sample
-    analyses, finest first, as the native synthesis does (patch_synth.cpp): the sample itself, then for
-    OPTIMISATION with levels > 1 the sample halved per coarser level while its smaller side halved still
-    holds the smallest exemplar, each with the previous level's patch size fitted to it."""
-    sizes = [(int(width), int(height), fit_patch_size(width, height, patch_size, tileable))]
-    if mode == "OPTIMISATION":
-        while len(sizes) < levels and min(sizes[-1][:2]) // 2 >= 2 * PATCH_SIZE_RANGE[0]:
-            w, h, patch = sizes[-1]
-            sizes.append((w // 2, h // 2, fit_patch_size(w // 2, h // 2, patch, tileable)))
-    return sizes
-
-
 def check_patch_boundary(boundary, level_sizes):
     """SettingsError (naming the setting and its largest value here) unless `boundary` is at most half of
-    every level's patch size (level_sizes from patch_level_sizes)."""
+    every level's patch size (level_sizes: the module's patch_level_sizes, the plan the synthesis runs)."""
     smallest = min(range(len(level_sizes)), key=lambda level: level_sizes[level][2])
     width, height, patch = level_sizes[smallest]
     if boundary <= max_patch_boundary(patch):

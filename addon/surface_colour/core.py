@@ -335,27 +335,6 @@ PATCH_COVERAGE_BYTES = 24    # a (sample, patch) pair with its grid coordinates,
 PATCH_SAMPLE_BYTES = 64      # per surface sample: position, normal, face, colour, exemplar source, flags
 
 
-def estimate_exemplar_bytes(width, height, channels, patch_size, tileable, appearance_dims=5, patch_dims=30,
-                            links=16):
-    """Peak bytes of the sample analysis patch_exemplar() makes (the full-patch index with the native
-    defaults): the native estimate_exemplar_bytes (patches/exemplar_index.cpp), which the module does not
-    expose. The appearance image and PCA scratch, then per patch origin (every position a patch fits) its
-    reduced vector, HNSW node, insertion order and feature columns: about 2 kB per origin for 32² patches
-    (0.47 GB for a 512² sample; the native index_bytes measured 0.46 GB)."""
-    width, height, channels, patch_size = int(width), int(height), int(channels), int(patch_size)
-    raw_appearance = 25 * channels
-    total = width * height * appearance_dims * 4 + 8 * raw_appearance ** 2 * 8 + 2 * raw_appearance * width * 4
-    origins = width * height if tileable else max(0, width - patch_size + 1) * max(0, height - patch_size + 1)
-    cells = (patch_size // 4) ** 2
-    raw = cells * appearance_dims
-    dims = min(patch_dims, raw)
-    level0 = 2 * links * 4 + 4 + dims * 4 + 8
-    upper = (links * 4 + 4) // max(1, links - 1) + 1
-    hnsw = origins * (level0 + 4 + 8 + 48 + upper + 2 * 2)
-    return total + (origins * dims * 4 + hnsw + origins * 4 + 8 * raw * raw * 8 + 2 * raw * 1024 * 4
-                    + origins * (raw + cells) * 4)
-
-
 def patch_surface_pixels(positions, triangles, texels_per_unit, scale_multiplier=None):
     """The surface a patch field steps over, in square sample pixels: the mesh's area x texels_per_unit²,
     each triangle weighted by the square of its vertices' mean scale multiplier (clamped like the field's
@@ -372,8 +351,8 @@ def patch_surface_pixels(positions, triangles, texels_per_unit, scale_multiplier
     return float(areas.sum()) * float(texels_per_unit) ** 2
 
 
-def estimate_patch_megabytes(samples, mode, level_sizes, surface_pixels, channels, tileable):
-    """Peak memory of a patch synthesis (MB). level_sizes: pipeline.patch_level_sizes of the working
+def estimate_patch_megabytes(module, samples, mode, level_sizes, surface_pixels, channels, tileable):
+    """Peak memory of a patch synthesis (MB). level_sizes: the module's patch_level_sizes of the working
     sample; surface_pixels: patch_surface_pixels at its resolution.
 
     The patches are counted on the surface at the sample's resolution, not the target's: one per
@@ -381,14 +360,14 @@ def estimate_patch_megabytes(samples, mode, level_sizes, surface_pixels, channel
     surface samples), each traced over (patch size + 2)² grid points. A sample much finer than the target
     (Synthesis Resolution Full Sample) therefore gives a patch per surface sample, and the patches' grid
     points outnumber the samples by the patch area. Then the (sample, patch) pairs of the coverage, the
-    per-sample arrays, and the sample analysis (estimate_exemplar_bytes) of every level: the finest is kept
+    per-sample arrays, and the sample analysis (the module's estimate) of every level: the finest is kept
     while the coarser optimisation levels run (each level's grids are freed before the next finer one's)."""
     patch_size = level_sizes[0][2]
     spacing = PATCH_CENTRE_SPACING[mode] * patch_size
     side = patch_size + 2  # grid points a side: the patch and a margin of one (patch_synth.hpp)
     patches = min(float(samples), PATCH_CENTRES_PER_SPACING_SQUARED * float(surface_pixels) / spacing ** 2)
     coverage = samples * PATCH_CENTRES_PER_SPACING_SQUARED * (side / spacing) ** 2
-    analyses = sum(estimate_exemplar_bytes(width, height, channels, patch, tileable)
+    analyses = sum(module.estimate_patch_exemplar_bytes(width, height, channels, patch, tileable=tileable)
                    for width, height, patch in level_sizes)
     total = (patches * side * side * PATCH_GRID_POINT_BYTES + coverage * PATCH_COVERAGE_BYTES
              + samples * PATCH_SAMPLE_BYTES + analyses)
@@ -458,8 +437,12 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
                                              2 * settings.patch_size)
     # The patch size of every exemplar the native synthesis analyses (smaller for a small working sample and
     # optimisation's coarser levels) bounds the boundary width: refused here, before any analysis.
-    level_sizes = pipeline.patch_level_sizes(sample.shape[1], sample.shape[0], settings.patch_size,
-                                             bool(settings.tileable), settings.patch_mode, PATCH_LEVELS)
+    try:
+        level_sizes = module.patch_level_sizes(sample.shape[1], sample.shape[0], settings.patch_size,
+                                               tileable=bool(settings.tileable), mode=settings.patch_mode.lower(),
+                                               levels=PATCH_LEVELS)
+    except ValueError as error:  # a working sample too small for any patch
+        raise pipeline.SettingsError(str(error))
     pipeline.check_patch_boundary(settings.patch_boundary, level_sizes)
     stage("context")
     if target.kind == "IMAGE":
@@ -485,7 +468,7 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
     mode = settings.patch_mode
     surface_pixels = patch_surface_pixels(mesh_arrays.positions, triangles, texels_per_unit,
                                           mesh_arrays.scale_multiplier)
-    needed = estimate_patch_megabytes(positions.shape[0], mode, level_sizes, surface_pixels, sample.shape[2],
+    needed = estimate_patch_megabytes(module, positions.shape[0], mode, level_sizes, surface_pixels, sample.shape[2],
                                       bool(settings.tileable))
     if needed > PATCH_MAX_MEGABYTES:
         finer = texels_per_unit / density if density > 0.0 else 1.0

@@ -170,6 +170,50 @@ void bind_patches(py::module_& m) {
       "full-patch index. A sample too small for patch_size gets the largest multiple of 4 that fits "
       "(PatchExemplar.patch_size says which). ValueError on bad input; cancel: a CancelToken.");
 
+  // The add-on checks settings and estimates memory with these, before any work: the limits and the
+  // plan live here only.
+  m.attr("PATCH_SIZE_RANGE") = py::make_tuple(texsynth::kMinPatchSize, texsynth::kMaxPatchSize);
+  m.attr("MAX_PATCH_LEVELS") = texsynth::kMaxPatchLevels;
+  m.def(
+      "fit_patch_size",
+      [](int width, int height, int patch_size, bool tileable) {
+        return texsynth::fit_patch_size(width, height, patch_size, tileable);
+      },
+      py::arg("width"), py::arg("height"), py::arg("patch_size"), py::kw_only(), py::arg("tileable") = false,
+      "The patch size patch_exemplar() uses for a width x height sample (smaller when the sample is small). "
+      "ValueError for a bad size or a sample too small for any patch.");
+  m.def(
+      "patch_level_sizes",
+      [](int width, int height, int patch_size, bool tileable, const std::string& mode, int levels) {
+        texsynth::PatchMode m;
+        if (mode == "sampling")
+          m = texsynth::PatchMode::kSampling;
+        else if (mode == "optimisation" || mode == "optimization")
+          m = texsynth::PatchMode::kOptimisation;
+        else
+          throw std::invalid_argument("mode must be 'sampling' or 'optimisation', got '" + mode + "'");
+        const int fitted = texsynth::fit_patch_size(width, height, patch_size, tileable);
+        py::list out;
+        for (const auto& level : texsynth::patch_level_sizes(width, height, fitted, tileable, m, levels))
+          out.append(py::make_tuple(level.width, level.height, level.patch_size));
+        return out;
+      },
+      py::arg("width"), py::arg("height"), py::arg("patch_size"), py::kw_only(), py::arg("tileable") = false,
+      py::arg("mode") = "sampling", py::arg("levels") = 1,
+      "[(width, height, patch size)] of every exemplar synthesize_patches analyses for this sample, finest "
+      "first (patch_size as requested: fitted here as patch_exemplar() does).");
+  m.def(
+      "estimate_patch_exemplar_bytes",
+      [](int width, int height, int channels, int patch_size, bool tileable) {
+        texsynth::ExemplarParams params;
+        params.patch_size = patch_size;
+        params.tileable = tileable;
+        return texsynth::estimate_exemplar_bytes(width, height, channels, params);
+      },
+      py::arg("width"), py::arg("height"), py::arg("channels"), py::arg("patch_size"), py::kw_only(),
+      py::arg("tileable") = false,
+      "Peak bytes patch_exemplar() needs for this sample (its defaults), without building anything.");
+
   m.def(
       "load_patch_exemplar",
       [](const std::string& path, py::object key) {

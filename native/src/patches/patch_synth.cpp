@@ -629,19 +629,33 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
   return out;
 }
 
+std::vector<PatchLevelSize> patch_level_sizes(int width, int height, int patch_size, bool tileable, PatchMode mode,
+                                              int levels) {
+  if (levels < 1 || levels > kMaxPatchLevels)
+    throw std::invalid_argument("patch synthesis: levels must be 1.." + std::to_string(kMaxPatchLevels));
+  std::vector<PatchLevelSize> plan{{width, height, patch_size}};
+  if (mode != PatchMode::kOptimisation) return plan;
+  // A coarser level while the halved sample still holds fit_patch_size's smallest exemplar (sides of 16).
+  while (int(plan.size()) < levels && std::min(plan.back().width, plan.back().height) / 2 >= 2 * kMinPatchSize) {
+    const PatchLevelSize& finer = plan.back();
+    const int w = finer.width / 2, h = finer.height / 2;
+    plan.push_back({w, h, fit_patch_size(w, h, finer.patch_size, tileable)});
+  }
+  return plan;
+}
+
 SurfacePatchResult synthesize_patches_on_surface(const PatchField& field, const PatchSamples& samples,
                                                  const ExemplarIndex& index, const ExemplarSample& sample,
                                                  const SurfacePatchParams& params) {
   if (!(params.centre_spacing > 0 && params.centre_spacing <= 1))
     throw std::invalid_argument("patch synthesis: centre_spacing must be in (0, 1]");
-  if (params.levels < 1 || params.levels > kMaxPatchLevels)
-    throw std::invalid_argument("patch synthesis: levels must be 1.." + std::to_string(kMaxPatchLevels));
   const std::atomic<bool>* cancel = params.synth.cancel;
   SurfacePatchResult out;
   std::vector<float> initial;
   SurfacePatchParams fine = params;
-  if (params.levels > 1 && params.synth.mode == PatchMode::kOptimisation &&
-      std::min(sample.width, sample.height) / 2 >= 16) {  // fit_patch_size's smallest exemplar
+  const std::vector<PatchLevelSize> plan =
+      patch_level_sizes(sample.width, sample.height, index.patch_size, index.tileable, params.synth.mode, params.levels);
+  if (plan.size() > 1) {
     // The level below: half the sample, twice the step; its exemplar is analysed here (a quarter of
     // the pixels: a fraction of the full analysis) and not cached.
     const auto t = std::chrono::steady_clock::now();
@@ -649,7 +663,7 @@ SurfacePatchResult synthesize_patches_on_surface(const PatchField& field, const 
     halve_image(sample.pixels, sample.width, sample.height, sample.channels, half);
     const ExemplarSample coarse_sample{half.data(), sample.width / 2, sample.height / 2, sample.channels};
     ExemplarParams ep;
-    ep.patch_size = fit_patch_size(coarse_sample.width, coarse_sample.height, index.patch_size, index.tileable);
+    ep.patch_size = plan[1].patch_size;
     ep.tileable = index.tileable;
     ep.seed = index.seed;
     ep.cancel = cancel;

@@ -125,4 +125,16 @@ SurfacePatchResult synthesize_patches_on_surface(const PatchField& field, const 
                                                  const ExemplarIndex& index, const ExemplarSample& sample,
                                                  const SurfacePatchParams& params);
 
+// One exemplar a surface patch synthesis analyses: the working sample at level 0, halved per coarser
+// optimisation level, each with its fitted patch size.
+struct PatchLevelSize {
+  int width = 0, height = 0, patch_size = 0;
+};
+// The levels synthesize_patches_on_surface analyses for a width x height sample whose exemplar uses
+// patch_size (already fitted), finest first: one for sampling, up to `levels` for optimisation while the
+// halved sample still holds the smallest patch. The synthesis follows this plan; callers use it to
+// check settings and estimate memory before any work. Throws std::invalid_argument for bad levels.
+std::vector<PatchLevelSize> patch_level_sizes(int width, int height, int patch_size, bool tileable, PatchMode mode,
+                                              int levels);
+
 }  // namespace texsynth
