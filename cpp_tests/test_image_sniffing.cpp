@@ -1,13 +1,24 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The loader picks OpenImageIO's reader from the file's leading bytes and never lets it probe every
 // plugin: damaged files in formats TexSynth does not take (GIF: fuzz_image found OpenImageIO's GIF
-// reader calling std::terminate) must end in a clear error, never reach those readers.
+// reader calling std::terminate) must end in a clear error, never reach those readers. Headers that
+// would make a reader allocate far more than the file holds (an OpenEXR attribute declaring 1.2 GB in
+// a 130-byte file) are refused before the reader opens them.
 #include <gtest/gtest.h>
 #include <OpenImageIO/imageio.h>
 
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
 #include <cstdint>
+#include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "temp_dir.hpp"
@@ -122,6 +133,280 @@ TEST(ImageSniffing, CmykTiffIsRefusedBeforeOpenImageIOOpensIt) {
   const std::string cut = error_of(dir.file("cut.tif"));
   EXPECT_NE(cut, "");
   EXPECT_EQ(cut.find("CMYK"), std::string::npos) << cut;
+}
+
+// OpenEXR headers written byte by byte: attributes are "name\0type\0" + int32 size + value.
+std::string le32(int64_t value) {
+  std::string out;
+  for (int i = 0; i < 4; ++i) out.push_back(char((uint64_t(value) >> (8 * i)) & 0xFF));
+  return out;
+}
+
+std::string exr_attribute(const std::string& name, const std::string& type, const std::string& value) {
+  return name + '\0' + type + '\0' + le32(int64_t(value.size())) + value;
+}
+
+float exr_value(int x, int y, int c) { return 0.125f * float(1 + c + 3 * (x + 2 * y)); }
+
+// The attributes every OpenEXR image needs: float channels B, G, R (or c00, c01, ... when `channels`
+// is not 3), uncompressed unless `compression` says otherwise (9: DWAB, 256 lines per chunk).
+std::string exr_required_attributes(int width = 2, int height = 2, int channels = 3, int compression = 0) {
+  std::string list;
+  for (int c = 0; c < channels; ++c) {
+    const std::string name = channels == 3 ? std::string(1, "BGR"[c]) : (c < 10 ? "c0" : "c") + std::to_string(c);
+    list += name + '\0' + le32(2) + std::string(4, '\0') + le32(1) + le32(1);
+  }
+  const std::string box = le32(0) + le32(0) + le32(width - 1) + le32(height - 1);
+  float one = 1.0f;
+  const std::string one_bytes(reinterpret_cast<const char*>(&one), 4);
+  return exr_attribute("channels", "chlist", list + '\0') +
+         exr_attribute("compression", "compression", std::string(1, char(compression))) +
+         exr_attribute("dataWindow", "box2i", box) + exr_attribute("displayWindow", "box2i", box) +
+         exr_attribute("lineOrder", "lineOrder", std::string(1, '\0')) +
+         exr_attribute("pixelAspectRatio", "float", one_bytes) +
+         exr_attribute("screenWindowCenter", "v2f", std::string(8, '\0')) +
+         exr_attribute("screenWindowWidth", "float", one_bytes);
+}
+
+// A complete single-part 2x2 scanline file: header (+ `extra` attributes), offset table, two chunks.
+std::string exr_file(const std::string& extra) {
+  std::string out = std::string("\x76\x2F\x31\x01", 4) + le32(2) + exr_required_attributes() + extra + '\0';
+  const uint64_t first_chunk = out.size() + 16, chunk_bytes = 8 + 3 * 2 * 4;
+  for (uint64_t chunk = 0; chunk < 2; ++chunk) {
+    const uint64_t offset = first_chunk + chunk * chunk_bytes;
+    for (int i = 0; i < 8; ++i) out.push_back(char((offset >> (8 * i)) & 0xFF));
+  }
+  for (int y = 0; y < 2; ++y) {
+    out += le32(y) + le32(3 * 2 * 4);
+    for (int c : {2, 1, 0})  // channels in the file's (alphabetical) order: B, G, R
+      for (int x = 0; x < 2; ++x) {
+        const float v = exr_value(x, y, c);
+        out.append(reinterpret_cast<const char*>(&v), 4);
+      }
+  }
+  return out;
+}
+
+// Overwrites the size field of attribute `name`; returns the position right after it.
+size_t set_declared_size(std::string& file, const std::string& name, const std::string& type, int64_t size) {
+  const size_t at = file.find(name + '\0' + type + '\0');
+  EXPECT_NE(at, std::string::npos) << name;
+  const size_t field = at + name.size() + type.size() + 2;
+  file.replace(field, 4, le32(size));
+  return field + 4;
+}
+
+TEST(ImageSniffing, HandMadeExrWithASmallAttributeLoads) {
+  TempDir dir;
+  write_bytes(dir.file("ok.exr"), exr_file(exr_attribute("owner", "string", "TexSynth test")));
+  const texsynth::Image image = texsynth::load_image(dir.file("ok.exr"));
+  ASSERT_EQ(image.width, 2);
+  ASSERT_EQ(image.height, 2);
+  ASSERT_EQ(image.channels, 3);
+  EXPECT_EQ(image.encoding, texsynth::ColorEncoding::kLinear);
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 2; ++x)
+      for (int c = 0; c < 3; ++c) EXPECT_EQ(image.pixels[size_t((y * 2 + x) * 3 + c)], exr_value(x, y, c));
+  EXPECT_EQ(texsynth::read_image_info(dir.file("ok.exr")).format, "openexr");
+}
+
+TEST(ImageSniffing, ExrAttributeLargerThanTheRestOfTheFileIsRefused) {
+  TempDir dir;
+  const std::string valid = exr_file(exr_attribute("owner", "string", "TexSynth test"));
+  const std::string path = dir.file("bad.exr");
+  // One byte more than the file holds after the size field, the largest int32, a negative size.
+  std::string file = valid;
+  const size_t value_at = set_declared_size(file, "owner", "string", 0);
+  for (int64_t size : {int64_t(valid.size() - value_at + 1), int64_t(0x7FFFFFFF), int64_t(-5)}) {
+    file = valid;
+    set_declared_size(file, "owner", "string", size);
+    write_bytes(path, file);
+    const std::string error = error_of(path);
+    EXPECT_NE(error.find("image '" + path + "'"), std::string::npos) << error;
+    EXPECT_NE(error.find("OpenEXR header attribute 'owner' (string) declares"), std::string::npos) << error;
+    EXPECT_NE(error.find(size < 0 ? "negative size (-5)" : std::to_string(size) + " bytes but only " +
+                                                                   std::to_string(valid.size() - value_at) + " bytes follow"),
+              std::string::npos)
+        << error;
+    EXPECT_THROW(texsynth::read_image_info(path), std::invalid_argument);
+  }
+  // Declaring exactly what follows passes the walk; OpenEXR then finds the rest of the header missing.
+  file = valid;
+  set_declared_size(file, "owner", "string", int64_t(valid.size() - value_at));
+  write_bytes(path, file);
+  const std::string error = error_of(path);
+  EXPECT_NE(error, "");
+  EXPECT_EQ(error.find("declares"), std::string::npos) << error;
+}
+
+TEST(ImageSniffing, TruncatedExrHeadersAreClearErrors) {
+  TempDir dir;
+  const std::string valid = exr_file(exr_attribute("owner", "string", "TexSynth test"));
+  const size_t header_end = valid.find(std::string("TexSynth test") + '\0') + 14;
+  // Cut at every byte of the header: inside names (OpenEXR's error) or inside values (the walk's).
+  for (size_t length = 4; length < header_end; ++length) {
+    const std::string path = dir.file("cut.exr");
+    write_bytes(path, valid.substr(0, length));
+    const std::string error = error_of(path);
+    EXPECT_NE(error, "") << length;
+    if (length == header_end - 2)  // inside the last value: 12 of its 13 bytes
+      EXPECT_NE(error.find("attribute 'owner' (string) declares 13 bytes but only 12 bytes follow"), std::string::npos)
+          << error;
+  }
+}
+
+TEST(ImageSniffing, ExrHeadersDeclaringMoreThan64MbInAllAreRefused) {
+  // Two 40 MB attributes that the (sparse) file does hold: each fits, together they pass the cap.
+  TempDir dir;
+  const std::string path = dir.file("big.exr");
+  const int64_t mb40 = int64_t(40) << 20;
+  std::string head = std::string("\x76\x2F\x31\x01", 4) + le32(2) + exr_required_attributes() + "a" + '\0' + "blob" + '\0' + le32(mb40);
+  write_bytes(path, head);
+  const std::string second = std::string("b") + '\0' + "blob" + '\0' + le32(mb40);
+  {
+    std::fstream out(path, std::ios::binary | std::ios::in | std::ios::out);
+    out.seekp(std::streamoff(head.size() + size_t(mb40)));
+    out.write(second.data(), std::streamsize(second.size()));
+  }
+  std::filesystem::resize_file(path, head.size() + size_t(mb40) + second.size() + size_t(mb40) + 1);
+  const std::string error = error_of(path);
+  EXPECT_NE(error.find("OpenEXR header declares more than 64 MB of attributes (at attribute 'b'"), std::string::npos)
+      << error;
+}
+
+TEST(ImageSniffing, EveryPartOfAMultiPartExrIsWalked) {
+  TempDir dir;
+  const std::string part = exr_required_attributes() + exr_attribute("type", "string", "scanlineimage") +
+                           exr_attribute("chunkCount", "int", le32(2));
+  std::string file = std::string("\x76\x2F\x31\x01", 4) + le32(2 | 0x1000) + part + exr_attribute("name", "string", "one") +
+                     '\0' + part + exr_attribute("name", "string", "two") + exr_attribute("note", "string", "x") + '\0' +
+                     '\0' + std::string(64, '\0');
+  set_declared_size(file, "note", "string", 1 << 30);
+  write_bytes(dir.file("parts.exr"), file);
+  EXPECT_NE(error_of(dir.file("parts.exr")).find("attribute 'note' (string) declares 1073741824 bytes"), std::string::npos)
+      << error_of(dir.file("parts.exr"));
+  // Attribute names from the file reach the message printable only (it must stay valid UTF-8).
+  file = exr_file(exr_attribute("caf\xC3\xA9\x01", "string", "x"));
+  set_declared_size(file, "caf\xC3\xA9\x01", "string", 1 << 30);
+  write_bytes(dir.file("name.exr"), file);
+  EXPECT_NE(error_of(dir.file("name.exr")).find("attribute 'caf\?\?\?' (string)"), std::string::npos)
+      << error_of(dir.file("name.exr"));
+}
+
+TEST(ImageSniffing, ExrWrittenByOpenImageIOWithMetadataAndTwoPartsLoads) {
+  TempDir dir;
+  std::vector<float> pixels(4 * 3 * 3);
+  for (size_t i = 0; i < pixels.size(); ++i) pixels[i] = 0.01f * float(i);
+  OIIO::ImageSpec spec(4, 3, 3, OIIO::TypeDesc::FLOAT);
+  spec.attribute("ImageDescription", std::string(5000, 'd'));
+  spec.attribute("compression", "zip");
+  // Parts of one file share their display window: the second is 4x3 too, one half channel.
+  const OIIO::ImageSpec specs[2] = {spec, OIIO::ImageSpec(4, 3, 1, OIIO::TypeDesc::HALF)};
+  const std::vector<float> second(4 * 3, 0.5f);
+  for (int parts : {1, 2}) {
+    const std::string path = dir.file("oiio" + std::to_string(parts) + ".exr");
+    auto out = OIIO::ImageOutput::create(path);
+    ASSERT_TRUE(out);
+    ASSERT_TRUE(out->open(path, parts, specs)) << out->geterror();
+    ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()));
+    if (parts == 2) {
+      ASSERT_TRUE(out->open(path, specs[1], OIIO::ImageOutput::AppendSubimage)) << out->geterror();
+      ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, second.data()));
+    }
+    ASSERT_TRUE(out->close());
+    std::ifstream written(path, std::ios::binary);
+    char start[8] = {};
+    written.read(start, 8);
+    EXPECT_EQ((start[5] & 0x10) != 0, parts == 2) << "multi-part flag (version field bit 12)";
+    const texsynth::Image image = texsynth::load_image(path);
+    ASSERT_EQ(image.pixels.size(), pixels.size()) << path;
+    EXPECT_EQ(image.pixels, pixels) << path;
+  }
+}
+
+// Peak RSS growth (MB), seconds and error text of load_image(path), run in a child process: the child's
+// peak starts at its size at fork, so what the load allocates shows however large the parent ever was.
+struct ChildLoad {
+  double rss_growth_mb = -1, seconds = -1;
+  std::string error;
+};
+
+ChildLoad load_in_child(const std::string& path) {
+  int fds[2];
+  if (pipe(fds) != 0) return {};
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fds[0]);
+    rusage before{}, after{};
+    getrusage(RUSAGE_SELF, &before);
+    const auto start = std::chrono::steady_clock::now();
+    const std::string error = error_of(path);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    getrusage(RUSAGE_SELF, &after);
+    const std::string report = std::to_string(double(after.ru_maxrss - before.ru_maxrss) / 1024.0) + " " +
+                               std::to_string(seconds) + " " + error;
+    [[maybe_unused]] const ssize_t n = write(fds[1], report.data(), report.size());
+    _exit(0);  // no atexit handlers (nor leak checks) of the parent's state in the child
+  }
+  close(fds[1]);
+  std::string report;
+  char buffer[4096];
+  for (ssize_t n; (n = read(fds[0], buffer, sizeof(buffer))) > 0;) report.append(buffer, size_t(n));
+  close(fds[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ChildLoad result;
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) return result;
+  std::istringstream fields(report);
+  fields >> result.rss_growth_mb >> result.seconds;
+  std::getline(fields >> std::ws, result.error);
+  return result;
+}
+
+TEST(ImageSniffing, ExrHeaderDeclaringGigabytesIsRefusedBeforeOpenExrAllocatesIt) {
+  // The fuzz_image reproducer (first byte chose the extension): a 130-byte OpenEXR header whose
+  // 'Exif:ImageHistory' string declares 1,229,521,779 bytes, which OpenEXR allocated and cleared.
+  std::ifstream in(std::string(TEXSYNTH_SOURCE_DIR) +
+                       "/cpp_tests/fuzz/regressions/fuzz_image/exr_attribute_declares_1_2gb_timeout",
+                   std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_EQ(bytes.size(), 130u);
+  TempDir dir;
+  for (const char* name : {"finding.exr", "finding.png"}) {
+    write_bytes(dir.file(name), bytes.substr(1));
+    const ChildLoad load = load_in_child(dir.file(name));
+    ASSERT_GE(load.rss_growth_mb, 0) << "the child process did not report";
+    EXPECT_NE(load.error.find("image '" + dir.file(name) + "': OpenEXR header attribute 'Exif:ImageHistory' (string) "
+                              "declares 1229521779 bytes but only 92 bytes follow in the file"),
+              std::string::npos)
+        << load.error;
+    // Memory is the bound the gate holds (time is reported, not asserted: a loaded machine is slow).
+    EXPECT_LT(load.rss_growth_mb, 200.0);
+    std::printf("[ measured ] %s refused in %.4f s, peak RSS growth %.1f MB\n", name, load.seconds, load.rss_growth_mb);
+  }
+}
+
+
+TEST(ImageSniffing, ExrDeclaringMoreFloatsThanTheLargestRgbaSampleIsRefusedBeforeDecoding) {
+  // Headers only, chunk offsets zero: 8192x8192 with 64 channels made load_image ask for 17 GB of
+  // floats before OpenEXR found the pixels missing (std::bad_alloc, or all of the machine's memory).
+  TempDir dir;
+  for (const auto& [side, channels, need] : std::vector<std::tuple<int, int, std::string>>{
+           {8192, 64, "8192x8192 with 64 channels needs 17.18 GB"}, {4096, 17, "4096x4096 with 17 channels needs 1.14 GB"}}) {
+    const std::string path = dir.file("c" + std::to_string(channels) + ".exr");
+    write_bytes(path, std::string("\x76\x2F\x31\x01", 4) + le32(2) + exr_required_attributes(side, side, channels, 9) +
+                          '\0' + std::string(size_t((side + 255) / 256) * 8, '\0'));
+    const texsynth::ImageInfo info = texsynth::read_image_info(path);  // the header alone is fine
+    EXPECT_EQ(info.channels, channels);
+    const ChildLoad load = load_in_child(path);
+    ASSERT_GE(load.rss_growth_mb, 0) << "the child process did not report";
+    EXPECT_NE(load.error.find("image '" + path + "': " + need + " as floats, more than the 1.07 GB limit (8192x8192 RGBA)"),
+              std::string::npos)
+        << load.error;
+    EXPECT_LT(load.rss_growth_mb, 200.0);
+    std::printf("[ measured ] %dx%dx%d refused in %.4f s, peak RSS growth %.1f MB\n", side, side, channels,
+                load.seconds, load.rss_growth_mb);
+  }
 }
 
 }  // namespace

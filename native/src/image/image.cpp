@@ -77,6 +77,73 @@ int tiff_photometric(const std::string& path) {
   return -1;
 }
 
+// What an OpenEXR header may make OpenEXR allocate: each attribute's value is read into a buffer of
+// the size the header declares, cleared first (fuzz_image: a 130-byte file whose string attribute
+// declared 1.2 GB took 1.3 GB and seconds in Release, more than 10 s under ASan). A valid header holds
+// a few kB; previews, ICC profiles and Cryptomatte manifests reach megabytes.
+constexpr int64_t kMaxExrHeaderBytes = int64_t(64) << 20;
+
+// Printable form of a name read from a file (the error text must stay valid UTF-8 for Python).
+std::string printable(const std::string& raw) {
+  std::string out;
+  for (char c : raw.substr(0, 64)) out += (c >= 0x20 && c < 0x7F) ? c : '?';
+  return raw.size() > 64 ? out + "..." : out;
+}
+
+// Walks an OpenEXR header (every part's, for multi-part files) before OpenEXR reads it: attributes
+// are "name\0type\0" + int32 size (little-endian) + value. An attribute whose declared size does not
+// fit in what follows in the file, or headers declaring more than kMaxExrHeaderBytes in all, are
+// refused. Whatever the walk cannot parse (a cut or malformed name) is left to OpenEXR, which stops at
+// the same place with its own error and before allocating anything for it.
+void check_exr_header(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::error_code ec;
+  const int64_t file_size = int64_t(fs::file_size(path, ec));
+  if (ec || !in) return;
+  unsigned char start[8];
+  if (!in.read(reinterpret_cast<char*>(start), 8)) return;
+  const bool multipart = (start[5] & 0x10) != 0;  // version field bit 12
+  // One null-terminated name (OpenEXR allows 255 characters at most); false when the file cannot say.
+  auto read_name = [&](std::string& name) {
+    name.clear();
+    for (int i = 0; i < 256; ++i) {
+      const int c = in.get();
+      if (c == std::char_traits<char>::eof()) return false;
+      if (c == 0) return true;
+      name.push_back(char(c));
+    }
+    return false;
+  };
+  int64_t declared = 0;
+  std::string name, type;
+  for (;;) {
+    int attributes = 0;
+    for (;; ++attributes) {
+      if (!read_name(name)) return;
+      if (name.empty()) break;  // end of this header
+      unsigned char size_bytes[4];
+      if (!read_name(type) || !in.read(reinterpret_cast<char*>(size_bytes), 4)) return;
+      const int32_t size = int32_t(uint32_t(size_bytes[0]) | uint32_t(size_bytes[1]) << 8 |
+                                   uint32_t(size_bytes[2]) << 16 | uint32_t(size_bytes[3]) << 24);
+      const int64_t here = int64_t(in.tellg());
+      if (here < 0) return;
+      const std::string what = "OpenEXR header attribute '" + printable(name) + "' (" + printable(type) + ")";
+      if (size < 0) fail(path, what + " declares a negative size (" + std::to_string(size) + "): corrupt file");
+      if (size > file_size - here)
+        fail(path, what + " declares " + std::to_string(size) + " bytes but only " + std::to_string(file_size - here) +
+                       " bytes follow in the file: truncated or corrupt file");
+      declared += size;
+      if (declared > kMaxExrHeaderBytes)
+        fail(path, "OpenEXR header declares more than " + std::to_string(kMaxExrHeaderBytes >> 20) +
+                       " MB of attributes (at attribute '" + printable(name) + "', " + std::to_string(size) +
+                       " bytes): corrupt file or not a texture sample");
+      in.seekg(size, std::ios::cur);
+    }
+    // A multi-part file's headers end with an empty one (a lone null byte where a name would start).
+    if (!multipart || attributes == 0) return;
+  }
+}
+
 // The OpenImageIO reader for a sample file, chosen from its leading bytes (TGA, which has none, from
 // its extension). OpenImageIO is never left to guess: its probe tries every plugin it has (GIF, PSD,
 // DPX, FITS, camera RAW, DICOM, ...), and some abort the process on damaged files (fuzz_image found
@@ -89,7 +156,10 @@ std::string sniff_format(const std::string& path) {
   auto starts = [&](const char* magic, size_t length) { return n >= length && std::memcmp(head, magic, length) == 0; };
   if (starts("\x89PNG\r\n\x1a\n", 8)) return "png";
   if (starts("\xFF\xD8\xFF", 3)) return "jpeg";
-  if (starts("\x76\x2F\x31\x01", 4)) return "openexr";
+  if (starts("\x76\x2F\x31\x01", 4)) {
+    check_exr_header(path);  // before OpenEXR allocates what the header declares
+    return "openexr";
+  }
   if (starts("II*\0", 4) || starts("MM\0*", 4) || starts("II+\0", 4) || starts("MM\0+", 4)) {
     // OpenImageIO 3.1 (Debian sid) smashes its stack opening a CMYK TIFF, which would kill Blender.
     if (tiff_photometric(path) == 5)
@@ -122,6 +192,8 @@ std::unique_ptr<OIIO::ImageInput> open_input(const std::string& path) {
 }
 
 constexpr int kMaxFileChannels = 64;
+// Most floats one decoded file may take: the largest sample (kMaxSamplePixels) as RGBA.
+constexpr int64_t kMaxDecodedValues = kMaxSamplePixels * 4;
 
 void check_dims(int width, int height, int channels, const std::string& where, int max_channels = 4,
                 int64_t max_pixels = kMaxSamplePixels) {
@@ -234,6 +306,18 @@ Image load_image(const std::string& path) {
   // Any channel count decodes; preprocessing (validate_image) then insists on 1-4.
   check_dims(spec.width, spec.height, spec.nchannels, "image '" + path + "'", kMaxFileChannels);
   if (spec.depth > 1) fail(path, "volume images are not supported");
+  // The decoded floats are allocated (and cleared) before the reader finds out whether the file holds
+  // them: a 1.8 kB OpenEXR header declaring 8192x8192 with 64 channels asked for 17 GB. Bounded at
+  // what the largest sample takes as RGBA (8192x8192x4 floats, 1.07 GB); more channels, fewer pixels.
+  const int64_t values = int64_t(spec.width) * spec.height * spec.nchannels;
+  if (values > kMaxDecodedValues) {
+    char need[32], limit[32];
+    std::snprintf(need, sizeof(need), "%.2f", double(values) * sizeof(float) / 1e9);
+    std::snprintf(limit, sizeof(limit), "%.2f", double(kMaxDecodedValues) * sizeof(float) / 1e9);
+    fail(path, std::to_string(spec.width) + "x" + std::to_string(spec.height) + " with " +
+                   std::to_string(spec.nchannels) + " channels needs " + need + " GB as floats, more than the " +
+                   limit + " GB limit (8192x8192 RGBA); keep only the channels the sample needs, or downscale it");
+  }
   Image image;
   image.width = spec.width;
   image.height = spec.height;
