@@ -19,7 +19,7 @@ def test_bake_suite_inside_blender():
     process = blender_run.blender("--python", os.path.join(blender_run.BLENDER_TESTS, "tests_bake.py"))
     output = process.stdout + process.stderr
     assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-6000:]
-    assert output.count("PASS test_") == 8, output[-3000:]
+    assert output.count("PASS test_") == 9, output[-3000:]
 
 
 def write_grid_obj(path, cells=4, size=2.0):

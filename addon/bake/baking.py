@@ -163,6 +163,19 @@ def _set_flags(mesh, flags):
         getattr(mesh, kind).foreach_set(flag, values)
 
 
+def pack_islands(size):
+    """Packs the selected faces' islands options.PACK_GAP_TEXELS apart in a size² image. Blender 3.6+
+    packs by shape when asked, 30-80 s on a 75k-face mesh: bounding boxes are packed (under a second)."""
+    extra = {}
+    properties = bpy.ops.uv.pack_islands.get_rna_type().properties.keys()
+    if "shape_method" in properties:
+        extra["shape_method"] = "AABB"
+    if "margin_method" in properties:
+        extra["margin_method"] = "FRACTION"
+    bpy.ops.uv.select_all(action="SELECT")
+    bpy.ops.uv.pack_islands(rotate=True, margin=options.pack_margin(size), **extra)
+
+
 def smart_project(obj, request, context):
     """Adds a UV map (Smart UV Project over all faces, hidden ones too) without changing the others, the
     active UV map or the mesh's selection and hide state; returns its name. A mesh that had no active UV
@@ -188,8 +201,8 @@ def smart_project(obj, request, context):
                 getattr(mesh, kind).foreach_set("hide", np.zeros(count, bool))
             getattr(mesh, kind).foreach_set("select", np.ones(count, bool))
         with _edit_mode(obj, context):
-            bpy.ops.uv.smart_project(angle_limit=math.radians(options.SMART_UV_ANGLE_DEGREES),
-                                     island_margin=options.smart_uv_island_margin(request.margin, request.size))
+            bpy.ops.uv.smart_project(angle_limit=math.radians(options.SMART_UV_ANGLE_DEGREES), island_margin=0.0)
+            pack_islands(request.size)
     except Exception:
         remove_uv_map(mesh, name)
         raise

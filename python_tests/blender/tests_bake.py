@@ -164,6 +164,26 @@ def covered_texels(triangles, size, inset=1e-3):
     return covered
 
 
+def covered_texels_in_box(triangles, size):
+    """covered_texels, evaluated only inside the triangles' bounding box (plus a texel)."""
+    lo = np.clip(np.floor(triangles.reshape(-1, 2).min(axis=0) * size).astype(int) - 1, 0, size)
+    hi = np.clip(np.ceil(triangles.reshape(-1, 2).max(axis=0) * size).astype(int) + 1, 0, size)
+    centres_u = (np.arange(lo[0], hi[0]) + 0.5) / size
+    centres_v = (np.arange(lo[1], hi[1]) + 0.5) / size
+    u, v = np.meshgrid(centres_u, centres_v)
+    inside = np.zeros(u.shape, bool)
+    for a, b, c in triangles:
+        det = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
+        if abs(det) < 1e-12:
+            continue
+        l1 = ((u - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (v - a[1])) / det
+        l2 = ((b[0] - a[0]) * (v - a[1]) - (u - a[0]) * (b[1] - a[1])) / det
+        inside |= (l1 > 1e-3) & (l2 > 1e-3) & (1.0 - l1 - l2 > 1e-3)
+    covered = np.zeros((size, size), bool)
+    covered[lo[1]:hi[1], lo[0]:hi[0]] = inside
+    return covered
+
+
 def grow(mask, steps):
     """mask grown by `steps` texels in the 8-neighbourhood (Chebyshev distance)."""
     out = mask.copy()
@@ -212,6 +232,90 @@ def test_texton_cube_smart_uv_bake_covers_islands_and_margin():
     baked_mean = baked[..., :3][covered].mean(axis=0)
     print("CUBE covered %.3f, colour mean baked %s sample %s" % (covered.mean(), baked_mean, sample_mean))
     assert np.all(np.abs(baked_mean - sample_mean) < 0.08), (baked_mean, sample_mean)
+
+
+def bumpy_sphere(name, subdivisions=5, amplitude=0.12):
+    """An icosphere with deterministic bumps: Smart UV Project cuts it into hundreds of islands, as it
+    cuts scanned meshes."""
+    obj = harness.add_primitive("ico_sphere", name, subdivisions=subdivisions)
+    co = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    bumps = np.sin(7.0 * co[:, 0]) * np.sin(9.0 * co[:, 1] + 1.0) * np.sin(11.0 * co[:, 2] + 2.0)
+    obj.data.vertices.foreach_set("co", (co * (1.0 + amplitude * bumps)[:, None]).ravel())
+    obj.data.update()
+    return obj
+
+
+def test_a_new_uv_map_uses_the_image_and_keeps_islands_two_texels_apart():
+    """Smart UV Project used to pad each island by a fraction of UV space (2 x margin / size): on a
+    mesh cut into hundreds of islands most of the image stayed empty. Islands are now packed 2 texels
+    apart: a large share of the image is used, and no texel of one island neighbours a texel of another
+    (packed with no gap, 1,246 such pairs here)."""
+    harness.reset_scene()
+    obj = bumpy_sphere("Bumpy")
+    harness.select_only([obj])
+    while obj.data.uv_layers:
+        obj.data.uv_layers.remove(obj.data.uv_layers[0])
+    size = 1024
+    name = baking.smart_project(obj, options.BakeRequest(size=size, margin=16, create_uv=True), bpy.context)
+    triangles = uv_triangles(obj.data, name)
+    used = 0.5 * np.abs((triangles[:, 1, 0] - triangles[:, 0, 0]) * (triangles[:, 2, 1] - triangles[:, 0, 1])
+                        - (triangles[:, 2, 0] - triangles[:, 0, 0]) * (triangles[:, 1, 1] - triangles[:, 0, 1])).sum()
+    # Islands: faces joined through shared UV edges.
+    mesh = obj.data
+    uv = np.empty(len(mesh.loops) * 2, np.float32)
+    mesh.uv_layers[name].data.foreach_get("uv", uv)
+    print("BUMPY %d faces, UV share used %.3f" % (len(mesh.polygons), used))
+    # No texel centre is covered by two islands once each island is grown by one texel: gaps >= 2 texels
+    # apart from rounding (checked on 64 islands, for speed).
+    starts = np.empty(len(mesh.polygons), np.int32)
+    mesh.polygons.foreach_get("loop_start", starts)
+    import bmesh
+    bm = bmesh.new()
+    bm.from_mesh(mesh)
+    layer = bm.loops.layers.uv[name]
+    bm.faces.ensure_lookup_table()
+    island_of = np.full(len(bm.faces), -1)
+    islands = 0
+    for seed in range(len(bm.faces)):
+        if island_of[seed] >= 0:
+            continue
+        stack = [seed]
+        island_of[seed] = islands
+        while stack:
+            face = bm.faces[stack.pop()]
+            for loop in face.loops:
+                other = loop.link_loop_radial_next
+                if other == loop or island_of[other.face.index] >= 0:
+                    continue
+                # Same UV edge on both sides: the faces share the island.
+                if (loop[layer].uv - other.link_loop_next[layer].uv).length < 1e-6 and \
+                        (loop.link_loop_next[layer].uv - other[layer].uv).length < 1e-6:
+                    island_of[other.face.index] = islands
+                    stack.append(other.face.index)
+        islands += 1
+    bm.free()
+    print("BUMPY %d islands" % islands)
+    assert islands > 100, islands
+    assert used > 0.40, used  # 0.46 here; 0.07 with Smart UV Project's per-island fraction margin
+    # Texels whose centre lies inside an island: no texel is inside two islands, and no texel inside one
+    # island touches (8-neighbourhood) a texel inside another.
+    corners = uv.reshape(-1, 2)
+    owner = np.full((size, size), -1)
+    for island in range(islands):
+        tris = [(corners[starts[f]], corners[starts[f] + k], corners[starts[f] + k + 1])
+                for f in np.flatnonzero(island_of == island) for k in range(1, mesh.polygons[f].loop_total - 1)]
+        covered = covered_texels_in_box(np.array(tris, np.float64), size)
+        assert not (covered & (owner >= 0)).any(), "islands overlap"
+        owner[covered] = island
+    padded = np.pad(owner, 1, constant_values=-1)
+    clash = 0
+    for dy in (0, 1, 2):
+        for dx in (0, 1, 2):
+            other = padded[dy:dy + size, dx:dx + size]
+            clash += int(((owner >= 0) & (other >= 0) & (other != owner)).sum())
+    assert clash == 0, clash
 
 
 def test_gltf_round_trip_keeps_baked_image_and_uv_map():
@@ -387,6 +491,7 @@ def test_baked_outputs_nothing_uses_yet_survive_save_and_reload():
 
 
 TESTS = [test_jumpmap_bake_matches_a_top_view_render, test_texton_cube_smart_uv_bake_covers_islands_and_margin,
+         test_a_new_uv_map_uses_the_image_and_keeps_islands_two_texels_apart,
          test_gltf_round_trip_keeps_baked_image_and_uv_map, test_failures_change_nothing,
          test_saved_file_and_rebake_replace_the_image, test_surface_colour_hook_dilates_the_margin,
          test_operator_bakes_the_active_object_with_the_panel_settings,
