@@ -21,6 +21,8 @@ every step (names used in the report's `violations`):
                      output replaces the previous one; nothing piles up).
   failed_op_changed  an operator that returned CANCELLED (or raised its error report) changed nothing.
   failed_op_silent   an operator failed without an error report (the artist would not know why).
+  uncaught_exception an operator failed with a Python traceback instead of an error report (Blender then
+                     pushes an undo step anyway, and nothing undid what the operator had begun).
   unexpected_failure / unexpected_success
                      an operator the model expects to succeed failed (e.g. Bake on an object whose every
                      material shows a TexSynth result), or one given bad settings succeeded.
@@ -31,6 +33,7 @@ every step (names used in the report's `violations`):
                      were made with no user (a bake with no material or a material not assigned, Layers
                      Only): those must survive, or the artist loses what the operator reported making.
   drift              the state changed between steps without an operator (fingerprint != the last one).
+  exception          a step raised (the comb stroke calls the add-on's code directly; or the soak itself).
   memory             after the warm-up, RSS (VmRSS of /proc/self/status, sampled after every step) grows
                      by less than --rss-bound-mb (the undo stack holds at most `undo_steps` = 32 steps,
                      so the resident size levels off once it is full and the caches are warm).
@@ -490,6 +493,12 @@ class Soak:
             counts["failed"] += 1
             self.messages[self.op][(message or status)[:120]] += 1
             lines = diff(before, after)
+            if "Traceback (most recent call last)" in message:
+                # Not an error report but an exception the operator let through: Blender then pushes an
+                # undo step all the same (3.4 to 5.2), and nothing undid what the operator had begun.
+                self.violation("uncaught_exception", [message[-400:]] + lines)
+                self.resync()
+                return status
             if lines:
                 self.violation("failed_op_changed", ["%s (%s)" % (status, message)] + lines)
                 self.resync()
@@ -950,6 +959,10 @@ class Soak:
             setattr(props, key, value)
         if status == "FINISHED":
             self.violation("unexpected_success", ["case %s: the operator finished" % case])
+            self.resync()
+            return
+        if "Traceback (most recent call last)" in message:
+            self.violation("uncaught_exception", ["case %s: %s" % (case, message[-400:])])
             self.resync()
             return
         if status != "ERROR":
