@@ -25,6 +25,7 @@ import numpy as np
 from .. import native
 from ..bridge import mesh_io
 from ..core import pipeline
+from ..core.names import fit_name
 from ..particles import baking as particle_baking
 from ..shading import blend_groups, surface_material
 from . import options
@@ -230,18 +231,33 @@ def remove_uv_map(mesh, name):
 
 
 class _edit_mode:
-    """Edit mode on obj (made the only selected, active object) for one operator call."""
+    """Edit mode on obj, made the only selected, active object for one operator call: Edit Mode takes
+    every selected mesh along, and Smart UV Project would re-project their UV maps too. The selection
+    and the active object are restored afterwards."""
 
     def __init__(self, obj, context):
         self.obj, self.context = obj, context
 
     def __enter__(self):
-        self.context.view_layer.objects.active = self.obj
+        objects = self.context.view_layer.objects
+        self.active = objects.active
+        self.selected = [o for o in objects if o is not None and o.select_get()]
+        for other in self.selected:
+            if other is not self.obj:
+                other.select_set(False)
+        self.obj.select_set(True)
+        objects.active = self.obj
         bpy.ops.object.mode_set(mode="EDIT")
         return self
 
     def __exit__(self, *exc):
         bpy.ops.object.mode_set(mode="OBJECT")
+        objects = self.context.view_layer.objects
+        if self.obj not in self.selected:
+            self.obj.select_set(False)
+        for other in self.selected:
+            other.select_set(True)
+        objects.active = self.active
         return False
 
 
@@ -386,7 +402,7 @@ def keep_unused(datablock):
 
 def baked_material(obj, image, uv_map, assign):
     """Material "TexSynth Baked: <object>": UV Map -> Image Texture -> Principled Base Color."""
-    material = surface_material.new_material(options.MATERIAL_PREFIX + obj.name, image=image, uv_map=uv_map)
+    material = surface_material.new_material(fit_name(options.MATERIAL_PREFIX, obj.name), image=image, uv_map=uv_map)
     if assign:
         surface_material.assign(obj, material)
     return material

@@ -8,6 +8,8 @@ the image is saved.
 import dataclasses
 import os
 
+from ..core.names import fit_name
+
 BASE_UV_NAME = "TexSynth"  # TexSynth's own UV map (pipeline.BASE_UV_NAME; its islands overlap)
 AUTO_UV = "auto"           # CLI --bake-uv auto: the first UV map that is not TexSynth's, else Smart UV Project
 SMART_UV_NAME = "UVMap"    # name of the UV map Smart UV Project creates (made unique by Blender if taken)
@@ -104,7 +106,7 @@ def resolve_target(target, object_name, save_mode="PACK", blend_path=""):
             raise BakeError("unsupported bake image type %r (use %s)" % (extension or path, ", ".join(sorted(FORMATS))))
         check_writable(path)
         return Target(os.path.basename(path), path, FORMATS[extension])
-    name = target or IMAGE_PREFIX + object_name
+    name = target or fit_name(IMAGE_PREFIX, object_name)
     if save_mode == "NEXT_TO_BLEND":
         if not blend_path:
             raise BakeError("save the .blend first to save the baked image next to it (or pack it)")

@@ -10,6 +10,7 @@ import numpy as np
 from .. import native
 from ..bake.options import BakeError
 from ..bridge import mesh_io
+from ..core.names import fit_name
 from . import compositing, scene
 
 
@@ -54,10 +55,10 @@ def prepare(target):
         except ValueError as error:
             raise BakeError(str(error)) from None
         layers.append(layer)
-    atlas = bpy.data.images.get(scene.ATLAS_PREFIX + target.name)
+    atlas = bpy.data.images.get(fit_name(scene.ATLAS_PREFIX, target.name))
     if atlas is None:
         raise BakeError("the particle atlas %r of %r is missing: synthesize the particles again"
-                        % (scene.ATLAS_PREFIX + target.name, target.name))
+                        % (fit_name(scene.ATLAS_PREFIX, target.name), target.name))
     return ParticleBake(target, layers, atlas)
 
 

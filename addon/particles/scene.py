@@ -13,6 +13,7 @@ import numpy as np
 
 from .. import compat
 from ..bridge import mesh_io
+from ..core.names import fit_name
 from ..shading import surface_material
 from . import core
 
@@ -32,11 +33,11 @@ _TEMP = "~TexSynth new "
 
 
 def decal_name(target_name, class_id):
-    return "TexSynth Decals: %s %d" % (target_name, class_id)
+    return fit_name("TexSynth Decals: ", target_name, " %d" % class_id)
 
 
 def points_name(target_name, class_id):
-    return "TexSynth Points: %s %d" % (target_name, class_id)
+    return fit_name("TexSynth Points: ", target_name, " %d" % class_id)
 
 
 def _image(name, width, height, rgba_bottom_first, float_buffer, srgb=True):
@@ -72,7 +73,7 @@ def replace_image(name, width, height, rgba_bottom_first, float_buffer=False, sr
 def segmentation_image(sample_name, preview):
     """The analysis view's image 'TexSynth Segmentation: <sample>' (class colours, particle outlines)."""
     height, width = preview.shape[:2]
-    image = replace_image(PREVIEW_PREFIX + sample_name, width, height, preview, False, True)
+    image = replace_image(fit_name(PREVIEW_PREFIX, sample_name), width, height, preview, False, True)
     image.use_fake_user = True  # shown by the panel and the Image Editor, used by nothing else
     return image
 
@@ -93,7 +94,7 @@ def decal_material(name, atlas):
 def instance_group(collection):
     """Geometry Nodes group 'TexSynth Instances: <collection>': Instance on Points picking the collection's
     child by the INT point attribute `class` (wrapping), rotated and scaled by `rotation` and `scale`."""
-    name = GROUP_PREFIX + collection.name
+    name = fit_name(GROUP_PREFIX, collection.name)
     group = bpy.data.node_groups.get(name)
     if group is not None and group.bl_idname == "GeometryNodeTree":
         return group
@@ -210,9 +211,9 @@ def write_outputs(target, outputs, atlas_pixels=None, atlas_size=None, collectio
     try:
         material = None
         if any(out.decals is not None for out in outputs):
-            atlas_name = ATLAS_PREFIX + target.name
+            atlas_name = fit_name(ATLAS_PREFIX, target.name)
             old_atlas = bpy.data.images.get(atlas_name)
-            material = bpy.data.materials.get(MATERIAL_PREFIX + target.name)
+            material = bpy.data.materials.get(fit_name(MATERIAL_PREFIX, target.name))
             reuse = keep_atlas and old_atlas is not None and material is not None and \
                 tuple(old_atlas.size) == tuple(atlas_size)
             if reuse:
@@ -220,7 +221,7 @@ def write_outputs(target, outputs, atlas_pixels=None, atlas_size=None, collectio
             else:
                 atlas = creation.add("images", _image(_TEMP + atlas_name, atlas_size[0], atlas_size[1], atlas_pixels,
                                                       float_atlas))
-                material = creation.add("materials", decal_material(_TEMP + MATERIAL_PREFIX + target.name, atlas))
+                material = creation.add("materials", decal_material(_TEMP + fit_name(MATERIAL_PREFIX, target.name), atlas))
         group = instance_group(collection) if collection is not None and any(
             out.points is not None for out in outputs) else None
         if group is not None and group.users == 0 and not group.use_fake_user:
@@ -271,15 +272,15 @@ def write_outputs(target, outputs, atlas_pixels=None, atlas_size=None, collectio
         if old not in new_objects:
             remove_object(old)
     if material is not None:
-        old_material = bpy.data.materials.get(MATERIAL_PREFIX + target.name)
+        old_material = bpy.data.materials.get(fit_name(MATERIAL_PREFIX, target.name))
         if old_material is not None and old_material != material:
             old_material.user_remap(material)
             bpy.data.materials.remove(old_material)
-        material.name = MATERIAL_PREFIX + target.name
+        material.name = fit_name(MATERIAL_PREFIX, target.name)
         if old_atlas is not None and old_atlas != atlas:
             old_atlas.user_remap(atlas)
             bpy.data.images.remove(old_atlas)
-        atlas.name = ATLAS_PREFIX + target.name
+        atlas.name = fit_name(ATLAS_PREFIX, target.name)
     for obj, name in made:
         obj.name = name
         obj.data.name = name
@@ -304,7 +305,7 @@ def clear(target_name):
                 groups.add(modifier.node_group.name)
         remove_object(obj)
         removed += 1
-    for kind, name in (("materials", MATERIAL_PREFIX + target_name), ("images", ATLAS_PREFIX + target_name)):
+    for kind, name in (("materials", fit_name(MATERIAL_PREFIX, target_name)), ("images", fit_name(ATLAS_PREFIX, target_name))):
         datablock = getattr(bpy.data, kind).get(name)
         if datablock is not None and datablock.users == 0:
             getattr(bpy.data, kind).remove(datablock)

@@ -27,6 +27,7 @@ import bpy
 
 from .. import compat
 from ..core import pipeline
+from ..core.names import fit_name
 
 GROUP_PREFIX = "TexSynth Blend: "
 MATERIAL_PREFIX = "TexSynth: "
@@ -79,7 +80,7 @@ def histogram_images(files, image):
     loaded = []
     for path, kind, colorspace in ((files.gaussian_path, "Gaussian", "Non-Color"),
                                    (files.lut_path, "LUT", image.colorspace_settings.name)):
-        name = "TexSynth %s: %s" % (kind, image.name)
+        name = fit_name("TexSynth %s: " % kind, image.name)
         found = bpy.data.images.get(name)
         if found is None or bpy.path.abspath(found.filepath) != path:
             if found is not None:
@@ -95,7 +96,7 @@ def histogram_images(files, image):
 
 
 def group_name(image, mode="HISTOGRAM", patch_zone=0.0):
-    return GROUP_PREFIX + image.name + MODE_SUFFIX[mode] + (" [patches]" if patch_zone > 0 else "")
+    return fit_name(GROUP_PREFIX, image.name, MODE_SUFFIX[mode] + (" [patches]" if patch_zone > 0 else ""))
 
 
 class _Builder:
@@ -332,7 +333,7 @@ def ensure_blend_group(image, inputs=None):
 def _group_node(material, image, target, inputs):
     """The group node for image in material (reused when present)."""
     nodes = material.node_tree.nodes
-    name = NODE_PREFIX + image.name + (" -> " + target if target != "Base Color" else "")
+    name = fit_name(NODE_PREFIX, image.name, " -> " + target if target != "Base Color" else "")
     group_node = nodes.get(name)
     if group_node is None:
         group_node = nodes.new("ShaderNodeGroup")
@@ -384,9 +385,10 @@ def insert_into_material(material, image, target="Base Color", inputs=None):
 
 def build_material(image, inputs=None):
     """A ready material "TexSynth: <image>" (Principled BSDF fed by the blend group), reused if present."""
-    material = bpy.data.materials.get(MATERIAL_PREFIX + image.name)
+    name = fit_name(MATERIAL_PREFIX, image.name)
+    material = bpy.data.materials.get(name)
     if material is None:
-        material = bpy.data.materials.new(MATERIAL_PREFIX + image.name)
+        material = bpy.data.materials.new(name)
     insert_into_material(material, image, "Base Color", inputs)
     return material
 

@@ -18,6 +18,7 @@ from .. import native
 from ..bake import baking, options
 from ..bridge import mesh_io
 from ..core import pipeline
+from ..core.names import fit_name
 from ..shading import surface_material
 from ..uv_methods.synthesis import Cancelled, mesh_objects
 from . import core
@@ -105,7 +106,7 @@ class Job:
 
     def _prepare_image_target(self, item):
         obj, request = item.obj, self.request
-        name = request.target or core.IMAGE_PREFIXES[self.settings.method] + obj.name
+        name = request.target or fit_name(core.IMAGE_PREFIXES[self.settings.method], obj.name)
         item.target = options.resolve_target(name, obj.name, request.save_mode, bpy.data.filepath)
         item.uv_map = baking.choose_uv_map(obj.data, request)
         if item.uv_map is None:
@@ -253,7 +254,7 @@ class Job:
             baking.write_surface_colour(image, np.ascontiguousarray(rgba[::-1]), coverage[::-1], margin=0)
             baking.store_image(image, target)
             baking.take_name(image, target.image_name)
-            material = surface_material.apply(item.obj, self.material_mode, MATERIAL_PREFIX + item.obj.name,
+            material = surface_material.apply(item.obj, self.material_mode, fit_name(MATERIAL_PREFIX, item.obj.name),
                                               image=image, uv_map=item.uv_map)
             baking.keep_unused(image)  # Layers Only: the image is the output, and nothing uses it yet
         except Exception:
@@ -272,7 +273,7 @@ class Job:
         rgba[:, :min(4, colour.shape[1])] = colour[:, :4]
         undo = mesh_io.write_colour_attribute(item.obj.data, core.COLOUR_ATTRIBUTE_NAME, rgba)
         try:
-            surface_material.apply(item.obj, self.material_mode, MATERIAL_PREFIX + item.obj.name,
+            surface_material.apply(item.obj, self.material_mode, fit_name(MATERIAL_PREFIX, item.obj.name),
                                    attribute=core.COLOUR_ATTRIBUTE_NAME)
         except Exception as error:
             undo()

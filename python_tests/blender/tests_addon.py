@@ -748,6 +748,51 @@ def test_panel_draws_every_setting_and_the_native_reason():
         native._module, native._reason, native._tried = saved
 
 
+
+def _datablock_names():
+    return {kind: sorted(item.name for item in getattr(bpy.data, kind))
+            for kind in ("node_groups", "materials", "images", "objects", "collections")}
+
+
+def test_long_names_reuse_their_data_blocks_on_every_run():
+    """Blender 3.4-4.x cut names at 63 bytes: a name built from a long sample or object name used to miss
+    its own data-block on the next run, which made another node group and material each time."""
+    import shutil
+    import tempfile
+
+    harness.reset_scene()
+    folder = tempfile.mkdtemp()
+    long_sample = os.path.join(folder, "a_rather_long_sample_file_name_for_bricks_from_the_library.png")
+    shutil.copyfile(BRICKS, long_sample)
+    obj = harness.add_primitive("uv_sphere", "An object with quite a long name as artists give them 1")
+    cases = [dict(method="JUMPMAP", blend_mode=mode) for mode in ("HISTOGRAM", "VARIANCE", "LINEAR")]
+    cases += [dict(method="TEXTON"), dict(method="ROUND", scale=1.0), dict(method="PATCHES", scale=1.0)]
+    for case in cases:
+        synthesize_one(obj, sample_path=long_sample, **case)
+        first = _datablock_names()
+        synthesize_one(obj, sample_path=long_sample, **case)
+        again = _datablock_names()
+        assert again == first, (case, {k: sorted(set(again[k]) ^ set(first[k])) for k in first})
+        assert not any(name.endswith(".001") for names in again.values() for name in names), (case, again)
+
+
+def test_smart_uv_project_for_one_object_leaves_the_other_selected_objects_uvs_alone():
+    """A surface-colour run on two selected objects, one without a UV map: Smart UV Project for that
+    one ran in multi-object Edit Mode and re-projected the other's UV map too."""
+    harness.reset_scene()
+    ground = harness.add_primitive("grid", "Ground", x_subdivisions=12, y_subdivisions=12, size=4.0)
+    rock = harness.add_primitive("ico_sphere", "Rock", subdivisions=3)
+    while rock.data.uv_layers:
+        rock.data.uv_layers.remove(rock.data.uv_layers[0])
+    before = uv_values(ground.data, "UVMap").copy()
+    configure(method="ROUND", scale=1.0)
+    harness.select_only([ground, rock])
+    bpy.context.view_layer.objects.active = ground
+    assert run_operator() == {"FINISHED"}
+    assert np.array_equal(uv_values(ground.data, "UVMap"), before), "Ground's UV map was re-projected"
+    assert len(rock.data.uv_layers) >= 1
+    assert ground.select_get() and rock.select_get() and bpy.context.view_layer.objects.active == ground
+
 if __name__ == "__main__":
     harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")],
                          only=harness.script_args())
