@@ -11,7 +11,12 @@ SAMPLES = os.path.join(ROOT, "blend_samples")
 BLENDER_TESTS = os.path.join(ROOT, "python_tests", "blender")
 
 
-def blender(*args, blend_file=None, env=None, timeout=300):
+# Subprocess timeouts only catch hangs: generous enough that no load on the machine can reach them (a suite
+# takes up to ~2 minutes on an idle 2-core machine and a few times that under load).
+HANG_SECONDS = 1800
+
+
+def blender(*args, blend_file=None, env=None, timeout=HANG_SECONDS):
     """Runs `blender -b [blend_file] --factory-startup --python-exit-code 1 <args>`; returns CompletedProcess."""
     command = [addon_package.BLENDER, "-b"] + ([blend_file] if blend_file else []) + \
         ["--factory-startup", "--python-exit-code", "1"] + list(args)

@@ -271,7 +271,7 @@ def test_reason_names_the_missing_shared_library_of_a_real_module(tmp_path):
     subprocess.run(["cc", "-shared", "-fPIC", "-o", module, "mod.c", "-L.", "-ltexsynth_probe_dep"], **run)
     os.remove(tmp_path / "libtexsynth_probe_dep.so")
     script = "import addon_package; print('REASON', addon_package.load('native').reason())"
-    process = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60,
+    process = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600,
                              cwd=os.path.dirname(os.path.abspath(__file__)),
                              env=dict(os.environ, TEXSYNTH_MODULE_DIR=str(tmp_path),
                                       PYTHONPATH=os.path.dirname(os.path.abspath(__file__))))

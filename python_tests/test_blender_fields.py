@@ -53,7 +53,7 @@ def test_interactive_tools_with_simulated_mouse_events():
     """Comb modal, Ctrl-drag erase, sidebar-started Source pick and the overlay in a real (virtual) window."""
     command = ["xvfb-run", "-a", "-s", "-screen 0 1280x800x24", addon_package.BLENDER, "--factory-startup",
                "--enable-event-simulate", "--python", os.path.join(blender_run.BLENDER_TESTS, "gui_fields.py")]
-    process = subprocess.run(command, cwd=blender_run.ROOT, capture_output=True, text=True, timeout=300)
+    process = subprocess.run(command, cwd=blender_run.ROOT, capture_output=True, text=True, timeout=blender_run.HANG_SECONDS)
     output = process.stdout + process.stderr
     assert "GUI SUMMARY failed=0" in output, output[-4000:]
     assert output.count("PASS ") >= 8, output[-3000:]

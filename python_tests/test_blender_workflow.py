@@ -4,9 +4,9 @@ steps through TexSynth's real operators, undo, redo and save + reload in one Ble
 invariants after every step (see that script's docstring). Fails on any violation, naming the step and the
 operator. The report (counts, violations, RSS curve) is kept in out/workflow_<blender version>.json.
 
-Bounded for the gate on this 2-core machine: STEPS steps or BUDGET_SECONDS of stepping, whichever comes
-first (400 steps: 25 s on Blender 3.4 and 50 s on 5.2 on an idle machine, 85 s on 3.4 under a load of 8),
-and at least MIN_STEPS must run. Longer soaks run the script directly (its docstring has the command)."""
+Always STEPS steps, on a busy machine as on an idle one, so the answer does not depend on the load (400
+steps: 25 s on Blender 3.4 and 50 s on 5.2 on an idle machine, 85 s on 3.4 under a load of 8). Longer soaks
+run the script directly (its docstring has the command)."""
 import json
 import os
 
@@ -18,8 +18,6 @@ import blender_run
 SOAK = os.path.join(blender_run.BLENDER_TESTS, "workflow_soak.py")
 SEED = 34
 STEPS = 400
-BUDGET_SECONDS = 150   # of stepping; Blender's start and the report add a few seconds
-MIN_STEPS = 150
 WARMUP = 120           # steps before the memory baseline (caches and the 32-step undo stack fill up; 5.2
                        # levels off after about 100 steps, 3.4 sooner)
 RSS_BOUND_MB = 150     # allowed RSS growth after the warm-up (see workflow_soak.py; measured in the report)
@@ -43,9 +41,8 @@ def test_an_artists_day_keeps_every_invariant():
     if os.path.exists(report_path):
         os.remove(report_path)
     process = blender_run.blender("--python", SOAK, "--", "--steps", str(STEPS), "--seed", str(SEED),
-                                  "--max-seconds", str(BUDGET_SECONDS), "--warmup", str(WARMUP),
-                                  "--rss-bound-mb", str(RSS_BOUND_MB), "--report", report_path,
-                                  timeout=BUDGET_SECONDS + 120)
+                                  "--warmup", str(WARMUP), "--rss-bound-mb", str(RSS_BOUND_MB),
+                                  "--report", report_path)
     output = blender_run.without_blender_noise(process.stdout + process.stderr)
     assert os.path.isfile(report_path), "no report written (exit code %d):\n%s" % (process.returncode, output[-6000:])
     with open(report_path) as handle:
@@ -58,7 +55,7 @@ def test_an_artists_day_keeps_every_invariant():
             len(violations), report["steps"], SEED, report_path,
             "\n".join(format_violation(v) for v in violations[:25]), summary), pytrace=False)
     assert process.returncode == 0, output[-6000:]
-    assert report["steps"] >= MIN_STEPS, "only %d steps in the time budget:\n%s" % (report["steps"], summary)
+    assert report["steps"] == STEPS, "only %d of %d steps ran:\n%s" % (report["steps"], STEPS, summary)
     counts = report["counts"]
     # Every kind of step ran, and the operators did their work (not only failed).
     for name in ("jumpmap", "texton", "round", "patches", "particles", "bake", "clear", "save_reload",

@@ -34,10 +34,10 @@ def digests(*script_args, env=None, prefix=()):
         import subprocess
 
         command = list(prefix) + [addon_package.BLENDER, "-b", "--factory-startup", "--python-exit-code", "1"] + args
-        process = subprocess.run(command, cwd=blender_run.ROOT, capture_output=True, text=True, timeout=600,
+        process = subprocess.run(command, cwd=blender_run.ROOT, capture_output=True, text=True, timeout=blender_run.HANG_SECONDS,
                                  env=command_env)
     else:
-        process = blender_run.blender(*args, env=env, timeout=600)
+        process = blender_run.blender(*args, env=env, timeout=blender_run.HANG_SECONDS)
     lines = [line for line in process.stdout.splitlines() if line.startswith("DIGEST ")]
     assert process.returncode == 0 and lines, process.stdout[-3000:] + process.stderr[-3000:]
     return json.loads(lines[-1][len("DIGEST "):])

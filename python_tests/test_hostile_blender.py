@@ -92,7 +92,7 @@ def test_cli_on_hostile_cases_exits_cleanly_and_never_half_writes(corpus, tmp_pa
         command = [addon_package.BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python", CLI,
                    "--", *argv, "--cache-dir", str(tmp_path / "cache"), "--save", str(out), "--stats", str(stats)]
         try:
-            process = subprocess.run(command, capture_output=True, text=True, timeout=120, errors="replace")
+            process = subprocess.run(command, capture_output=True, text=True, timeout=blender_run.HANG_SECONDS, errors="replace")
         except subprocess.TimeoutExpired:
             counts["hang"] += 1
             failures.append("hang %s" % case_id)
@@ -128,7 +128,7 @@ def test_cancellation_and_modal_operator_inside_blender(capsys):
     """Esc during a 490k-face synthesis: Cancelled within a fraction of a second, mesh untouched."""
     process = subprocess.run([addon_package.BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python",
                               os.path.join(HERE, "blender", "tests_cancel.py")],
-                             capture_output=True, text=True, timeout=300, errors="replace")
+                             capture_output=True, text=True, timeout=blender_run.HANG_SECONDS, errors="replace")
     output = process.stdout + process.stderr
     assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-4000:]
     with capsys.disabled():
