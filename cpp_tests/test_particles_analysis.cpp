@@ -521,7 +521,16 @@ void expect_same(const ParticleAnalysis& a, const ParticleAnalysis& b) {
     EXPECT_EQ(a.cooc[i].neighbour, b.cooc[i].neighbour);
     EXPECT_EQ(a.cooc[i].source, b.cooc[i].source);
   }
-  for (size_t k = 0; k < a.classes.size(); ++k) EXPECT_EQ(a.classes[k].tolerance, b.classes[k].tolerance);
+  for (size_t k = 0; k < a.classes.size(); ++k) {
+    EXPECT_EQ(a.classes[k].tolerance, b.classes[k].tolerance);
+    EXPECT_EQ(a.classes[k].density, b.classes[k].density);
+  }
+  ASSERT_EQ(a.class_pairs.size(), b.class_pairs.size());
+  for (size_t k = 0; k < a.class_pairs.size(); ++k) {
+    EXPECT_EQ(a.class_pairs[k].pairs, b.class_pairs[k].pairs);
+    EXPECT_EQ(a.class_pairs[k].tolerance, b.class_pairs[k].tolerance);
+    EXPECT_EQ(a.class_pairs[k].margin, b.class_pairs[k].margin);
+  }
 }
 
 TEST(ParticlesAnalysis, SameBytesAtOneAndTwoThreads) {

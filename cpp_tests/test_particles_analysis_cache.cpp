@@ -86,6 +86,11 @@ void expect_same(const ParticleAnalysis& a, const ParticleAnalysis& b) {
                 p.tolerance == q.tolerance)
         << "class " << i;
   }
+  ASSERT_EQ(a.class_pairs.size(), b.class_pairs.size());
+  for (size_t i = 0; i < a.class_pairs.size(); ++i) {
+    const texsynth::ParticleClassPair &p = a.class_pairs[i], &q = b.class_pairs[i];
+    EXPECT_TRUE(p.pairs == q.pairs && p.tolerance == q.tolerance && p.margin == q.margin) << "class pair " << i;
+  }
   EXPECT_EQ(a.background_fill, b.background_fill);
   EXPECT_EQ(a.merged_small, b.merged_small);
   EXPECT_EQ(a.merged_over_cap, b.merged_over_cap);
@@ -172,6 +177,14 @@ TEST(ParticlesCache, TruncatedFlippedAndLyingFilesAreRefused) {
   a.labels[7] = a.num_classes;
   const std::vector<uint8_t> forged = texsynth::serialize_particle_analysis(a, 5);
   EXPECT_THROW(texsynth::deserialize_particle_analysis(forged.data(), forged.size(), 5), texsynth::CacheError);
+  // A class pair table of the wrong size, or with a negative margin (placement indexes it by class).
+  for (int how : {0, 1}) {
+    ParticleAnalysis c = analysed(false);
+    if (how == 0) c.class_pairs.pop_back();
+    else c.class_pairs[1].margin = -1;
+    const std::vector<uint8_t> bytes = texsynth::serialize_particle_analysis(c, 5);
+    EXPECT_THROW(texsynth::deserialize_particle_analysis(bytes.data(), bytes.size(), 5), texsynth::CacheError) << how;
+  }
   // Not a cache at all.
   write_all(path, std::vector<uint8_t>(200, 'x'));
   EXPECT_THROW(texsynth::load_particle_analysis(path, 5), texsynth::CacheError);

@@ -87,6 +87,19 @@ py::array classes_table(const texsynth::ParticleAnalysis& a) {
                         {"tolerance", to_numpy(std::move(tolerance), {k})}});
 }
 
+py::dict class_pair_arrays(const texsynth::ParticleAnalysis& a) {
+  const py::ssize_t k = a.num_classes;
+  std::vector<int32_t> pairs;
+  std::vector<double> tolerance, margin;
+  for (const auto& p : a.class_pairs)
+    pairs.push_back(p.pairs), tolerance.push_back(p.tolerance), margin.push_back(p.margin);
+  py::dict d;
+  d["pairs"] = to_numpy(std::move(pairs), {k, k});
+  d["tolerance"] = to_numpy(std::move(tolerance), {k, k});
+  d["margin"] = to_numpy(std::move(margin), {k, k});
+  return d;
+}
+
 py::dict cooccurrence_arrays(const texsynth::ParticleAnalysis& a) {
   const py::ssize_t n = py::ssize_t(a.cooc.size());
   std::vector<int32_t> quadrant, neighbour;
@@ -142,6 +155,11 @@ void bind_particles(py::module_& m) {
       .def_property_readonly("classes", &classes_table,
                              "Structured (k,): pixels, particles, complete, colour (C), background, has_complete, "
                              "random, density, min_distance, tolerance.")
+      .def_property_readonly("class_pairs", &class_pair_arrays,
+                             "dict of (k, k) symmetric arrays, what the sample shows between two classes: pairs "
+                             "(distinct nearest particle pairs measured), tolerance (overlap tolerance: intersection "
+                             "/ smaller box), margin (px: half the 10th-percentile nearest box gap). Placement tests "
+                             "a particle against other classes with them.")
       .def_property_readonly("cooccurrences", &cooccurrence_arrays,
                              "dict of CSR arrays: start (n + 1,), then per entry quadrant (0 (+,+), 1 (-,+), 2 (-,-), "
                              "3 (+,-)), dx, dy, angle, neighbour (-1: class median), mirrored (0 measured, 1 opposite, "

@@ -434,10 +434,15 @@ struct SearchScratch {
   struct Found {
     int32_t id, step, shift_x, shift_y;
   };
-  std::vector<Found> found;
+  std::vector<Found> found;  // same class
+  std::vector<Found> other;  // other non-background classes (when asked for)
 };
 
-std::vector<NeighbourHit> search_neighbours(const ParticleAnalysis& a, int32_t id, bool literal, SearchScratch& s) {
+// The kept same-class neighbours of particle id; with `cross`, also the nearest particles of every other
+// non-background class within the same window (per class: those at its least step, nearest centres first,
+// then lower id, at most kParticleMaxPerQuadrant), in class order.
+std::vector<NeighbourHit> search_neighbours(const ParticleAnalysis& a, int32_t id, bool literal, SearchScratch& s,
+                                           std::vector<NeighbourHit>* cross = nullptr) {
   const Particle& P = a.particles[size_t(id)];
   const int32_t W = a.width, H = a.height;
   const double size = 2.0 * std::max(P.box.half_x, P.box.half_y);
@@ -450,20 +455,25 @@ std::vector<NeighbourHit> search_neighbours(const ParticleAnalysis& a, int32_t i
   for (int32_t p = 0; p < P.area; ++p) s.dist[size_t(xy[2 * p + 1] - wy0) * ww + size_t(xy[2 * p] - wx0)] = 0;
   if (s.slot.size() != a.particles.size()) s.slot.assign(a.particles.size(), -1);
   s.found.clear();
-  // A same-class other particle under window cell (x, y) at distance d: keep its least d (first in raster order).
+  s.other.clear();
+  // Another particle under window cell (x, y) at distance d: keep its least d (first in raster order). The
+  // slot indexes `found` for same-class particles, `other` for the rest.
   auto visit = [&](int32_t x, int32_t y, int32_t d) {
     const int32_t gx = x + wx0, gy = y + wy0;
     const size_t i = size_t(wrap(gy, H)) * W + size_t(wrap(gx, W));
     const int32_t q = a.components[i];
-    if (q < 0 || q == id || a.particles[size_t(q)].class_id != P.class_id) return;
+    if (q < 0 || q == id) return;
+    const bool same = a.particles[size_t(q)].class_id == P.class_id;
+    if (!same && !cross) return;
+    std::vector<SearchScratch::Found>& list = same ? s.found : s.other;
     int32_t sx = 0, sy = 0;
     if (a.tileable) sx = gx - a.unwrapped[2 * i], sy = gy - a.unwrapped[2 * i + 1];
     int32_t& at = s.slot[size_t(q)];
     if (at < 0) {
-      at = int32_t(s.found.size());
-      s.found.push_back({q, d, sx, sy});
-    } else if (d < s.found[size_t(at)].step) {
-      s.found[size_t(at)] = {q, d, sx, sy};
+      at = int32_t(list.size());
+      list.push_back({q, d, sx, sy});
+    } else if (d < list[size_t(at)].step) {
+      list[size_t(at)] = {q, d, sx, sy};
     }
   };
   auto quadrant_of = [&](const SearchScratch::Found& f) {
@@ -552,6 +562,36 @@ std::vector<NeighbourHit> search_neighbours(const ParticleAnalysis& a, int32_t i
     kept[r.quadrant]++;
     out.push_back({r.f.id, r.quadrant, r.step, r.f.shift_x, r.f.shift_y});
   }
+  if (cross) {
+    // Per other class: the hits at its least step, nearest centres first, then lower id, at most 2.
+    struct Other {
+      int32_t cls, step;
+      double centre_d2;
+      SearchScratch::Found f;
+    };
+    std::vector<Other> others;
+    for (const auto& f : s.other) {
+      s.slot[size_t(f.id)] = -1;
+      const Particle& Q = a.particles[size_t(f.id)];
+      const double ox = Q.box.cx + f.shift_x - P.box.cx, oy = Q.box.cy + f.shift_y - P.box.cy;
+      others.push_back({Q.class_id, f.step, ox * ox + oy * oy, f});
+    }
+    std::sort(others.begin(), others.end(), [](const Other& u, const Other& v) {
+      if (u.cls != v.cls) return u.cls < v.cls;
+      if (u.step != v.step) return u.step < v.step;
+      if (u.centre_d2 != v.centre_d2) return u.centre_d2 < v.centre_d2;
+      return u.f.id < v.f.id;
+    });
+    cross->clear();
+    for (size_t i = 0, first = 0; i < others.size(); ++i) {
+      if (i == 0 || others[i].cls != others[i - 1].cls) first = i;
+      if (others[i].step != others[first].step || i - first >= size_t(kParticleMaxPerQuadrant)) continue;
+      const Other& o = others[i];
+      cross->push_back({o.f.id, quadrant_of(o.f), o.step, o.f.shift_x, o.f.shift_y});
+    }
+  } else {
+    for (const auto& f : s.other) s.slot[size_t(f.id)] = -1;
+  }
   return out;
 }
 
@@ -588,6 +628,82 @@ double mean_nearest_distance(const std::vector<Pt>& pts, int32_t W, int32_t H, b
     total += best;
   }
   return total / double(pts.size());
+}
+
+// The cells of the sample's blobs (conventions, "Density"): blobs = 8-connected groups of particle pixels of
+// any class (a pebble k-means cut into a core and a halo ring is one blob); each pixel belongs to the blob
+// nearest it (chessboard distance, two raster passes carrying the owner; ties to the first reached); the
+// cells that touch the image border are cut by it and left out. Returns {particles in the interior cells,
+// their pixels}. Not for tileable samples.
+std::pair<int64_t, int64_t> interior_cells(const ParticleAnalysis& a, const std::atomic<bool>* cancel) {
+  const int32_t W = a.width, H = a.height;
+  const size_t N = size_t(W) * size_t(H);
+  std::vector<int32_t> dist(N, kFar), owner(N, -1);
+  int32_t blobs = 0;
+  std::vector<size_t> queue;
+  for (size_t start = 0; start < N; ++start) {
+    if (a.components[start] < 0 || owner[start] >= 0) continue;
+    if (blobs % 4096 == 0) throw_if_cancelled(cancel);
+    owner[start] = blobs, dist[start] = 0;
+    queue.assign(1, start);
+    for (size_t h = 0; h < queue.size(); ++h) {
+      const int32_t x = int32_t(queue[h] % size_t(W)), y = int32_t(queue[h] / size_t(W));
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int32_t nx = x + dx, ny = y + dy;
+          if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
+          const size_t j = size_t(ny) * W + size_t(nx);
+          if (a.components[j] < 0 || owner[j] >= 0) continue;
+          owner[j] = blobs, dist[j] = 0;
+          queue.push_back(j);
+        }
+    }
+    ++blobs;
+  }
+  auto relax = [&](size_t i, size_t j) {
+    if (dist[j] + 1 < dist[i]) dist[i] = dist[j] + 1, owner[i] = owner[j];
+  };
+  for (int32_t y = 0; y < H; ++y) {
+    if (y % 256 == 0) throw_if_cancelled(cancel);
+    for (int32_t x = 0; x < W; ++x) {
+      const size_t i = size_t(y) * W + x;
+      if (x > 0) relax(i, i - 1);
+      if (y > 0) {
+        relax(i, i - W);
+        if (x > 0) relax(i, i - W - 1);
+        if (x + 1 < W) relax(i, i - W + 1);
+      }
+    }
+  }
+  for (int32_t y = H - 1; y >= 0; --y) {
+    if (y % 256 == 0) throw_if_cancelled(cancel);
+    for (int32_t x = W - 1; x >= 0; --x) {
+      const size_t i = size_t(y) * W + x;
+      if (x + 1 < W) relax(i, i + 1);
+      if (y + 1 < H) {
+        relax(i, i + W);
+        if (x + 1 < W) relax(i, i + W + 1);
+        if (x > 0) relax(i, i + W - 1);
+      }
+    }
+  }
+  std::vector<int64_t> area(size_t(blobs), 0);
+  std::vector<uint8_t> cut(size_t(blobs), 0);
+  for (int32_t y = 0; y < H; ++y)
+    for (int32_t x = 0; x < W; ++x) {
+      const int32_t b = owner[size_t(y) * W + x];
+      if (b < 0) continue;
+      area[size_t(b)]++;
+      if (x == 0 || y == 0 || x == W - 1 || y == H - 1) cut[size_t(b)] = 1;
+    }
+  int64_t particles = 0, pixels = 0;
+  for (int32_t b = 0; b < blobs; ++b)
+    if (!cut[size_t(b)]) pixels += area[size_t(b)];
+  for (const Particle& p : a.particles) {
+    const int32_t* xy = a.pixel_xy.data() + 2 * a.pixel_start[size_t(p.id)];
+    particles += !cut[size_t(owner[size_t(xy[1]) * W + size_t(xy[0])])];
+  }
+  return {particles, pixels};
 }
 
 void fill_background(ParticleAnalysis& a, const ParticleSample& s, uint64_t seed, const std::atomic<bool>* cancel) {
@@ -765,19 +881,34 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
   t0 = Clock::now();
   std::vector<std::vector<CoOccurrence>> measured(static_cast<size_t>(n));
   std::vector<std::vector<std::pair<int32_t, double>>> overlaps(static_cast<size_t>(n));  // (neighbour, overlap fraction)
+  struct CrossHit {
+    int32_t neighbour;
+    double overlap, gap;  // overlap fraction (0 when apart), box gap max(dx, dy) in px
+  };
+  std::vector<std::vector<CrossHit>> cross(static_cast<size_t>(n));
   tbb::enumerable_thread_specific<SearchScratch> scratch;
   tbb::parallel_for(tbb::blocked_range<int32_t>(0, n, 4), [&](const tbb::blocked_range<int32_t>& r) {
     SearchScratch& s = scratch.local();
+    std::vector<NeighbourHit> others;
     for (int32_t i = r.begin(); i < r.end(); ++i) {
       throw_if_cancelled(cancel);
       const Particle& P = a.particles[size_t(i)];
       if (!P.complete) continue;
-      for (const NeighbourHit& h : search_neighbours(a, i, false, s)) {
-        const Particle& Q = a.particles[size_t(h.neighbour)];
-        measured[size_t(i)].push_back(measure_entry(P.box, Q.box, h.shift_x, h.shift_y, h.neighbour));
+      auto overlap_of = [&](const Particle& Q, const NeighbourHit& h) {
         const double inter = box_intersection(P.box, Q.box, h.shift_x, h.shift_y);
         const double smaller = std::min(4.0 * P.box.half_x * P.box.half_y, 4.0 * Q.box.half_x * Q.box.half_y);
-        if (inter > 1e-9 && smaller > 0) overlaps[size_t(i)].push_back({h.neighbour, inter / smaller});
+        return inter > 1e-9 && smaller > 0 ? inter / smaller : 0.0;
+      };
+      for (const NeighbourHit& h : search_neighbours(a, i, false, s, &others)) {
+        const Particle& Q = a.particles[size_t(h.neighbour)];
+        measured[size_t(i)].push_back(measure_entry(P.box, Q.box, h.shift_x, h.shift_y, h.neighbour));
+        const double f = overlap_of(Q, h);
+        if (f > 0) overlaps[size_t(i)].push_back({h.neighbour, f});
+      }
+      for (const NeighbourHit& h : others) {
+        const Particle& Q = a.particles[size_t(h.neighbour)];
+        const CoOccurrence e = measure_entry(P.box, Q.box, h.shift_x, h.shift_y, h.neighbour);
+        cross[size_t(i)].push_back({h.neighbour, overlap_of(Q, h), double(std::max(e.dx, e.dy))});
       }
     }
   });
@@ -873,10 +1004,70 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
       a.classes[size_t(k)].tolerance = std::min(t, 0.5);
     }
   }
+  // Class pairs (conventions, "Class pairs"): the diagonal from the co-occurrences, the rest from the
+  // nearest particles of the other class, both directions pooled.
+  {
+    const size_t K = size_t(a.num_classes);
+    a.class_pairs.assign(K * K, ParticleClassPair{});
+    std::vector<std::vector<float>> gaps(K * K);
+    std::vector<std::vector<std::pair<std::pair<int32_t, int32_t>, double>>> seen(K * K);  // (pair, overlap)
+    auto slot = [&](int32_t k, int32_t j) { return size_t(std::min(k, j)) * K + size_t(std::max(k, j)); };
+    for (int32_t i = 0; i < n; ++i) {
+      const int32_t k = a.particles[size_t(i)].class_id;
+      for (const CoOccurrence& e : measured[size_t(i)]) {
+        gaps[slot(k, k)].push_back(std::max(e.dx, e.dy));
+        seen[slot(k, k)].push_back({{std::min(i, e.neighbour), std::max(i, e.neighbour)}, 0.0});
+      }
+      for (const CrossHit& h : cross[size_t(i)]) {
+        const int32_t j = a.particles[size_t(h.neighbour)].class_id;
+        gaps[slot(k, j)].push_back(float(h.gap));
+        seen[slot(k, j)].push_back({{std::min(i, h.neighbour), std::max(i, h.neighbour)}, h.overlap});
+      }
+    }
+    for (int32_t k = 0; k < a.num_classes; ++k)
+      for (int32_t j = k; j < a.num_classes; ++j) {
+        const size_t at = slot(k, j);
+        ParticleClassPair pair;
+        auto& v = seen[at];
+        std::sort(v.begin(), v.end());
+        v.erase(std::unique(v.begin(), v.end(), [](const auto& u, const auto& w) { return u.first == w.first; }),
+                v.end());
+        pair.pairs = int32_t(v.size());
+        if (k == j) {
+          pair.tolerance = a.classes[size_t(k)].tolerance;
+        } else if (!v.empty()) {
+          std::vector<double> f;
+          for (const auto& e : v) f.push_back(e.second);
+          std::sort(f.begin(), f.end());
+          const size_t rank = std::min(size_t(std::ceil(0.95 * double(f.size()))) - 1, f.size() - 1);  // nearest rank
+          pair.tolerance = std::min(f[rank] + kParticleCrossSlack, kParticleCrossToleranceCap);
+        }
+        auto& g = gaps[at];
+        if (!g.empty()) {
+          const size_t rank = std::min(g.size() - 1, size_t(kParticleGapPercentile * double(g.size())));
+          std::nth_element(g.begin(), g.begin() + ptrdiff_t(rank), g.end());
+          pair.margin = std::max(0.0, 0.5 * double(g[rank]));
+        }
+        a.class_pairs[size_t(k) * K + size_t(j)] = a.class_pairs[size_t(j) * K + size_t(k)] = pair;
+      }
+  }
   // Random classes, densities, minimum distances, classes without a complete particle.
   {
     std::vector<std::vector<Pt>> centres(static_cast<size_t>(a.num_classes));
     for (const Particle& p : a.particles) centres[size_t(p.class_id)].push_back({p.box.cx, p.box.cy});
+    // Particles per px^2 over all classes, from the interior cells; shared out by the classes' weights (an
+    // incomplete particle counts half: the border cuts large particles more often).
+    double total = double(a.particles.size()) / (double(W) * double(H));
+    if (!a.tileable && int32_t(a.particles.size()) >= kParticleDensityCells) {
+      const auto [inside, pixels] = interior_cells(a, cancel);
+      if (inside >= kParticleDensityCells && pixels > 0) total = double(inside) / double(pixels);
+    }
+    std::vector<double> weight(size_t(a.num_classes), 0.0);
+    double weights = 0;
+    for (const Particle& p : a.particles) {
+      const double w = p.complete ? 1.0 : kParticleIncompleteWeight;
+      weight[size_t(p.class_id)] += w, weights += w;
+    }
     for (int32_t k = 0; k < a.num_classes; ++k) {
       ParticleClass& cls = a.classes[size_t(k)];
       cls.has_complete = cls.complete > 0;
@@ -884,7 +1075,7 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
       cls.random = (cls.particles >= 1 && cls.particles <= 3) ||
                    (cls.complete > 0 &&
                     double(measured_quadrants[size_t(k)]) < kParticleScatteredFraction * 4.0 * double(cls.complete));
-      cls.density = double(cls.particles) / (double(W) * double(H));
+      cls.density = weights > 0 ? total * weight[size_t(k)] / weights : 0.0;
       if (cls.particles == 1) cls.min_distance = 0.7 * std::min(W, H);
       else if (cls.particles > 1) cls.min_distance = 0.7 * mean_nearest_distance(centres[size_t(k)], W, H, a.tileable);
     }

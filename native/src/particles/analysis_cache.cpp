@@ -22,6 +22,7 @@ constexpr size_t kHeaderSize = 8 + 4 + 8;
 constexpr size_t kParticleRecord = 3 * 4 + 2 * 4 + 4 * 4 + 5 * 4 + 2 * 4 + 1;
 constexpr size_t kCoocRecord = 4 + 3 * 4 + 4 + 1;
 constexpr size_t kClassRecord = 3 * 4 + 4 * 4 + 3 + 3 * 8;
+constexpr size_t kPairRecord = 4 + 2 * 8;
 
 template <class T>
 void put_vector(ByteWriter& w, const std::vector<T>& v) {
@@ -100,6 +101,10 @@ void validate(const ByteReader& r, const ParticleAnalysis& a) {
     if (!std::isfinite(c.density) || !std::isfinite(c.min_distance) || !std::isfinite(c.tolerance))
       fail("class table has NaN or infinite values");
   }
+  if (a.class_pairs.size() != size_t(a.num_classes) * size_t(a.num_classes)) fail("class pair table size");
+  for (const ParticleClassPair& p : a.class_pairs)
+    if (p.pairs < 0 || !std::isfinite(p.tolerance) || !std::isfinite(p.margin) || p.tolerance < 0 || p.margin < 0)
+      fail("class pair table out of range");
   if (a.background_fill.size() != N * size_t(a.channels)) fail("background fill size");
 }
 
@@ -146,6 +151,9 @@ std::vector<uint8_t> serialize_particle_analysis(const ParticleAnalysis& a, uint
     w.put<uint8_t>(c.background), w.put<uint8_t>(c.has_complete), w.put<uint8_t>(c.random);
     w.put<double>(c.density), w.put<double>(c.min_distance), w.put<double>(c.tolerance);
   }
+  w.put<uint64_t>(a.class_pairs.size());
+  for (const ParticleClassPair& p : a.class_pairs)
+    w.put<int32_t>(p.pairs), w.put<double>(p.tolerance), w.put<double>(p.margin);
   put_vector(w, a.background_fill);
   w.put<int32_t>(a.merged_small), w.put<int32_t>(a.merged_over_cap), w.put<int32_t>(a.classes_without_complete);
   const ParticleAnalysisStats& s = a.stats;
@@ -212,6 +220,9 @@ std::optional<ParticleAnalysis> deserialize_particle_analysis(const uint8_t* dat
     c.background = background, c.has_complete = has_complete, c.random = random;
     c.density = r.get<double>(), c.min_distance = r.get<double>(), c.tolerance = r.get<double>();
   }
+  a.class_pairs.resize(size_t(get_count(r, kPairRecord)));
+  for (ParticleClassPair& p : a.class_pairs)
+    p.pairs = r.get<int32_t>(), p.tolerance = r.get<double>(), p.margin = r.get<double>();
   a.background_fill = r.get_vector<float>(r.get<uint64_t>());
   a.merged_small = r.get<int32_t>(), a.merged_over_cap = r.get<int32_t>();
   a.classes_without_complete = r.get<int32_t>();

@@ -37,10 +37,36 @@
 //    dy, angle); when it is empty too, the class-wide median of the measured entries of that quadrant;
 //    else the x-flipped adjacent quadrant (q ^ 1), else the y-flipped one (3 - q) (angle negated).
 //  - Classes with 1-3 particles are "random", and so are scattered classes (fewer than half of their
-//    complete particles' quadrants have a measured neighbour): density = particles / (W x H), min distance = 0.7 x the
-//    mean nearest-neighbour centre distance (one particle: 0.7 x min(W, H)); both are filled in for
-//    every class. Overlap tolerance = 95th percentile of the observed box overlaps (intersection /
-//    smaller box area, over co-occurring pairs that overlap) + 0.05, 0.1 if none, capped at 0.5.
+//    complete particles' quadrants have a measured neighbour): min distance = 0.7 x the mean
+//    nearest-neighbour centre distance (one particle: 0.7 x min(W, H)); filled in for every class.
+//    Overlap tolerance = 95th percentile of the observed box overlaps (intersection / smaller box area,
+//    over co-occurring pairs that overlap) + 0.05, 0.1 if none, capped at 0.5.
+//  - Density (particles per px^2, every class; issue 30): particles / (W x H) counts a particle the border
+//    cuts as a whole one (crops of a random field of 20 x 13 px pebbles, 60 per 256^2: 1.08-1.18 x the
+//    field's density) and a sample drawn with an empty margin as emptier than its arrangement (a 6 x 6 grid
+//    of 28 px cells inside 14 px margins: 1 / 982 px^2 for the lattice's 1 / 784). So, on samples that are
+//    not tileable: blobs = 8-connected groups of particle pixels of any class; each pixel goes to the blob
+//    nearest it (chessboard distance); the cells that touch the image border are left out, and the total
+//    density = the particles in the interior cells / their pixels, when there are at least
+//    kParticleDensityCells of them (else, and on tileable samples, particles / (W x H)). Crops of the
+//    pebble field: 1.02-1.06 x its density. Blobs, not particles: a particle nested in another (a halo
+//    ring k-means makes around a pebble's core) shares its cell (cells per particle counted 201 particles
+//    per 256^2 for 162). A class's density = the total x its share of the particles, an incomplete one
+//    counting kParticleIncompleteWeight (the border cuts large particles more often than small ones).
+//    Shares from cells per class (4 x larger with 4 classes, fewer interior) came out up to 13 % off the
+//    counts of 15-particle classes, and from each class's particles in the interior cells up to 24 %.
+//  - Class pairs (issue 30; the paper tests a new particle against all particles placed so far): for
+//    every pair of classes (k, j), symmetric, k x j in class_pairs. Off the diagonal, the nearest class-j
+//    particles of each complete class-k particle are found in the same window as its co-occurrences (least
+//    Chebyshev distance between the masks, at most 2, nearest centres first), both directions pooled:
+//    tolerance = 95th percentile of the box overlaps (intersection / smaller box, 0 when apart) of the
+//    distinct pairs + 0.01, 0.1 when no pair was measured, capped at 1 (a class inside another's boxes is
+//    what some samples show). Over all pairs, not only the overlapping ones as within a class: pebbles 4 px
+//    apart whose turned boxes overlap in 3 % of the pairs, by 0.007 at most, got 0.057 that way, and 24 %
+//    of the placed pebbles then overlapped one of the other class;
+//    margin = half the 10th percentile of their box gaps max(dx, dy) (px, >= 0: overlapping pairs give 0).
+//    On the diagonal: the class's tolerance, and half the 10th percentile of max(dx, dy) over its measured
+//    co-occurrences. pairs = distinct particle pairs measured.
 //  - Background fill: the sample with every particle dilated by 2 px (3x3 twice) filled by onion
 //    peeling: each unknown pixel with known 8-neighbours copies one of them, chosen by a seeded hash.
 //
@@ -48,6 +74,7 @@
 // per-particle results only, and every sum runs in a fixed order.
 #include <array>
 #include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -69,6 +96,14 @@ constexpr int kParticleHalo = 2;  // background-fill dilation and sprite alpha r
 // A class is scattered (placed at random) when fewer than this share of its complete particles'
 // quadrants found a neighbour within the dilation cap (lattices 0.98-1.00, scattered berries 0.28).
 constexpr double kParticleScatteredFraction = 0.5;
+// Class pairs: percentile of the nearest box gaps whose half is the exclusion margin, and the cap of the
+// overlap tolerance between two classes.
+constexpr double kParticleGapPercentile = 0.10;
+constexpr double kParticleCrossToleranceCap = 1.0;
+constexpr double kParticleCrossSlack = 0.01;  // added to the 95th-percentile overlap of two classes
+// Density from the blobs' cells when at least this many particles lie in cells that do not touch the border.
+constexpr int32_t kParticleDensityCells = 8;
+constexpr double kParticleIncompleteWeight = 0.5;  // an incomplete particle's weight in its class's share
 
 // Borrowed sample pixels (see conventions).
 struct ParticleSample {
@@ -119,9 +154,16 @@ struct ParticleClass {
   bool background = false;
   bool has_complete = false;      // false for a class with particles but no complete one
   bool random = false;            // 1-3 particles, or scattered (kParticleScatteredFraction)
-  double density = 0;             // particles / (W x H)
+  double density = 0;             // particles per px^2 (conventions, "Density")
   double min_distance = 0;        // 0.7 x mean nearest-neighbour centre distance (see conventions)
   double tolerance = 0.1;         // overlap tolerance
+};
+
+// What the sample shows between the particles of two classes (conventions, "Class pairs").
+struct ParticleClassPair {
+  int32_t pairs = 0;       // distinct particle pairs measured
+  double tolerance = 0.1;  // overlap tolerance (intersection / smaller box)
+  double margin = 0;       // px, >= 0: half the 10th-percentile nearest box gap
 };
 
 struct ParticleAnalysisStats {
@@ -143,12 +185,16 @@ struct ParticleAnalysis {
   std::vector<int32_t> cooc_start;   // CSR over particles (n + 1); incomplete/background: empty
   std::vector<CoOccurrence> cooc;
   std::vector<ParticleClass> classes;
+  std::vector<ParticleClassPair> class_pairs;  // num_classes x num_classes, symmetric: row k, column j
   std::vector<float> background_fill;  // height x width x channels
   int32_t merged_small = 0, merged_over_cap = 0;
   int32_t classes_without_complete = 0;  // classes with particles, none complete
   ParticleAnalysisStats stats;
 
   int32_t merged_components() const { return merged_small + merged_over_cap; }
+  const ParticleClassPair& class_pair(int32_t k, int32_t j) const {
+    return class_pairs[std::size_t(k) * std::size_t(num_classes) + std::size_t(j)];
+  }
 };
 
 // Throws std::invalid_argument (naming the problem) for: null pixels, channels not 3 or 4, a side

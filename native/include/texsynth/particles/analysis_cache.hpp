@@ -9,7 +9,8 @@
 //   u8 complete) | pixel_start i64 | pixel_xy i32 | cooc_start i32 | co-occurrences (u64 n, per entry
 //   i32 quadrant, f32 dx dy angle, i32 neighbour, u8 source) | classes (u64 n, per class i32 pixels,
 //   particles, complete, f32 colour[4], u8 background has_complete random, f64 density min_distance
-//   tolerance) | background_fill f32 | i32 merged_small, merged_over_cap, classes_without_complete |
+//   tolerance) | class pairs (u64 n = num_classes^2, per pair i32 pairs, f64 tolerance margin) |
+//   background_fill f32 | i32 merged_small, merged_over_cap, classes_without_complete |
 //   f64 stats[7] | u64 checksum (hash_bytes over everything before it).
 // The key is the caller's fingerprint of the sample and the settings. Loading checks every length
 // against the bytes left before allocating, then every index the particle code follows (labels,
@@ -23,7 +24,7 @@
 
 namespace texsynth {
 
-constexpr uint32_t kParticleCacheVersion = 1;
+constexpr uint32_t kParticleCacheVersion = 2;  // 2: class pairs (issue 30)
 
 std::vector<uint8_t> serialize_particle_analysis(const ParticleAnalysis& analysis, uint64_t key);
 // The trailing checksum of a buffer whose first `size` bytes are `data` (everything before it).
