@@ -392,6 +392,8 @@ LabelSample two_classes() {
 }
 
 TEST(ParticlesPlace, OneClassAloneGivesExactlyItsRowsOfTheFullRun) {
+  // Re-synthesizing one class (output_classes = {k}): the classes before it are placed again (they
+  // constrain it: conflicts run against every class), only its rows come out.
   const texsynth::ParticleAnalysis a = analyse(two_classes());
   ASSERT_EQ(a.num_classes, 3);
   const Scene s = flat_plane(0.3);
@@ -401,8 +403,10 @@ TEST(ParticlesPlace, OneClassAloneGivesExactlyItsRowsOfTheFullRun) {
   const PlacedParticles full = texsynth::place_particles(a, s.walk, p);
   ASSERT_EQ(full.stats.classes.size(), 2u);
   for (int32_t k : {1, 2}) {
-    p.classes = {k};
+    p.output_classes = {k};
     const PlacedParticles one = texsynth::place_particles(a, s.walk, p);
+    ASSERT_EQ(one.stats.classes.size(), 1u);
+    EXPECT_EQ(one.stats.classes[0].class_id, k);
     size_t first = 0;
     while (first < full.size() && full.class_id[first] != k) ++first;
     ASSERT_GT(one.size(), 20u);
@@ -714,6 +718,12 @@ TEST(ParticlesPlace, BadInputIsRefusedNamingIt) {
   refused(p, "background");
   p = good, p.classes = {1, 1};
   refused(p, "twice");
+  p = good, p.classes = {1}, p.output_classes = {2};
+  refused(p, "output class 2 is not placed (placed classes: 1)");
+  p = good, p.output_classes = {5};
+  refused(p, "output class 5 is not placed");
+  p = good, p.output_classes = {1, 1};
+  refused(p, "output class 1 is listed twice");
   p = good, p.seeds = {{s.T(), 0.2, 0.2}};
   refused(p, "seed 0");
   p = good, p.seeds = {{0, 0.9, 0.9}};

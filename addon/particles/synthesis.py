@@ -10,8 +10,9 @@ compute()  any thread: the background synthesis, then per object the walk mesh, 
 apply()    main thread: the particle objects (scene.write_outputs, all or nothing), then the background
            layers; a background that fails removes that object's new particle objects again.
 
-Re-synthesizing one class (only_class=c) places that class alone (its rows are those of a full run) and
-replaces only its decal / points objects; the background is left as it is.
+Re-synthesizing one class (only_class=c) places the classes up to c in the artist's order and outputs c
+alone (its rows are those of a full run: placement tests every particle against all classes placed before
+it), and replaces only its decal / points objects; the background is left as it is.
 """
 import os
 import time
@@ -185,13 +186,17 @@ class Job:
         arrays = item.arrays
         walk_mesh = module.surface_walk_mesh(arrays.positions, item.triangles)
         directions = np.ascontiguousarray(surface_core.directions(arrays, settings), dtype=np.float32)
-        kwargs = dict(sample_world_width=float(settings.sample_world_size),
-                      classes=[self.only_class] if self.only_class is not None else list(self.order),
+        kwargs = dict(sample_world_width=float(settings.sample_world_size), classes=list(self.order),
                       size_jitter=float(settings.particle_size_jitter),
                       seed=int(pipeline.object_seed(settings.seed, item.obj.name)), cancel=self.token)
         if arrays.scale_multiplier is not None:
             kwargs["vertex_scale"] = arrays.scale_multiplier
         kwargs.update(item.overrides)
+        if self.only_class is not None:
+            if "output_classes" not in (module.place_particles.__doc__ or ""):  # a build from before issue 30
+                raise pipeline.SettingsError("this build of texsynth_native's place_particles cannot re-synthesize "
+                                             "one class: rebuild with scripts/build.sh")
+            kwargs["output_classes"] = [self.only_class]
         placed = dict(module.place_particles(self.analysis, walk_mesh, directions, **kwargs))
         for key in PLACEMENT_KEYS:
             if key not in placed:

@@ -41,13 +41,13 @@ const Scene& scene() {
 // 32 px disc spacing at 0.0008 world units per pixel: ~20,000 discs on the torus.
 constexpr double kPixel = 0.0008;
 
-void run(benchmark::State& state, const texsynth::ParticleAnalysis& a, std::vector<int32_t> classes) {
+void run(benchmark::State& state, const texsynth::ParticleAnalysis& a, std::vector<int32_t> output) {
   const Scene& sc = scene();
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, size_t(state.range(0)));
   texsynth::PlacementParams p;
   p.directions = sc.field;
   p.sample_world_width = kPixel * a.width;
-  p.classes = std::move(classes);
+  p.output_classes = std::move(output);  // re-synthesizing one class: those before it are placed too
   texsynth::PlacedParticles r;
   for (auto _ : state) {
     r = texsynth::place_particles(a, sc.walk, p);

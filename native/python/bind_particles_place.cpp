@@ -31,6 +31,9 @@ py::dict stats_dict(const texsynth::PlacementStats& s) {
     d["class"] = c.class_id;
     d["placed"] = c.placed;
     d["hidden"] = c.hidden;
+    d["thinned"] = c.thinned;
+    d["filled"] = c.filled;
+    d["expected"] = c.expected;
     d["rejected_overlap"] = c.rejected_overlap;
     d["walls"] = c.walls;
     d["excluded"] = c.excluded;
@@ -54,11 +57,11 @@ py::dict stats_dict(const texsynth::PlacementStats& s) {
 }  // namespace
 
 void bind_particles_place(py::module_& m) {
-  m.attr("placement_origins") = py::make_tuple("seed", "propagated", "reseeded", "random_class");
+  m.attr("placement_origins") = py::make_tuple("seed", "propagated", "reseeded", "random_class", "filled");
   m.def(
       "place_particles",
       [](const texsynth::ParticleAnalysis& analysis, const texsynth::SurfaceWalkMesh& mesh, py::object directions,
-         double sample_world_width, py::object classes, py::object vertex_scale, py::object face_density,
+         double sample_world_width, py::object classes, py::object output_classes, py::object vertex_scale, py::object face_density,
          py::object face_probability, py::object face_size, double size_jitter, py::object seed_triangles,
          py::object seed_barycentrics, uint64_t seed, int64_t max_particles, py::object cancel, py::object progress) {
         const py::ssize_t V = py::ssize_t(mesh.positions.size() / 3), T = py::ssize_t(mesh.triangles.size() / 3);
@@ -72,6 +75,13 @@ void bind_particles_place(py::module_& m) {
           require_shape(c, {-1}, "classes");
           p.classes.assign(c.data(), c.data() + c.size());
           if (p.classes.empty()) throw std::invalid_argument("classes must list at least one class, or be None");
+        }
+        if (!output_classes.is_none()) {
+          IntArray c = int_array(output_classes, "output_classes");
+          require_shape(c, {-1}, "output_classes");
+          p.output_classes.assign(c.data(), c.data() + c.size());
+          if (p.output_classes.empty())
+            throw std::invalid_argument("output_classes must list at least one class, or be None");
         }
         p.vertex_scale = optional_floats(vertex_scale, V, "vertex_scale");
         p.face_density = optional_floats(face_density, T, "face_density");
@@ -117,16 +127,18 @@ void bind_particles_place(py::module_& m) {
         return out;
       },
       py::arg("analysis"), py::arg("walk_mesh"), py::arg("directions"), py::kw_only(), py::arg("sample_world_width"),
-      py::arg("classes") = py::none(), py::arg("vertex_scale") = py::none(), py::arg("face_density") = py::none(),
+      py::arg("classes") = py::none(), py::arg("output_classes") = py::none(), py::arg("vertex_scale") = py::none(), py::arg("face_density") = py::none(),
       py::arg("face_probability") = py::none(), py::arg("face_size") = py::none(), py::arg("size_jitter") = 0.0,
       py::arg("seed_triangles") = py::none(), py::arg("seed_barycentrics") = py::none(), py::arg("seed") = 0,
       py::arg("max_particles") = 2000000, py::arg("cancel") = py::none(), py::arg("progress") = py::none(),
       "Places the analysis's particles on the mesh (§2.2-2.3): seeds per mesh component (seed_triangles / "
       "seed_barycentrics (S, 2), else nearest each component's area centroid), breadth-first propagation "
-      "through the co-occurrence lists along normal sections, overlap rejection within a class, re-seeding, "
-      "random classes by dart throwing. directions (V, 3) per-vertex 'up' field; sample_world_width: world size "
-      "of the sample's width; classes: processing order (None = every class with a complete particle, by "
-      "count); vertex_scale (V,) > 0 multiplier (2 = features half as large); face_density / face_probability / "
+      "through the co-occurrence lists along normal sections, overlap rejection against every particle placed "
+      "so far (other classes by the analysis's class_pairs), re-seeding, random classes by dart throwing, each "
+      "class thinned to the sample's density when it holds more. directions (V, 3) per-vertex 'up' field; "
+      "sample_world_width: world size of the sample's width; classes: processing order (None = every class with "
+      "a complete particle, by count); output_classes: the classes whose rows are returned (None = all; the "
+      "classes before them in the order are placed too, so the rows are those of the full run); vertex_scale (V,) > 0 multiplier (2 = features half as large); face_density / face_probability / "
       "face_size (T,) overrides; size_jitter 0..0.9. Returns dict of arrays, one row per output particle: class, "
       "sprite (source particle id), parent (row or -1), triangle, barycentric (n, 2) float64, position, normal, "
       "sprite_axis (n, 3) float32, pixel_size, angle (n,) float32, origin (n,) uint8 indexing placement_origins; "

@@ -53,8 +53,9 @@ struct Placed {
   double reach = 1;               // 1 / sqrt(density): conflicts use the box scaled like the offsets
   double ex_x = 0, ex_y = 0;      // exclusion half extents: (box + half the class's least gap) x reach
   double bound = 0;               // half diagonal of the exclusion box
+  double bound_all = 0;           // half diagonal of the box grown by the largest margin of any class pair
   double unit = 0;                // world units per box pixel: pixel x size factor
-  int32_t sprite = -1, parent = -1;
+  int32_t sprite = -1, parent = -1, cls = -1;
   uint8_t origin = 0;
   bool visible = true;
   double radius() const { return bound; }
@@ -112,8 +113,9 @@ double box_overlap_area(const Box2& a, const Box2& b) {
   return std::abs(0.5 * area);
 }
 
-// Same-class particles by 3D cell (centres relative to the mesh's lower corner). Queries wider than
-// the particles it holds scan the list instead.
+// Particles by 3D cell (centres relative to the mesh's lower corner): one grid per class (re-seeding and
+// dart distances) and one of every class (conflicts). Queries wider than the particles it holds scan the
+// list instead.
 struct ClassGrid {
   double cell = 1;
   V3 origin;
@@ -160,7 +162,7 @@ struct ClassPlan {
   double spacing_px = 0;     // mean centre distance to measured neighbours
   double mean_box_px = 0;    // mean box area
   double max_radius_px = 0;  // largest half diagonal
-  double margin_px = 0;      // half the low percentile of nearest box gaps (>= 0)
+  double margin_px = 0;      // half the low percentile of nearest box gaps (>= 0), from the analysis
   double density_px = 0, min_distance_px = 0;
 };
 
@@ -197,7 +199,13 @@ class Placer {
   std::vector<Placed> placed_;
   PlacementStats stats_;
   bool global_capped_ = false;
-  double margin_px_ = 0;  // the running class's
+  double margin_px_ = 0;     // the running class's
+  double max_margin_px_ = 0; // the largest margin of any pair of the placed classes
+  double surface_px_ = 0;    // the surface in sample pixels^2 under the local pixel size and density
+  std::vector<int32_t> dart_tris_;  // triangles where particles may stand..
+  std::vector<double> dart_cdf_;    // ..and their cumulative area x density / pixel^2
+  ClassGrid all_;            // every placed particle (conflicts)
+  std::vector<uint8_t> output_;  // per class: rows output
 
   void validate() const;
   void prepare_mesh();
@@ -207,12 +215,13 @@ class Placer {
 
   Local local(const SurfacePoint& sp, V3 fallback_up) const;
   SurfacePoint random_point(const std::vector<int32_t>& tris, const std::vector<double>& cdf, Rng& rng) const;
-  bool conflicts(const ClassGrid& g, const Placed& c, double tolerance, int32_t from = 0) const;
+  bool conflicts(const Placed& c, const ClassPlan& cp, int32_t from = 0) const;
   bool any_within(const ClassGrid& g, V3 p, V3 n, double radius) const;
   Placed make(const SurfacePoint& at, const Local& l, int32_t sprite, double theta, double jitter, double margin) const;
   Placed child_particle(const Child& ch) const {
     Placed c = make(ch.at, ch.l, ch.sprite, placed_[size_t(ch.parent)].theta + a_.cooc[size_t(ch.entry)].angle,
                     ch.jitter, margin_px_);
+    c.cls = a_.particles[size_t(ch.sprite)].class_id;
     c.parent = ch.parent;
     c.origin = uint8_t(PlacementOrigin::propagated);
     return c;
@@ -227,9 +236,12 @@ class Placer {
     bool stop = false;
   };
   bool accept(ClassRun& run, Placed&& c);
+  void thin(ClassRun& run, size_t first);
   bool try_seed(ClassRun& run, const SurfacePoint& at, PlacementOrigin origin);
   void propagate(ClassRun& run, std::vector<int32_t> frontier, int32_t class_index, int32_t num_classes);
   void run_random(ClassRun& run);
+  void prepare_darts();
+  int64_t darts(ClassRun& run, int64_t target, PlacementOrigin origin);
   void report(int32_t class_index, int32_t num_classes, double within) const {
     if (p_.progress) p_.progress->store(float((class_index + std::clamp(within, 0.0, 0.99)) / num_classes));
   }
@@ -473,7 +485,6 @@ ClassPlan Placer::plan_class(int32_t k) const {
   cp.density_px = cls.density;
   cp.min_distance_px = cls.min_distance;
   double box_sum = 0, spacing_sum = 0;
-  std::vector<float> gaps;  // box separation of each measured neighbour
   int64_t spacing_n = 0;
   for (const Particle& P : a_.particles) {
     if (P.class_id != k || !P.complete) continue;
@@ -491,7 +502,6 @@ ClassPlan Placer::plan_class(int32_t k) const {
       const double u = P.box.half_x + c.dx + q.half_x * cs + q.half_y * sn;
       const double v = P.box.half_y + c.dy + q.half_x * sn + q.half_y * cs;
       spacing_sum += std::hypot(u, v), ++spacing_n;
-      gaps.push_back(std::max(c.dx, c.dy));
     }
   }
   if (cp.complete.empty()) refuse("class " + std::to_string(k) + " has no complete particle (nothing to place)");
@@ -499,11 +509,7 @@ ClassPlan Placer::plan_class(int32_t k) const {
   cp.spacing_px = spacing_n > 0 ? spacing_sum / double(spacing_n)
                                 : std::sqrt(double(a_.width) * a_.height / std::max(1, cls.particles));
   cp.random = cls.random || cp.lists.empty();
-  if (!gaps.empty()) {
-    const size_t at = std::min(gaps.size() - 1, size_t(kPlacementGapPercentile * double(gaps.size())));
-    std::nth_element(gaps.begin(), gaps.begin() + ptrdiff_t(at), gaps.end());
-    cp.margin_px = std::max(0.0, 0.5 * double(gaps[at]));
-  }
+  cp.margin_px = a_.class_pair(k, k).margin;  // half the class's 10th-percentile nearest box gap
   return cp;
 }
 
@@ -574,34 +580,48 @@ Placed Placer::make(const SurfacePoint& at, const Local& l, int32_t sprite, doub
   c.reach = 1 / std::sqrt(std::max(l.density, kPlacementMinOverride));
   c.ex_x = c.reach * (c.half_x + margin * l.pixel), c.ex_y = c.reach * (c.half_y + margin * l.pixel);
   c.bound = std::hypot(c.ex_x, c.ex_y);
+  c.bound_all = c.reach * std::hypot(c.half_x + max_margin_px_ * l.pixel, c.half_y + max_margin_px_ * l.pixel);
+  c.cls = a_.particles[size_t(sprite)].class_id;
   return c;
 }
 
-// Against the class's particles with index >= from.
-bool Placer::conflicts(const ClassGrid& g, const Placed& c, double tolerance, int32_t from) const {
+// Against the placed particles with index >= from: those of the class by its own rules (every one), those of
+// other classes by the pair's (only the output ones: a particle hidden by probability or density leaves the
+// room it held to the other classes, as the sample's gaps between particles of one class hold the others).
+bool Placer::conflicts(const Placed& c, const ClassPlan& cp, int32_t from) const {
   const V3 v = cross(c.l.normal, c.axis);
-  const double r = c.radius(), cx = c.ex_x, cy = c.ex_y, own = 4 * cx * cy;
+  const double bx = c.reach * c.half_x, by = c.reach * c.half_y;
   bool hit = false;
-  g.near(c.l.position, r + g.max_radius, [&](int32_t j) {
+  all_.near(c.l.position, c.bound_all + all_.max_radius, [&](int32_t j) {
     if (j < from) return false;
     const Placed& o = placed_[size_t(j)];
+    const bool same = o.cls == c.cls;
+    if (!same && !o.visible) return false;
     if (dot(o.l.normal, c.l.normal) < 0) return false;  // two sides of a thin part
     const V3 d = o.l.position - c.l.position;
-    const double reach = r + o.radius();
+    const double reach = c.bound_all + o.bound_all;
     if (dot(d, d) >= reach * reach) return false;
+    // Tolerance, and both boxes grown by the margin (the class's own, or the pair's), scaled like the offsets.
+    double tolerance = cp.tolerance, cx = c.ex_x, cy = c.ex_y, gx = o.ex_x, gy = o.ex_y;
+    if (!same) {
+      const ParticleClassPair& pair = a_.class_pair(c.cls, o.cls);
+      tolerance = pair.tolerance;
+      cx = c.reach * (c.half_x + pair.margin * c.l.pixel), cy = c.reach * (c.half_y + pair.margin * c.l.pixel);
+      gx = o.reach * (o.half_x + pair.margin * o.l.pixel), gy = o.reach * (o.half_y + pair.margin * o.l.pixel);
+    }
     const double ox = dot(o.axis, c.axis), oy = dot(o.axis, v), len = std::hypot(ox, oy);
     const double ux = len > 1e-9 ? ox / len : 1, uy = len > 1e-9 ? oy / len : 0, px = dot(d, c.axis), py = dot(d, v);
     // The grown boxes hold the boxes: apart, nothing overlaps.
-    if (boxes_apart({0, 0, 1, 0, cx, cy}, {px, py, ux, uy, o.ex_x, o.ex_y})) return false;
-    // The boxes (scaled like the offsets) may overlap up to the class's tolerance...
-    const double bx = c.reach * c.half_x, by = c.reach * c.half_y, qx = o.reach * o.half_x, qy = o.reach * o.half_y;
+    if (boxes_apart({0, 0, 1, 0, cx, cy}, {px, py, ux, uy, gx, gy})) return false;
+    // The boxes (scaled like the offsets) may overlap up to the tolerance...
+    const double qx = o.reach * o.half_x, qy = o.reach * o.half_y;
     const double smaller = std::min(4 * bx * by, 4 * qx * qy);
     if (smaller > 0 && box_overlap_area({0, 0, 1, 0, bx, by}, {px, py, ux, uy, qx, qy}) > tolerance * smaller)
       return hit = true;
-    // ...and the boxes grown by half the class's least gap must stay apart.
+    // ...and the boxes grown by half the least gap must stay apart.
     if (cx == bx && cy == by) return false;
-    const double grown = std::min(own, 4 * o.ex_x * o.ex_y);
-    hit = box_overlap_area({0, 0, 1, 0, cx, cy}, {px, py, ux, uy, o.ex_x, o.ex_y}) > kPlacementGrownTolerance * grown;
+    const double grown = std::min(4 * cx * cy, 4 * gx * gy);
+    hit = box_overlap_area({0, 0, 1, 0, cx, cy}, {px, py, ux, uy, gx, gy}) > kPlacementGrownTolerance * grown;
     return hit;
   });
   return hit;
@@ -625,6 +645,7 @@ bool Placer::accept(ClassRun& run, Placed&& c) {
   c.visible = run.rng.uniform() < c.l.probability;  // drawn for every placed particle: same streams for any p
   const int32_t index = int32_t(placed_.size());
   run.grid.insert(index, c.l.position, c.radius());
+  all_.insert(index, c.l.position, c.bound_all);
   (c.visible ? run.st.placed : run.st.hidden)++;
   if (c.origin == uint8_t(PlacementOrigin::seed)) run.st.seeds++;
   if (c.origin == uint8_t(PlacementOrigin::reseeded)) run.st.reseeded++;
@@ -645,7 +666,7 @@ bool Placer::try_seed(ClassRun& run, const SurfacePoint& at, PlacementOrigin ori
   }
   Placed c = make(at, l, sprite, a_.particles[size_t(sprite)].box.angle, jitter, run.cp.margin_px);
   c.origin = uint8_t(origin);
-  if (conflicts(run.grid, c, run.cp.tolerance)) {
+  if (conflicts(c, run.cp)) {
     run.st.rejected_overlap++;
     return false;
   }
@@ -736,7 +757,7 @@ void Placer::propagate(ClassRun& run, std::vector<int32_t> frontier, int32_t cla
       for (size_t k = r.begin(); k < r.end(); ++k) {
         Child& ch = kids[k];
         if (!ch.reached || ch.l.empty()) continue;
-        ch.refused = conflicts(run.grid, child_particle(ch), run.cp.tolerance);
+        ch.refused = conflicts(child_particle(ch), run.cp);
       }
     });
     // Accept one by one, in order.
@@ -753,7 +774,7 @@ void Placer::propagate(ClassRun& run, std::vector<int32_t> frontier, int32_t cla
         continue;
       }
       Placed c = child_particle(ch);
-      if (ch.refused || conflicts(run.grid, c, run.cp.tolerance, generation)) {
+      if (ch.refused || conflicts(c, run.cp, generation)) {
         run.st.rejected_overlap++;
         continue;
       }
@@ -764,32 +785,69 @@ void Placer::propagate(ClassRun& run, std::vector<int32_t> frontier, int32_t cla
   }
 }
 
-void Placer::run_random(ClassRun& run) {
-  // Darts by area x density / pixel area over every component.
-  std::vector<int32_t> tris;
-  std::vector<double> cdf;
-  double acc = 0;
-  for (int32_t t = 0; t < in_.num_triangles; ++t) {
-    if (t % 4096 == 0) throw_if_cancelled(p_.cancel);
-    if (component_[size_t(t)] < 0) continue;
+// Where darts may land: every triangle of a component with particles allowed, weighted by area x density /
+// pixel area (summed in triangle order: the surface in sample pixels^2).
+void Placer::prepare_darts() {
+  std::vector<double> per(size_t(in_.num_triangles), -1.0);  // -1: no particle there
+  parallel_triangles([&](int32_t t) {
+    if (component_[size_t(t)] < 0) return;
     const Local l = local({t, 1.0 / 3, 1.0 / 3}, V3{0, 0, 1});
-    if (l.empty()) continue;
-    tris.push_back(t);
-    cdf.push_back(acc += area_[size_t(t)] * l.density / (l.pixel * l.pixel));
+    if (!l.empty()) per[size_t(t)] = area_[size_t(t)] * l.density / (l.pixel * l.pixel);
+  });
+  double acc = 0;
+  for (int32_t t = 0; t < in_.num_triangles; ++t) {  // fixed order
+    if (per[size_t(t)] < 0) continue;
+    dart_tris_.push_back(t);
+    dart_cdf_.push_back(acc += per[size_t(t)]);
   }
-  if (tris.empty() || !(acc > 0)) return;
-  const double expected = run.cp.density_px * acc;
-  const double draw = std::floor(expected + run.rng.uniform());
-  const int64_t target = draw < double(run.st.cap) ? int64_t(draw) : run.st.cap;
+  surface_px_ = acc;
+}
+
+// Up to `target` particles by dart throwing (at most 30 x target + 64 darts; filling a class, also stopping
+// after kPlacementFillMisses darts in a row found no room), each at least the class's minimum distance from
+// its own class (scaled like gaps) and not in conflict with any placed particle.
+int64_t Placer::darts(ClassRun& run, int64_t target, PlacementOrigin origin) {
+  if (dart_tris_.empty() || !(surface_px_ > 0) || target <= 0) return 0;
   const int64_t darts = 30 * target + 64;
-  int64_t got = 0;
+  const bool filling = origin == PlacementOrigin::filled;
+  int64_t got = 0, misses = 0;
   for (int64_t i = 0; i < darts && got < target && !run.stop; ++i) {
     if (i % kCancelEvery == 0) throw_if_cancelled(p_.cancel);
-    const SurfacePoint at = random_point(tris, cdf, run.rng);
+    if (filling && misses >= kPlacementFillMisses) break;
+    const SurfacePoint at = random_point(dart_tris_, dart_cdf_, run.rng);
     const Local l = local(at, V3{0, 0, 1});
     const double gap = run.cp.min_distance_px * l.pixel / std::sqrt(std::max(l.density, kPlacementMinOverride));
-    if (any_within(run.grid, l.position, l.normal, gap)) continue;
-    got += try_seed(run, at, PlacementOrigin::random_class);
+    const bool placed = !any_within(run.grid, l.position, l.normal, gap) && try_seed(run, at, origin);
+    got += placed;
+    misses = placed ? 0 : misses + 1;
+  }
+  return got;
+}
+
+void Placer::run_random(ClassRun& run) {
+  const double draw = std::floor(run.cp.density_px * surface_px_ + run.rng.uniform());
+  darts(run, draw < double(run.st.cap) ? int64_t(draw) : run.st.cap, PlacementOrigin::random_class);
+}
+
+// Density (issue 30): the propagation fills every gap an irregular arrangement leaves, so it packs such a
+// class closer than the sample (60 pebbles per 256^2 at random: 1.4-1.9 x the field's count). When a class
+// holds more than (1 + kPlacementDensitySlack) x its expected count (the sample's density over the surface
+// in sample pixels), particles chosen uniformly from its stream are hidden until it holds the expected
+// count; they stay in its arrangement (they still keep its particles apart) but leave their room to later
+// classes.
+void Placer::thin(ClassRun& run, size_t first) {
+  const double expected = run.cp.density_px * surface_px_;
+  const size_t n = placed_.size() - first;
+  if (global_capped_ || !(double(n) > (1 + kPlacementDensitySlack) * expected) || n >= (size_t(1) << 32)) return;
+  const size_t drop = n - size_t(std::llround(expected));
+  std::vector<uint32_t> index(n);
+  for (size_t i = 0; i < n; ++i) index[i] = uint32_t(i);
+  for (size_t i = 0; i < drop; ++i) {
+    std::swap(index[i], index[i + run.rng.below(uint32_t(n - i))]);
+    Placed& c = placed_[first + index[i]];
+    (c.visible ? run.st.placed : run.st.hidden)--;  // hidden: by the probability override
+    c.visible = false;
+    run.st.thinned++;
   }
 }
 
@@ -799,50 +857,83 @@ PlacedParticles Placer::run() {
   throw_if_cancelled(p_.cancel);
   prepare_mesh();
   const std::vector<int32_t> order = class_order();
+  // Output classes; the classes after the last of them cannot change them and are not placed.
+  output_.assign(size_t(a_.num_classes), p_.output_classes.empty() ? 1 : 0);
+  int32_t last = int32_t(order.size()) - 1;
+  if (!p_.output_classes.empty()) {
+    last = -1;
+    for (int32_t k : p_.output_classes) {
+      const auto at = std::find(order.begin(), order.end(), k);
+      if (at == order.end()) {
+        std::string placed;
+        for (int32_t c : order) placed += (placed.empty() ? "" : ", ") + std::to_string(c);
+        refuse("output class " + std::to_string(k) + " is not placed (placed classes: " + placed + ")");
+      }
+      if (output_[size_t(k)]++) refuse("output class " + std::to_string(k) + " is listed twice");
+      last = std::max(last, int32_t(at - order.begin()));
+    }
+  }
+  std::vector<ClassPlan> plans;
+  for (int32_t ci = 0; ci <= last; ++ci) plans.push_back(plan_class(order[size_t(ci)]));
+  for (const ClassPlan& u : plans)
+    for (const ClassPlan& w : plans) max_margin_px_ = std::max(max_margin_px_, a_.class_pair(u.id, w.id).margin);
   const double extent = std::max({upper_.x - lower_.x, upper_.y - lower_.y, upper_.z - lower_.z, 1e-30});
-  for (int32_t ci = 0; ci < int32_t(order.size()) && !global_capped_; ++ci) {
-    const ClassPlan cp = plan_class(order[size_t(ci)]);
+  // Cells twice as wide as the largest exclusion box at the median scale, so that a conflict query
+  // (radius: two half diagonals) touches at most 2 cells per axis; never 2^19 across the mesh.
+  const double unit = p_.sample_world_width / a_.width / median_scale_;
+  auto cell_for = [&](double radius_px, double margin_px) {
+    return std::max(4 * std::hypot(radius_px + margin_px, margin_px) * unit, extent / double(int64_t(1) << 19));
+  };
+  all_.origin = lower_;
+  all_.cell = 0;
+  for (const ClassPlan& cp : plans) all_.cell = std::max(all_.cell, cell_for(cp.max_radius_px, max_margin_px_));
+  prepare_darts();
+  for (int32_t ci = 0; ci <= last && !global_capped_; ++ci) {
+    const ClassPlan& cp = plans[size_t(ci)];
     stats_.classes.emplace_back();
     ClassPlacementStats& st = stats_.classes.back();
     st.class_id = cp.id;
     st.random = cp.random;
     st.cap = class_cap(cp);
+    st.expected = cp.density_px * surface_px_;
     ClassRun run{cp, st, Rng(hash_combine(p_.seed, kClassStreamSalt), uint64_t(cp.id) + 1), {}};
     margin_px_ = cp.margin_px;
-    // Cells twice as wide as the largest exclusion box at the median scale, so that a conflict query
-    // (radius: two half diagonals) touches at most 2 cells per axis; never 2^19 across the mesh.
-    const double unit = p_.sample_world_width / a_.width / median_scale_;
-    run.grid.cell = std::max(4 * std::hypot(cp.max_radius_px + cp.margin_px, cp.margin_px) * unit,
-                             extent / double(int64_t(1) << 19));
+    run.grid.cell = cell_for(cp.max_radius_px, cp.margin_px);
     run.grid.origin = lower_;
-    report(ci, int32_t(order.size()), 0);
+    report(ci, last + 1, 0);
+    const size_t first = placed_.size();
     if (cp.random) {
       run_random(run);
-      continue;
-    }
-    std::vector<int32_t> frontier;
-    for (const auto& seeds : comp_seeds_)
-      for (const SurfacePoint& s : seeds)
-        if (try_seed(run, s, PlacementOrigin::seed)) frontier.push_back(int32_t(placed_.size()) - 1);
-    propagate(run, std::move(frontier), ci, int32_t(order.size()));
-    // Re-seed uncovered areas until a round of tries finds none.
-    while (!run.stop) {
-      std::vector<int32_t> fresh;
-      for (size_t c = 0; c < comp_tris_.size() && !run.stop; ++c) {
-        throw_if_cancelled(p_.cancel);
-        for (int k = 0; k < kPlacementReseedTries && !run.stop; ++k) {
-          const SurfacePoint at = random_point(comp_tris_[c], comp_cdf_[c], run.rng);
-          const Local l = local(at, V3{0, 0, 1});
-          if (l.empty()) continue;
-          const double reach = kPlacementReseedGaps * cp.spacing_px * l.pixel / std::sqrt(l.density);
-          if (any_within(run.grid, l.position, l.normal, reach)) continue;
-          if (try_seed(run, at, PlacementOrigin::reseeded)) fresh.push_back(int32_t(placed_.size()) - 1);
+    } else {
+      std::vector<int32_t> frontier;
+      for (const auto& seeds : comp_seeds_)
+        for (const SurfacePoint& s : seeds)
+          if (try_seed(run, s, PlacementOrigin::seed)) frontier.push_back(int32_t(placed_.size()) - 1);
+      propagate(run, std::move(frontier), ci, last + 1);
+      // Re-seed uncovered areas until a round of tries finds none.
+      while (!run.stop) {
+        std::vector<int32_t> fresh;
+        for (size_t c = 0; c < comp_tris_.size() && !run.stop; ++c) {
+          throw_if_cancelled(p_.cancel);
+          for (int k = 0; k < kPlacementReseedTries && !run.stop; ++k) {
+            const SurfacePoint at = random_point(comp_tris_[c], comp_cdf_[c], run.rng);
+            const Local l = local(at, V3{0, 0, 1});
+            if (l.empty()) continue;
+            const double reach = kPlacementReseedGaps * cp.spacing_px * l.pixel / std::sqrt(l.density);
+            if (any_within(run.grid, l.position, l.normal, reach)) continue;
+            if (try_seed(run, at, PlacementOrigin::reseeded)) fresh.push_back(int32_t(placed_.size()) - 1);
+          }
         }
+        if (fresh.empty()) break;
+        st.reseed_rounds++;
+        propagate(run, std::move(fresh), ci, last + 1);
       }
-      if (fresh.empty()) break;
-      st.reseed_rounds++;
-      propagate(run, std::move(fresh), ci, int32_t(order.size()));
+      // Below its expected count (other classes took its room, or its lattice could not close): darts.
+      const double missing = st.expected - double(placed_.size() - first);
+      if (!global_capped_ && missing > kPlacementDensitySlack * st.expected)
+        st.filled = darts(run, std::llround(missing), PlacementOrigin::filled);
     }
+    thin(run, first);
   }
   stats_.capped = global_capped_;
   PlacedParticles out = output();
@@ -856,7 +947,7 @@ PlacedParticles Placer::output() const {
   std::vector<int32_t> row(placed_.size(), -1);
   for (size_t i = 0; i < placed_.size(); ++i) {
     const Placed& c = placed_[i];
-    if (!c.visible) continue;
+    if (!c.visible || !output_[size_t(c.cls)]) continue;
     row[i] = int32_t(out.class_id.size());
     int32_t parent = c.parent;  // nearest output ancestor
     while (parent >= 0 && row[size_t(parent)] < 0) parent = placed_[size_t(parent)].parent;
@@ -877,6 +968,9 @@ PlacedParticles Placer::output() const {
     out.origin.push_back(c.origin);
   }
   out.stats = stats_;
+  out.stats.classes.clear();
+  for (const ClassPlacementStats& st : stats_.classes)
+    if (output_[size_t(st.class_id)]) out.stats.classes.push_back(st);
   return out;
 }
 

@@ -2,8 +2,9 @@
 #pragma once
 // Texture particles, placement on the surface (Dischler et al. 2002, §2.2-2.3; note 002 "Synthesis on
 // the surface"): seeding per mesh component, breadth-first propagation through the co-occurrence lists
-// along normal sections, overlap rejection within a class, re-seeding of uncovered areas, random
-// classes by dart throwing, the artist's overrides.
+// along normal sections, overlap rejection against every particle placed so far, re-seeding of uncovered
+// areas, random classes by dart throwing, each class brought to the sample's density, the artist's
+// overrides.
 //
 // Frames and units (particles plan).
 //  - At a surface point: n = smooth normal, up = the direction field (per-vertex, interpolated by
@@ -32,9 +33,10 @@
 // Rules.
 //  - Sprite: uniform over the class's complete particles; one list per placed particle: the list of a
 //    uniformly chosen complete particle with a non-empty list; its entries shuffled; breadth-first.
-//  - Conflicts, with same-class particles, in the candidate's tangent plane (centres and axes
-//    projected), boxes scaled by 1/sqrt(f) like the offsets (else a lower density scatters children
-//    beyond each other's boxes and raises the count: measured 1.12 x instead of 0.5 x):
+//  - Conflicts, with every particle placed so far (the paper's test; issue 30), in the candidate's tangent
+//    plane (centres and axes projected), boxes scaled by 1/sqrt(f) like the offsets (else a lower density
+//    scatters children beyond each other's boxes and raises the count: measured 1.12 x instead of 0.5 x).
+//    With same-class particles (output or not):
 //     (a) the paper's: box intersection > the class's overlap tolerance x the smaller box area;
 //     (b) "a particle close to this location": the boxes grown by half the class's 10th-percentile
 //         nearest box gap (max(dx, dy) over measured entries, when > 0) intersect by more than 1 % of
@@ -44,11 +46,16 @@
 //         0.18; the rest is the lattice order the propagation cannot keep over distance (25th
 //         percentile: 1.15 x but 31.5 px, KS 0.39). Neighbours at exactly the gap never conflict, so
 //         regular grids stay exact.
+//    With output particles of another class: the same two tests with the pair's tolerance and margin
+//    (ParticleAnalysis::class_pairs: what the sample shows between the two classes). Hidden ones (by
+//    probability or density) do not count: their room belongs to the other classes. Before, classes were
+//    independent: pebbles split into 2 classes by brightness came out 2.2-3.1 x the sample's density, 91 %
+//    of the boxes overlapping one of the other class by more than 1 % (the sample's: none).
 //    Particles whose normals face away (n1.n2 < 0) never conflict. A 3D hash grid finds them.
 //  - A walk that stops before its length (wall, face limit, no plane) drops the child.
 //  - Seeds: for every connected component of the walk mesh (faces joined across walkable edges) with
 //    area, the given seeds that lie on it, else the point of it nearest its area centroid. Every class
-//    starts from the same seeds.
+//    starts from the same seeds (one refused by another class's particle there leaves it to re-seeding).
 //  - Re-seeding, after propagation dies out: rounds of 64 area-weighted tries per component; a try is
 //    seeded (then propagated) where no same-class particle lies within 2 x the class's mean neighbour
 //    centre distance (scaled like gaps); rounds stop when none is seeded. Per-class cap: 4 x the
@@ -57,14 +64,26 @@
 //    throwing at the class density (particles per sample pixel, per world area through the local pixel
 //    size and density), minimum centre distance = the analysis's min distance scaled like gaps; at most
 //    30 x the target count + 64 darts.
+//  - Density: a class's expected count is its sample density (analysis, "Density") x the surface in
+//    sample pixels^2 (area x density override / pixel size^2 per triangle). Propagation fills every gap
+//    an irregular arrangement leaves (60 pebbles per 256^2 at random: 1.4-1.9 x the sample's density with
+//    one class): a class holding more than (1 + kPlacementDensitySlack) x its expected count has particles
+//    chosen uniformly from its stream hidden down to the expected count (stats: thinned). They stay in its
+//    arrangement (they keep its particles apart). A class below (1 - kPlacementDensitySlack) x its
+//    expected count after re-seeding (other classes took its room, or its lattice could not close) gets
+//    darts like a random class up to it, or until kPlacementFillMisses darts in a row found no room
+//    (origin filled; stats: filled). Within the slack nothing changes, so lattices whose count the border
+//    moves a little stay whole.
 //  - Overrides, per triangle: density f (0 = no particle there, else clamped to [0.05, 20]);
 //    probability p in [0, 1] (a particle is placed and propagates, but is output with probability p);
 //    size s (0 = no particle there, else clamped to [0.05, 20]; scales the box and the sprite, not the
 //    gaps); size_jitter j in [0, 0.9]: each particle's size factor x uniform [1 - j, 1 + j].
+//  - Output classes: every class of the order is placed up to the last output class (the later ones
+//    cannot change it); only the output classes' rows and stats are returned.
 //  - Determinism: class k draws from its own stream of (seed, k); walks of one generation run in
 //    parallel, then children are accepted one by one in a fixed order: the same bytes at any thread
-//    count, and one class alone gives exactly the rows it got in the full run (unless max_particles cut
-//    the run short).
+//    count, and output_classes = {k} gives exactly the rows class k got in the full run (unless
+//    max_particles cut the run short).
 #include <atomic>
 #include <cstdint>
 #include <vector>
@@ -81,15 +100,17 @@ constexpr int kPlacementReseedTries = 64;          // per component and round
 constexpr double kPlacementReseedGaps = 2.0;       // x the class's mean neighbour centre distance
 constexpr double kPlacementCapFactor = 4.0;        // x the expected count, per class
 constexpr double kPlacementFieldZero = 1e-3;       // a projected field shorter than this is a zero
-constexpr double kPlacementGapPercentile = 0.10;   // of the class's nearest box gaps: the exclusion margin
 constexpr double kPlacementGrownTolerance = 0.01;  // grown boxes may intersect by this x the smaller
+constexpr double kPlacementDensitySlack = 0.10;    // beyond (1 +- this) x its expected count: thinned / filled
+constexpr int64_t kPlacementFillMisses = 256;       // filling a class stops after this many darts in a row miss
 
-enum class PlacementOrigin : uint8_t { seed = 0, propagated = 1, reseeded = 2, random_class = 3 };
+enum class PlacementOrigin : uint8_t { seed = 0, propagated = 1, reseeded = 2, random_class = 3, filled = 4 };
 
 struct PlacementParams {
   std::vector<float> directions;        // V x 3 per-vertex "up" field (zero vectors allowed)
   double sample_world_width = 0;        // world size of the sample's width, > 0
   std::vector<int32_t> classes;         // processing order; empty = every placeable class by count
+  std::vector<int32_t> output_classes;  // rows output; empty = every class placed (see "Output classes")
   std::vector<float> vertex_scale;      // empty or V values > 0
   std::vector<float> face_density;      // empty or T values >= 0
   std::vector<float> face_probability;  // empty or T values in [0, 1]
@@ -105,7 +126,10 @@ struct PlacementParams {
 struct ClassPlacementStats {
   int32_t class_id = 0;
   int64_t placed = 0;            // output rows
-  int64_t hidden = 0;            // placed and propagated, not output (probability)
+  int64_t hidden = 0;            // placed and propagated, not output (probability), not thinned
+  int64_t thinned = 0;           // placed and propagated, hidden to bring the class to its expected count
+  int64_t filled = 0;            // darts thrown to bring the class up to its expected count
+  double expected = 0;           // the sample's density x the surface in sample pixels^2
   int64_t rejected_overlap = 0;  // children, seeds and darts refused by the overlap test
   int64_t walls = 0;             // children whose walk stopped short (wall, face limit, no plane)
   int64_t excluded = 0;          // landed where density or size is 0
@@ -139,7 +163,8 @@ struct PlacedParticles {
 // area or built for another mesh, arrays of the wrong size, NaN or infinite values, scale <= 0,
 // density or size < 0, probability outside 0..1, jitter outside 0..0.9, sample_world_width <= 0, a
 // seed off the mesh, max_particles < 1, an unknown, repeated or background class, a class without a
-// complete particle, no placeable class. texsynth::Cancelled when *cancel is raised.
+// complete particle, no placeable class, an output class that is not placed or listed twice.
+// texsynth::Cancelled when *cancel is raised.
 PlacedParticles place_particles(const ParticleAnalysis& analysis, const SurfaceWalkMesh& mesh,
                                 const PlacementParams& params);
 
