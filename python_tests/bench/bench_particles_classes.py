@@ -16,7 +16,6 @@ particles, the field's predicted count (60 per sample area), the placed count pe
 seconds of the analysis and of the placement.
 """
 import argparse
-import math
 import os
 import sys
 import time
@@ -28,32 +27,8 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.environ.get("TEXSYNTH_MODULE_DIR", os.path.join(ROOT, "addon")))
 import texsynth_native as tn  # noqa: E402
 
-
-def pebble_field(w=256, count=60, seed=3, gap=4.0):
-    """(sample (w, w, 3), pebble index per pixel (-1 ground), brightness per pebble)."""
-    rng = np.random.default_rng(seed)
-    element = -np.ones((w, w), np.int32)
-    ys, xs = np.mgrid[0:w, 0:w] + 0.5
-    brightness = []
-    while len(brightness) < count:
-        a, b, t = rng.uniform(8, 12), rng.uniform(5.5, 8), rng.uniform(0, math.pi)
-        cx, cy = rng.uniform(0, w, 2)
-        dx, dy = (xs - cx + w / 2) % w - w / 2, (ys - cy + w / 2) % w - w / 2
-        u, v = dx * math.cos(t) + dy * math.sin(t), -dx * math.sin(t) + dy * math.cos(t)
-        if (element[(u / (a + gap)) ** 2 + (v / (b + gap)) ** 2 <= 1] >= 0).any():
-            continue
-        element[(u / a) ** 2 + (v / b) ** 2 <= 1] = len(brightness)
-        brightness.append(rng.uniform(0.55, 0.8))
-    brightness = np.array(brightness)
-    value = np.where(element >= 0, brightness[np.maximum(element, 0)], 0.3)
-    return (value[..., None] * [1.0, 0.95, 0.85]).astype(np.float32), element, brightness
-
-
-def brightness_labels(element, brightness, k):
-    rank = np.argsort(np.argsort(brightness))
-    labels = np.zeros(element.shape, np.int32)
-    labels[element >= 0] = 1 + rank[element[element >= 0]] * k // len(brightness)
-    return labels
+sys.path.insert(0, os.path.dirname(HERE))
+from pebble_samples import brightness_labels, pebble_field  # noqa: E402
 
 
 def read_off(path, scale):

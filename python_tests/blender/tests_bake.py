@@ -150,35 +150,19 @@ def uv_triangles(mesh, name):
 
 
 def covered_texels(triangles, size, inset=1e-3):
-    """Texels whose centre lies strictly inside a UV triangle (by at least `inset` of barycentric weight)."""
-    centres = (np.arange(size) + 0.5) / size
-    u, v = np.meshgrid(centres, centres)  # row = v (bottom-up, as Blender's pixels)
-    covered = np.zeros((size, size), bool)
-    for a, b, c in triangles:
-        det = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
-        if abs(det) < 1e-12:
-            continue
-        l1 = ((u - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (v - a[1])) / det
-        l2 = ((b[0] - a[0]) * (v - a[1]) - (u - a[0]) * (b[1] - a[1])) / det
-        covered |= (l1 > inset) & (l2 > inset) & (1.0 - l1 - l2 > inset)
-    return covered
-
-
-def covered_texels_in_box(triangles, size):
-    """covered_texels, evaluated only inside the triangles' bounding box (plus a texel)."""
+    """Texels whose centre lies strictly inside a UV triangle (by at least `inset` of barycentric weight);
+    only the triangles' bounding box (plus a texel) is evaluated."""
     lo = np.clip(np.floor(triangles.reshape(-1, 2).min(axis=0) * size).astype(int) - 1, 0, size)
     hi = np.clip(np.ceil(triangles.reshape(-1, 2).max(axis=0) * size).astype(int) + 1, 0, size)
-    centres_u = (np.arange(lo[0], hi[0]) + 0.5) / size
-    centres_v = (np.arange(lo[1], hi[1]) + 0.5) / size
-    u, v = np.meshgrid(centres_u, centres_v)
-    inside = np.zeros(u.shape, bool)
+    u, v = np.meshgrid((np.arange(lo[0], hi[0]) + 0.5) / size, (np.arange(lo[1], hi[1]) + 0.5) / size)
+    inside = np.zeros(u.shape, bool)  # row = v (bottom-up, as Blender's pixels)
     for a, b, c in triangles:
         det = (b[0] - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (b[1] - a[1])
         if abs(det) < 1e-12:
             continue
         l1 = ((u - a[0]) * (c[1] - a[1]) - (c[0] - a[0]) * (v - a[1])) / det
         l2 = ((b[0] - a[0]) * (v - a[1]) - (u - a[0]) * (b[1] - a[1])) / det
-        inside |= (l1 > 1e-3) & (l2 > 1e-3) & (1.0 - l1 - l2 > 1e-3)
+        inside |= (l1 > inset) & (l2 > inset) & (1.0 - l1 - l2 > inset)
     covered = np.zeros((size, size), bool)
     covered[lo[1]:hi[1], lo[0]:hi[0]] = inside
     return covered
@@ -306,7 +290,7 @@ def test_a_new_uv_map_uses_the_image_and_keeps_islands_two_texels_apart():
     for island in range(islands):
         tris = [(corners[starts[f]], corners[starts[f] + k], corners[starts[f] + k + 1])
                 for f in np.flatnonzero(island_of == island) for k in range(1, mesh.polygons[f].loop_total - 1)]
-        covered = covered_texels_in_box(np.array(tris, np.float64), size)
+        covered = covered_texels(np.array(tris, np.float64), size)
         assert not (covered & (owner >= 0)).any(), "islands overlap"
         owner[covered] = island
     padded = np.pad(owner, 1, constant_values=-1)
