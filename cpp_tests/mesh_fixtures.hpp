@@ -46,8 +46,12 @@ inline TestMesh grid(int nx, int ny, double spacing, bool triangles, double jitt
   TestMesh m;
   texsynth::Rng rng(seed);
   for (int y = 0; y <= ny; ++y)
-    for (int x = 0; x <= nx; ++x)
-      m.add_vertex((x + jitter * (rng.uniform() - 0.5)) * spacing, (y + jitter * (rng.uniform() - 0.5)) * spacing, 0.0);
+    for (int x = 0; x <= nx; ++x) {
+      // One draw per statement: argument evaluation order differs between compilers (gcc: last first).
+      const double dy = jitter * (rng.uniform() - 0.5);
+      const double dx = jitter * (rng.uniform() - 0.5);
+      m.add_vertex((x + dx) * spacing, (y + dy) * spacing, 0.0);
+    }
   auto id = [&](int x, int y) { return int32_t(y * (nx + 1) + x); };
   for (int y = 0; y < ny; ++y)
     for (int x = 0; x < nx; ++x) {

@@ -49,8 +49,14 @@ inline LabelSample jittered_discs(int W = 256, uint64_t seed = 9, int32_t cls = 
   LabelSample s = blank(W, W);
   texsynth::Rng rng(seed);
   for (double y = 20; y + 12 < W; y += kDiscSpacing)
-    for (double x = 20; x + 12 < W; x += kDiscSpacing)
-      s.disc(x + 10 * (rng.uniform() - 0.5), y + 10 * (rng.uniform() - 0.5), 7 + 3 * rng.uniform(), cls);
+    for (double x = 20; x + 12 < W; x += kDiscSpacing) {
+      // Drawn one by one: function arguments are evaluated in an unspecified order (gcc: last first,
+      // clang: first first), so three draws in one call gave each compiler another sample.
+      const double r = 7 + 3 * rng.uniform();
+      const double dy = 10 * (rng.uniform() - 0.5);
+      const double dx = 10 * (rng.uniform() - 0.5);
+      s.disc(x + dx, y + dy, r, cls);
+    }
   return s;
 }
 
