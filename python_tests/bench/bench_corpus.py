@@ -377,9 +377,22 @@ def write_table(args, rows):
     os.makedirs(args.docs, exist_ok=True)
     summary = summary_rows(rows)
     categories = category_rows(rows)
+    def rounded(value):
+        if isinstance(value, float):
+            return float("%.4g" % value)
+        if isinstance(value, dict):
+            return {k: rounded(v) for k, v in value.items()}
+        if isinstance(value, list):
+            return [rounded(v) for v in value]
+        return value
+    # JSON: one run per line, 4 significant digits, without the run folder (out/bench_corpus/runs/<mesh>/<sample>/
+    # <method>) and the report notes (in the markdown table)
     with open(os.path.join(args.docs, "corpus_results.json"), "w") as handle:
-        json.dump(dict(px_per_unit=PX_PER_UNIT, summary=summary, categories=categories, runs=rows), handle,
-                  indent=1)
+        handle.write('{"px_per_unit": %d,\n "summary": [\n  %s],\n "categories": [\n  %s],\n "runs": [\n  %s]}\n' % (
+            PX_PER_UNIT, ",\n  ".join(json.dumps(rounded(x)) for x in summary),
+            ",\n  ".join(json.dumps(rounded(x)) for x in categories),
+            ",\n  ".join(json.dumps(rounded({k: v for k, v in x.items() if k not in ("folder", "notes")}))
+                         for x in rows)))
     lines = ["# Corpus benchmark results", "",
              "Written by `python_tests/bench/bench_corpus.py` (definitions in its docstring and in "
              "`corpus_measure.py`; discussion in [corpus.md](corpus.md)). Every method at its defaults through "
@@ -427,10 +440,11 @@ def write_table(args, rows):
 
 def write_sheets(args, rows, samples):
     """Full sheets (every run, 96 px cells, quality 80) in <out>/sheets; small ones for docs/ (the first 16
-    bunny samples and the 4 on the other meshes, 60 px cells, quality 45: about 400 KB for all five)."""
+    bunny samples and the 4 on the other meshes, defaults only, 60 px cells, quality 35: about 450 KB for all five)."""
     core = {(s, "bunny") for s in FIRST_BUNNY} | {(s, m) for s in SUBSET_OTHER for m in ("part", "elk", "anchor")}
     for folder, row_px, quality, keep in ((os.path.join(args.out, "sheets"), 96, 80, lambda r: True),
-                                          (args.docs, 60, 45, lambda r: (r["sample"], r["mesh"]) in core)):
+                                          (args.docs, 60, 35,
+                                           lambda r: (r["sample"], r["mesh"]) in core and not r["variant"])):
         chosen = [r for r in rows if keep(r)]
         if not chosen:
             continue
