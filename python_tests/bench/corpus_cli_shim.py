@@ -1,11 +1,11 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Run by bench_corpus.py just before addon/texsynth_cli.py in the same Blender (`--python this --python cli`).
 
-addon/bake/options.py imports `..core.names` since commit 888d82e, so the CLI's stand-alone load of it
-(texsynth_cli._bake_options, module texsynth_cli_bake_options) fails with "attempted relative import with no
-known parent package" on every command. This imports the add-on as the CLI does (package `texsynth` from addon/)
-and registers its bake.options under the CLI's module name, so the CLI finds it loaded. Harmless once the CLI
-is fixed: it then loads the same module."""
+From commit 888d82e to c2e5885 addon/bake/options.py imported `..core.names`, so the CLI's stand-alone load of
+it (texsynth_cli._bake_options, module texsynth_cli_bake_options) failed with "attempted relative import with no
+known parent package" on every command; the corpus runs were made then. This imports the add-on as the CLI does (package `texsynth` from addon/)
+and registers its bake.options under the CLI's module name, so the CLI finds it loaded. Harmless since the fix: the
+CLI then finds the same module already loaded."""
 import importlib
 import importlib.util
 import os
