@@ -381,32 +381,32 @@ def main(argv):
     if addon.UNSUPPORTED:
         raise CliError(addon.UNSUPPORTED)
     from texsynth import compat, native  # noqa: F401  (registered by load_addon)
-    from texsynth.core import pipeline  # noqa: F401  (registered by load_addon)
+    from texsynth.core.settings import SURFACE_METHODS, Settings  # (registered by load_addon)
     from texsynth.uv_methods import synthesis  # noqa: F401  (registered by load_addon)
     if native.get() is None:
         raise CliError(native.reason())
     if not os.path.isfile(args.sample):
         raise CliError("sample image not found: %s" % args.sample)
     objects = find_objects(args, compat)
-    settings = pipeline.Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
-                                 jump_rate=args.jump_rate, working_size=args.working_size, blend=not args.no_blend,
-                                 blend_mode=args.blend_mode.upper(),
-                                 allow_oversized=args.allow_oversized, blend_threshold=args.blend_threshold,
-                                 orientation="FIELD" if args.direction_attribute else "AXIS",
-                                 direction_attribute=args.direction_attribute,
-                                 scale_source="ATTRIBUTE" if args.scale_attribute else
-                                 "VERTEX_GROUP" if args.scale_group else "NONE",
-                                 scale_attribute=args.scale_attribute or "TexSynth_Scale",
-                                 scale_group=args.scale_group, scale_min=args.scale_range[0],
-                                 scale_max=args.scale_range[1], surface_target=args.target.upper(),
-                                 round_levels=args.levels, round_coarse_rings=args.coarse_rings,
-                                 round_fine_rings=args.fine_rings, round_candidates=args.candidates,
-                                 round_resolution=args.synthesis_resolution.upper(),
-                                 patch_mode=args.mode.upper(), patch_size=args.patch_size,
-                                 patch_boundary=args.boundary_width, patch_tolerance=args.tolerance,
-                                 patch_iterations=args.iterations, **particle_settings(args))
+    settings = Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
+                        jump_rate=args.jump_rate, working_size=args.working_size, blend=not args.no_blend,
+                        blend_mode=args.blend_mode.upper(),
+                        allow_oversized=args.allow_oversized, blend_threshold=args.blend_threshold,
+                        orientation="FIELD" if args.direction_attribute else "AXIS",
+                        direction_attribute=args.direction_attribute,
+                        scale_source="ATTRIBUTE" if args.scale_attribute else
+                        "VERTEX_GROUP" if args.scale_group else "NONE",
+                        scale_attribute=args.scale_attribute or "TexSynth_Scale",
+                        scale_group=args.scale_group, scale_min=args.scale_range[0],
+                        scale_max=args.scale_range[1], surface_target=args.target.upper(),
+                        round_levels=args.levels, round_coarse_rings=args.coarse_rings,
+                        round_fine_rings=args.fine_rings, round_candidates=args.candidates,
+                        round_resolution=args.synthesis_resolution.upper(),
+                        patch_mode=args.mode.upper(), patch_size=args.patch_size,
+                        patch_boundary=args.boundary_width, patch_tolerance=args.tolerance,
+                        patch_iterations=args.iterations, **particle_settings(args))
     sample = synthesis.Sample(path=os.path.abspath(args.sample))
-    surface = settings.method in pipeline.SURFACE_METHODS
+    surface = settings.method in SURFACE_METHODS
     try:
         settings.validate()
         if settings.method == "PARTICLES":

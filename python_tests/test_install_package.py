@@ -56,7 +56,7 @@ def test_package_zip_installs_with_native_module(tmp_path):
     assert os.path.basename(zips[0]).startswith("texsynth-0.1.0-blender%d.%d-py3" % (major, minor)), zips[0]
     names = zipfile.ZipFile(zips[0]).namelist()
     assert all(name.startswith("texsynth/") for name in names)
-    for required in ("__init__.py", "native.py", "bridge/mesh_io.py", "core/pipeline.py", "uv_methods/synthesis.py",
+    for required in ("__init__.py", "native.py", "bridge/mesh_io.py", "core/settings.py", "uv_methods/core.py",
                      "texsynth_cli.py", "blender_manifest.toml"):
         assert "texsynth/" + required in names
     assert any(n.startswith("texsynth/texsynth_native") and n.endswith(".so") for n in names)

@@ -9,7 +9,7 @@ import pytest
 
 import addon_package
 
-pipeline = addon_package.load("core.pipeline")
+core_settings = addon_package.load("core.settings")
 core = addon_package.load("particles.core")
 
 GROUND = np.array([0.2, 0.3, 0.25], np.float32)
@@ -20,7 +20,7 @@ LEAF = np.array([0.1, 0.6, 0.1], np.float32)
 def settings(**changes):
     values = dict(method="PARTICLES", particle_classes=3, particle_blur=0.0)
     values.update(changes)
-    return pipeline.Settings(**values)
+    return core_settings.Settings(**values)
 
 
 def pebbles(width=96, height=64):
@@ -45,23 +45,23 @@ def pebbles(width=96, height=64):
     (dict(particle_size_jitter=0.95), "size jitter"), (dict(particle_background="ROUND"), "particle background"),
 ])
 def test_particle_settings_are_checked(changes, fragment):
-    with pytest.raises(pipeline.SettingsError, match=fragment):
+    with pytest.raises(core_settings.SettingsError, match=fragment):
         settings(**changes).validate()
 
 
 def test_particle_defaults_validate_and_other_methods_ignore_them():
     assert settings().validate().method == "PARTICLES"
-    assert "PARTICLES" in pipeline.METHODS
-    pipeline.Settings(method="JUMPMAP", particle_classes=99).validate()  # not checked for other methods
+    assert "PARTICLES" in core_settings.METHODS
+    core_settings.Settings(method="JUMPMAP", particle_classes=99).validate()  # not checked for other methods
     settings(particle_output="BOTH", particle_collection="Thorns", particle_size_jitter=0.9).validate()
 
 
 def test_class_lists_and_merges_parse():
     assert core.parse_class_list("2, 0 1") == (2, 0, 1) and core.parse_class_list("") == ()
     assert core.parse_merges("3>1, 2>0") == ((3, 1), (2, 0)) and core.format_merges(((3, 1),)) == "3>1"
-    with pytest.raises(pipeline.SettingsError, match="class numbers"):
+    with pytest.raises(core_settings.SettingsError, match="class numbers"):
         core.parse_class_list("a, 1")
-    with pytest.raises(pipeline.SettingsError, match="a>b"):
+    with pytest.raises(core_settings.SettingsError, match="a>b"):
         core.parse_merges("3-1")
 
 
@@ -78,12 +78,12 @@ def test_label_image_gives_one_class_per_colour_by_first_appearance():
 
 
 def test_label_image_of_the_wrong_size_or_colours_is_refused():
-    with pytest.raises(pipeline.SettingsError, match="is 5 x 4 pixels but the sample is 6 x 4"):
+    with pytest.raises(core_settings.SettingsError, match="is 5 x 4 pixels but the sample is 6 x 4"):
         core.labels_from_image(np.zeros((4, 5, 4), np.float32), 6, 4)
     noisy = np.random.default_rng(0).random((8, 8, 4)).astype(np.float32)
-    with pytest.raises(pipeline.SettingsError, match="at most 12 classes"):
+    with pytest.raises(core_settings.SettingsError, match="at most 12 classes"):
         core.labels_from_image(noisy, 8, 8)
-    with pytest.raises(pipeline.SettingsError, match="one colour"):
+    with pytest.raises(core_settings.SettingsError, match="one colour"):
         core.labels_from_image(np.ones((8, 8, 4), np.float32), 8, 8)
 
 
@@ -92,7 +92,7 @@ def test_merges_join_classes_in_order_and_renumber():
     merged, mapping = core.merge_labels(labels, ((3, 1), (1, 0)))
     assert merged.tolist() == [[0, 0, 1, 0]] and mapping.tolist() == [0, 0, 1, 0]
     assert core.original_id(1, 4, ((3, 1), (1, 0))) == 2
-    with pytest.raises(pipeline.SettingsError, match="does not have"):
+    with pytest.raises(core_settings.SettingsError, match="does not have"):
         core.merge_labels(labels, ((5, 0),))
 
 
@@ -144,10 +144,10 @@ def test_class_rows_count_the_drawn_particles():
     assert ground["background"] and not stones["background"]
     assert core.class_order(analysis, settings()) == [stones["id"], leaves["id"]]  # more particles first
     assert core.class_order(analysis, settings(particle_class_order=(leaves["id"],))) == [leaves["id"]]
-    with pytest.raises(pipeline.SettingsError, match="is the background"):
+    with pytest.raises(core_settings.SettingsError, match="is the background"):
         core.class_order(analysis, settings(particle_class_order=(ground["id"],)))
     assert core.class_at(analysis, 12, 12) == stones["id"] and core.class_at(analysis, 0, 0) == ground["id"]
-    with pytest.raises(pipeline.SettingsError, match="outside"):
+    with pytest.raises(core_settings.SettingsError, match="outside"):
         core.class_at(analysis, 96, 0)
 
 
@@ -175,14 +175,14 @@ def test_segmentation_preview_shows_class_colours_and_outlines():
 
 def test_unusable_samples_get_clear_errors():
     flat = np.tile(GROUND, (64, 64, 1))
-    with pytest.raises((pipeline.SettingsError, ValueError), match="no particles|one colour|class"):
+    with pytest.raises((core_settings.SettingsError, ValueError), match="no particles|one colour|class"):
         analysis, _ = core.analyse(flat, settings(particle_classes=2), cache=core.AnalysisCache())
         core.check_usable(analysis)
     # A checkerboard of two colours: one 8-connected region cut by the border, no complete particle.
     checker = np.where(((np.arange(64)[:, None] // 8 + np.arange(64)[None, :] // 8) % 2)[..., None] == 1,
                        STONE, GROUND).astype(np.float32)
     analysis, _ = core.analyse(checker, settings(particle_classes=2), cache=core.AnalysisCache())
-    with pytest.raises(pipeline.SettingsError, match="complete particle"):
+    with pytest.raises(core_settings.SettingsError, match="complete particle"):
         core.check_usable(analysis)
 
 

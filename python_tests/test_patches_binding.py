@@ -165,10 +165,10 @@ def test_exemplar_and_synthesis_round_trip_through_numpy_and_a_cache_file(tmp_pa
 def test_patch_limits_and_level_plan_come_from_the_module():
     import addon_package
 
-    pipeline = addon_package.load("core.pipeline")
+    core_settings = addon_package.load("core.settings")
     # The add-on's UI ranges (set before the module loads) are the module's limits.
-    assert tuple(tn.PATCH_SIZE_RANGE) == pipeline.PATCH_SIZE_RANGE
-    assert pipeline.PATCH_BOUNDARY_RANGE == (1, tn.PATCH_SIZE_RANGE[1] // 2)
+    assert tuple(tn.PATCH_SIZE_RANGE) == core_settings.PATCH_SIZE_RANGE
+    assert core_settings.PATCH_BOUNDARY_RANGE == (1, tn.PATCH_SIZE_RANGE[1] // 2)
     # A 32² sample analysed at 16 px patches: optimisation adds a 16² level, which only holds 8 px patches.
     plan = tn.patch_level_sizes(32, 32, 16, mode="optimisation", levels=3)
     assert plan == [(32, 32, 16), (16, 16, 8)]
@@ -176,9 +176,9 @@ def test_patch_limits_and_level_plan_come_from_the_module():
     assert tn.fit_patch_size(20, 20, 32) == 8
     with pytest.raises(ValueError, match="too small"):
         tn.fit_patch_size(14, 14, 16)
-    with pytest.raises(pipeline.SettingsError, match="at most 4"):
-        pipeline.check_patch_boundary(6, plan)
-    pipeline.check_patch_boundary(4, plan)
+    with pytest.raises(core_settings.SettingsError, match="at most 4"):
+        core_settings.check_patch_boundary(6, plan)
+    core_settings.check_patch_boundary(4, plan)
     # The estimate grows with the sample (512² at 32 px patches: about 0.47 GB, measured 0.46 GB).
     small, large = (tn.estimate_patch_exemplar_bytes(s, s, 3, 32) for s in (128, 512))
     assert 0.3e9 < large < 0.7e9 and large > 10 * small

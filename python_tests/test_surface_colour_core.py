@@ -7,7 +7,8 @@ import pytest
 
 import addon_package
 
-pipeline = addon_package.load("core.pipeline")
+layers = addon_package.load("core.layers")
+core_settings = addon_package.load("core.settings")
 core = addon_package.load("surface_colour.core")
 
 
@@ -27,9 +28,9 @@ def test_synthesis_sample_is_bottom_row_first_and_always_colour():
     assert out.shape == (4, 3, 3) and np.array_equal(out[0, :, 0], grey[3, :, 0])  # top row last
     grey_alpha = np.concatenate([grey, np.ones_like(grey)], axis=2)
     assert core.synthesis_sample(grey_alpha).shape == (4, 3, 4)
-    with pytest.raises(pipeline.SettingsError, match="NaN"):
+    with pytest.raises(core_settings.SettingsError, match="NaN"):
         core.synthesis_sample(np.full((4, 4, 3), np.nan, np.float32))
-    with pytest.raises(pipeline.SettingsError, match="at least 2 x 2"):
+    with pytest.raises(core_settings.SettingsError, match="at least 2 x 2"):
         core.synthesis_sample(np.zeros((1, 5, 3), np.float32))
 
 
@@ -84,20 +85,20 @@ def test_working_sample_is_the_area_average_at_fractional_ratios():
 
 
 def test_round_settings_are_range_checked():
-    assert pipeline.Settings(method="ROUND").validate() is not None
+    assert core_settings.Settings(method="ROUND").validate() is not None
     for field, value in (("round_levels", 0), ("round_levels", 7), ("round_coarse_rings", 0),
                          ("round_fine_rings", 9), ("round_candidates", -1), ("round_levels", 2.0),
                          ("surface_target", "TEXELS"), ("round_resolution", "HALF")):
-        with pytest.raises(pipeline.SettingsError):
-            pipeline.Settings(method="ROUND", **{field: value}).validate()
-    assert pipeline.Settings(method="JUMPMAP", round_levels=0).validate() is not None  # not used there
+        with pytest.raises(core_settings.SettingsError):
+            core_settings.Settings(method="ROUND", **{field: value}).validate()
+    assert core_settings.Settings(method="JUMPMAP", round_levels=0).validate() is not None  # not used there
 
 
 def test_smallest_sample_side_is_what_the_synthesizer_accepts():
     native = pytest.importorskip("texsynth_native")
     positions, triangles, uvs = square(1.0)
     context = native.RoundSynthesisContext(positions, triangles, uvs, width=32, height=32, texels_per_unit=32)
-    settings = pipeline.Settings(method="ROUND")
+    settings = core_settings.Settings(method="ROUND")
     side = core.smallest_sample_side(settings)
     up = np.tile(np.array([0, 1, 0], np.float32), (4, 1))
     sample = np.random.default_rng(0).random((side, side, 3)).astype(np.float32)
@@ -108,17 +109,17 @@ def test_smallest_sample_side_is_what_the_synthesizer_accepts():
 
 def test_context_cache_keys_on_geometry_target_and_parameters():
     positions, triangles, uvs = square()
-    arrays = pipeline.MeshArrays(positions, np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0, np.int32))
-    settings = pipeline.Settings(method="ROUND")
+    arrays = layers.MeshArrays(positions, np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0, np.int32))
+    settings = core_settings.Settings(method="ROUND")
     target = core.SurfaceTarget("IMAGE", 64, 64, 2)
     key = core.ContextCache.key(arrays, triangles, uvs, target, 10.0, settings)
     assert key == core.ContextCache.key(arrays, triangles, uvs.copy(), target, 10.0, settings)
-    moved = pipeline.MeshArrays(positions + 1, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes)
+    moved = layers.MeshArrays(positions + 1, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes)
     others = [core.ContextCache.key(moved, triangles, uvs, target, 10.0, settings),
               core.ContextCache.key(arrays, triangles, uvs * 0.5, target, 10.0, settings),
               core.ContextCache.key(arrays, triangles, uvs, core.SurfaceTarget("IMAGE", 128, 128, 2), 10.0, settings),
               core.ContextCache.key(arrays, triangles, uvs, target, 11.0, settings),
-              core.ContextCache.key(arrays, triangles, uvs, target, 10.0, pipeline.Settings(round_levels=2))]
+              core.ContextCache.key(arrays, triangles, uvs, target, 10.0, core_settings.Settings(round_levels=2))]
     assert len(set(others + [key])) == 6
     cache = core.ContextCache(capacity=2)
     for name in ("a", "b", "c"):

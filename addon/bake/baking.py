@@ -24,7 +24,7 @@ import numpy as np
 
 from .. import native
 from ..bridge import mesh_io
-from ..core import pipeline
+from ..core.layers import MAX_UV_LAYERS, is_texsynth_uv_name
 from ..core.names import fit_name
 from ..particles import baking as particle_baking
 from ..shading import blend_groups, surface_material
@@ -106,19 +106,19 @@ def choose_uv_map(mesh, request):
         raise BakeError(options.uv_refusal())
     if not request.auto_uv:
         if request.uv_map not in names:
-            others = [n for n in names if not pipeline.is_texsynth_uv_name(n)]
+            others = [n for n in names if not is_texsynth_uv_name(n)]
             raise BakeError("mesh %r has no UV map %r (its UV maps: %s)"
                             % (mesh.name, request.uv_map, ", ".join(others) or "none besides TexSynth's"))
         return request.uv_map
-    others = [n for n in names if not pipeline.is_texsynth_uv_name(n)]
+    others = [n for n in names if not is_texsynth_uv_name(n)]
     if others:
         active = mesh.uv_layers.active.name if mesh.uv_layers.active is not None else ""
         return active if active in others else others[0]
     if not request.create_uv:
         raise BakeError("mesh %r has no UV map besides TexSynth's (whose islands overlap): choose to create one "
                         "with Smart UV Project (operator option, CLI --bake-uv auto)" % mesh.name)
-    if len(names) >= pipeline.MAX_UV_LAYERS:
-        raise BakeError("mesh %r already has Blender's maximum of %d UV maps" % (mesh.name, pipeline.MAX_UV_LAYERS))
+    if len(names) >= MAX_UV_LAYERS:
+        raise BakeError("mesh %r already has Blender's maximum of %d UV maps" % (mesh.name, MAX_UV_LAYERS))
     return None
 
 

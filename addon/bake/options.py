@@ -19,7 +19,7 @@ except ImportError:  # the CLI loads this file on its own, before the add-on (te
     _names_spec.loader.exec_module(_names)
     fit_name = _names.fit_name
 
-BASE_UV_NAME = "TexSynth"  # TexSynth's own UV map (pipeline.BASE_UV_NAME; its islands overlap)
+BASE_UV_NAME = "TexSynth"  # TexSynth's own UV map (core.layers.BASE_UV_NAME; its islands overlap)
 AUTO_UV = "auto"           # CLI --bake-uv auto: the first UV map that is not TexSynth's, else Smart UV Project
 SMART_UV_NAME = "UVMap"    # name of the UV map Smart UV Project creates (made unique by Blender if taken)
 MIN_SIZE, MAX_SIZE, DEFAULT_SIZE = 8, 8192, 1024

@@ -15,7 +15,12 @@ import os
 import bpy
 import numpy as np
 
-from ..core import pipeline
+from ..core.finite import FiniteScan, all_finite
+from ..core.layers import (ATTRIBUTE_NAMES, BASE_UV_NAME, GROUPS_NAME, MeshArrays, SET_ATTRIBUTE_NAMES, WEIGHTS_NAME,
+    check_uv_capacity, is_texsynth_uv_name)
+from ..core.sample_image import blender_pixels_to_image
+from ..core.settings import SettingsError
+from ..uv_methods.encoding import blend_set_rgba, check_result, corner_attributes, weights_rgba
 
 # Test hook: TEXSYNTH_TEST_FAIL_AT=<point> makes the write fail at that point (uv_layer, sets,
 # weights, extras, material) so the tests can prove a failure mid-write leaves the mesh byte-identical.
@@ -58,7 +63,7 @@ def read_mesh(obj, direction_attribute=""):
     poly_starts = read_indices(mesh.polygons, "loop_start", num_polys)
     poly_sizes = read_indices(mesh.polygons, "loop_total", num_polys)
     matrix = np.array(obj.matrix_world, dtype=np.float64)
-    arrays = pipeline.MeshArrays(read_positions(obj, matrix), corner_verts, poly_starts, poly_sizes)
+    arrays = MeshArrays(read_positions(obj, matrix), corner_verts, poly_starts, poly_sizes)
     if direction_attribute:
         arrays.direction = read_direction(obj, direction_attribute, matrix)
     return arrays
@@ -89,24 +94,24 @@ def read_direction(obj, name, matrix=None):
     if attribute is None:
         return None
     if attribute.domain != "POINT" or attribute.data_type != "FLOAT_VECTOR":
-        raise pipeline.SettingsError("attribute %r must be a vertex (point) vector attribute, it is %s on %s"
+        raise SettingsError("attribute %r must be a vertex (point) vector attribute, it is %s on %s"
                                      % (name, attribute.data_type, attribute.domain))
     vectors = np.empty(len(obj.data.vertices) * 3, dtype=np.float32)
     attribute.data.foreach_get("vector", vectors)
     vectors = vectors.reshape(-1, 3)
     if not np.all(np.isfinite(vectors)):
-        raise pipeline.SettingsError("attribute %r contains NaN or infinite vectors" % name)
+        raise SettingsError("attribute %r contains NaN or infinite vectors" % name)
     if matrix is None:
         matrix = np.array(obj.matrix_world, dtype=np.float64)
     return vectors_to_world(vectors, matrix)
 
 
 def texsynth_uv_names(mesh):
-    return [layer.name for layer in mesh.uv_layers if pipeline.is_texsynth_uv_name(layer.name)]
+    return [layer.name for layer in mesh.uv_layers if is_texsynth_uv_name(layer.name)]
 
 
 def check_capacity(mesh):
-    pipeline.check_uv_capacity([layer.name for layer in mesh.uv_layers])
+    check_uv_capacity([layer.name for layer in mesh.uv_layers])
 
 
 def _buffer(size, reuse):
@@ -140,7 +145,7 @@ def snapshot(mesh, reuse=None):
     old_attributes = reuse["attributes"] if reuse is not None else {}
     old_uv = reuse["uv"] if reuse is not None else {}
     attributes = {}
-    for name in pipeline.ATTRIBUTE_NAMES:
+    for name in ATTRIBUTE_NAMES:
         attribute = mesh.attributes.get(name)
         old = old_attributes.get(name)
         attributes[name] = (_attribute_snapshot(attribute, old[3] if old is not None else None)
@@ -149,7 +154,7 @@ def snapshot(mesh, reuse=None):
     return {
         "uv_order": [layer.name for layer in mesh.uv_layers],
         "uv": {layer.name: _uv_data(layer, num_corners, old_uv.get(layer.name)) for layer in mesh.uv_layers
-               if pipeline.is_texsynth_uv_name(layer.name)},
+               if is_texsynth_uv_name(layer.name)},
         "active_uv": mesh.uv_layers.active_index,
         "render_uv": next((i for i, layer in enumerate(mesh.uv_layers) if layer.active_render), -1),
         "attributes": attributes,
@@ -216,39 +221,39 @@ def write_result(mesh, result, taken_snapshot=None):
     """
     num_corners = len(mesh.loops)
     scan_during_write = os.environ.get(WRITE_CHECK_ENV) != "before"
-    base = np.ascontiguousarray(pipeline.check_result(result, num_corners, finite=not scan_during_write),
+    base = np.ascontiguousarray(check_result(result, num_corners, finite=not scan_during_write),
                                 dtype=np.float32).ravel()
-    extras = pipeline.corner_attributes(result, num_corners, finite=not scan_during_write)
+    extras = corner_attributes(result, num_corners, finite=not scan_during_write)
     sets = int(result["num_blend_sets"])
     check_capacity(mesh)
     colors = {}  # FLOAT_COLOR corner attributes to write
     if sets:
-        colors.update(zip(pipeline.SET_ATTRIBUTE_NAMES, pipeline.blend_set_rgba(result, num_corners)))
-        colors[pipeline.WEIGHTS_NAME] = pipeline.weights_rgba(result, num_corners, consume=True)
+        colors.update(zip(SET_ATTRIBUTE_NAMES, blend_set_rgba(result, num_corners)))
+        colors[WEIGHTS_NAME] = weights_rgba(result, num_corners, consume=True)
         if result.get("mapping_groups") is not None:
             groups = result["mapping_groups"]
             if groups.shape != (num_corners * 4,) or groups.dtype != np.float32 or \
-                    (not scan_during_write and not pipeline.all_finite(groups)):
-                raise pipeline.SettingsError("mapping groups must be finite float32 of shape (%d,)" % (num_corners * 4))
-            colors[pipeline.GROUPS_NAME] = groups
+                    (not scan_during_write and not all_finite(groups)):
+                raise SettingsError("mapping groups must be finite float32 of shape (%d,)" % (num_corners * 4))
+            colors[GROUPS_NAME] = groups
 
     saved = taken_snapshot if taken_snapshot is not None else snapshot(mesh)
     had_uv = len(mesh.uv_layers) > 0
     # Every value written is scanned (the weights after their in-place RGBA conversion: 1 - w is
     # finite exactly when w is); nothing below changes these arrays.
-    scan = pipeline.FiniteScan([("base_uv", base)] + list(colors.items()) + list(extras.items())) \
+    scan = FiniteScan([("base_uv", base)] + list(colors.items()) + list(extras.items())) \
         if scan_during_write else None
     try:
-        layer = mesh.uv_layers.get(pipeline.BASE_UV_NAME) or mesh.uv_layers.new(name=pipeline.BASE_UV_NAME,
+        layer = mesh.uv_layers.get(BASE_UV_NAME) or mesh.uv_layers.new(name=BASE_UV_NAME,
                                                                                  do_init=False)
         if layer is None:
-            raise MeshWriteError("Blender refused to create UV map %r" % pipeline.BASE_UV_NAME)
+            raise MeshWriteError("Blender refused to create UV map %r" % BASE_UV_NAME)
         layer.data.foreach_set("uv", base)
         fail_point("uv_layer")
         wanted = dict((name, ("FLOAT_COLOR", "color", values)) for name, values in colors.items())
         wanted.update((name, ("FLOAT", "value", values)) for name, values in extras.items())
         # Every TexSynth corner attribute is rewritten or removed (stale ones of another run/method go).
-        for name in pipeline.ATTRIBUTE_NAMES:
+        for name in ATTRIBUTE_NAMES:
             attribute = mesh.attributes.get(name)
             data_type, key, values = wanted.get(name, (None, None, None))
             if attribute is not None and (data_type is None or attribute.data_type != data_type
@@ -259,14 +264,14 @@ def write_result(mesh, result, taken_snapshot=None):
                 if attribute is None:
                     attribute = mesh.attributes.new(name, data_type, "CORNER")
                 attribute.data.foreach_set(key, values)
-                fail_point({pipeline.WEIGHTS_NAME: "weights", pipeline.GROUPS_NAME: "weights"}.get(
-                    name, "sets" if name in pipeline.SET_ATTRIBUTE_NAMES else "extras"))
+                fail_point({WEIGHTS_NAME: "weights", GROUPS_NAME: "weights"}.get(
+                    name, "sets" if name in SET_ATTRIBUTE_NAMES else "extras"))
         if scan is not None:
             bad, scan = scan.wait(), None
             if bad is not None:
-                raise pipeline.SettingsError("native result %s contains NaN or infinite values (mesh restored)" % bad)
+                raise SettingsError("native result %s contains NaN or infinite values (mesh restored)" % bad)
         # Last: removed layers would come back in another order if a later step failed.
-        _remove_uv_layers(mesh, [n for n in texsynth_uv_names(mesh) if n != pipeline.BASE_UV_NAME])
+        _remove_uv_layers(mesh, [n for n in texsynth_uv_names(mesh) if n != BASE_UV_NAME])
         if had_uv:
             _restore_uv_order_flags(mesh, saved)
         else:
@@ -277,7 +282,7 @@ def write_result(mesh, result, taken_snapshot=None):
         if scan is not None:
             scan.wait()  # no thread left reading the arrays
         _restore(mesh, saved)
-        if isinstance(error, (pipeline.SettingsError, MeshWriteError)):
+        if isinstance(error, (SettingsError, MeshWriteError)):
             raise
         raise MeshWriteError("writing TexSynth layers failed (mesh restored): %s" % error) from error
     return saved
@@ -301,7 +306,7 @@ def clear(mesh):
     active_name = mesh.uv_layers.active.name if mesh.uv_layers.active else None
     _remove_uv_layers(mesh, names)
     removed = len(names)
-    for name in pipeline.ATTRIBUTE_NAMES:
+    for name in ATTRIBUTE_NAMES:
         attribute = mesh.attributes.get(name)
         if attribute is not None:
             mesh.attributes.remove(attribute)
@@ -317,11 +322,11 @@ def read_image_pixels(image):
     """A bpy image (file, generated or packed) as float32 H x W x C, row 0 = top."""
     width, height = int(image.size[0]), int(image.size[1])  # reading the size loads file/packed buffers
     if width == 0 or height == 0 or not image.has_data:
-        raise pipeline.SettingsError("image %r could not be loaded (missing or unreadable file?)" % image.name)
+        raise SettingsError("image %r could not be loaded (missing or unreadable file?)" % image.name)
     channels = int(image.channels)
     pixels = np.empty(width * height * channels, dtype=np.float32)
     image.pixels.foreach_get(pixels)
-    return pipeline.blender_pixels_to_image(pixels, width, height, channels)
+    return blender_pixels_to_image(pixels, width, height, channels)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -338,13 +343,13 @@ def read_point_attribute(mesh, name, data_type):
     if attribute is None:
         return None
     if attribute.domain != "POINT" or attribute.data_type != data_type:
-        raise pipeline.SettingsError("attribute %r must be a vertex (point) %s attribute, it is %s on %s"
+        raise SettingsError("attribute %r must be a vertex (point) %s attribute, it is %s on %s"
                                      % (name, data_type, attribute.data_type, attribute.domain))
     key, width, dtype = _POINT_KEYS[data_type]
     values = np.empty(len(mesh.vertices) * width, dtype=dtype)
     attribute.data.foreach_get(key, values)
     if dtype == np.float32 and not np.all(np.isfinite(values)):
-        raise pipeline.SettingsError("attribute %r contains NaN or infinite values" % name)
+        raise SettingsError("attribute %r contains NaN or infinite values" % name)
     return values.reshape(-1, 3) if width == 3 else values
 
 
@@ -353,7 +358,7 @@ def write_point_attribute(mesh, name, data_type, values):
     key, width, dtype = _POINT_KEYS[data_type]
     values = np.ascontiguousarray(values, dtype=dtype).ravel()
     if values.size != len(mesh.vertices) * width:
-        raise pipeline.SettingsError("attribute %r needs %d values, got %d" % (name, len(mesh.vertices) * width, values.size))
+        raise SettingsError("attribute %r needs %d values, got %d" % (name, len(mesh.vertices) * width, values.size))
     attribute = mesh.attributes.get(name)
     if attribute is not None and (attribute.domain != "POINT" or attribute.data_type != data_type):
         mesh.attributes.remove(attribute)
@@ -393,7 +398,7 @@ def field_attributes(obj, state):
     exactly the stored direction while the main thread writes."""
     from ..fields import authoring
     if state.arrays.num_vertices != len(obj.data.vertices):
-        raise pipeline.SettingsError("mesh %r changed while its field was edited" % obj.data.name)
+        raise SettingsError("mesh %r changed while its field was edited" % obj.data.name)
     inverse = np.linalg.inv(_linear(obj)) if abs(np.linalg.det(_linear(obj))) > 1e-30 else np.eye(3)
     return {authoring.GUIDE_NAME: ("FLOAT_VECTOR", (state.guide @ inverse.T).astype(np.float32)),
             authoring.SINGULARITY_NAME: ("INT", np.ascontiguousarray(state.singularity, dtype=np.int32)),
@@ -418,7 +423,7 @@ def read_vertex_group(obj, name):
     Blender has no bulk accessor for group weights: one pass over the vertices' group lists."""
     group = obj.vertex_groups.get(name)
     if group is None:
-        raise pipeline.SettingsError("object %r has no vertex group %r" % (obj.name, name))
+        raise SettingsError("object %r has no vertex group %r" % (obj.name, name))
     index = group.index
     weights = np.zeros(len(obj.data.vertices), dtype=np.float32)
     for vertex in obj.data.vertices:
@@ -436,11 +441,11 @@ def read_scale_multiplier(obj, settings):
     if source == "ATTRIBUTE":
         values = read_point_attribute(obj.data, settings.scale_attribute, "FLOAT")
         if values is None:
-            raise pipeline.SettingsError("mesh %r has no scale attribute %r" % (obj.data.name, settings.scale_attribute))
+            raise SettingsError("mesh %r has no scale attribute %r" % (obj.data.name, settings.scale_attribute))
         try:
             return authoring.check_scale_multiplier(values, "attribute %r" % settings.scale_attribute)
         except ValueError as error:
-            raise pipeline.SettingsError(str(error))
+            raise SettingsError(str(error))
     if source == "VERTEX_GROUP":
         weights = read_vertex_group(obj, settings.scale_group)
         return authoring.scale_from_weights(weights, settings.scale_min, settings.scale_max)
@@ -462,12 +467,12 @@ def read_loop_triangles(obj, uv_map=""):
         return np.ascontiguousarray(triangles), None
     layer = mesh.uv_layers.get(uv_map)
     if layer is None:
-        raise pipeline.SettingsError("mesh %r has no UV map %r" % (mesh.name, uv_map))
+        raise SettingsError("mesh %r has no UV map %r" % (mesh.name, uv_map))
     loops = read_indices(mesh.loop_triangles, "loops", count * 3)
     corner_uv = _uv_data(layer, len(mesh.loops)).reshape(-1, 2)
     uvs = corner_uv[loops].reshape(count, 3, 2)
-    if not pipeline.all_finite(uvs):
-        raise pipeline.SettingsError("UV map %r of mesh %r contains NaN or infinite coordinates" % (uv_map, mesh.name))
+    if not all_finite(uvs):
+        raise SettingsError("UV map %r of mesh %r contains NaN or infinite coordinates" % (uv_map, mesh.name))
     return np.ascontiguousarray(triangles), np.ascontiguousarray(uvs, dtype=np.float32)
 
 
@@ -475,8 +480,8 @@ def write_colour_attribute(mesh, name, rgba):
     """Writes a FLOAT_COLOR point attribute (created or replaced) and makes it the active colour
     attribute; returns an undo function that puts the mesh back as it was."""
     rgba = np.ascontiguousarray(rgba, dtype=np.float32).ravel()
-    if rgba.size != len(mesh.vertices) * 4 or not pipeline.all_finite(rgba):
-        raise pipeline.SettingsError("colour attribute %r needs %d finite values, got %d"
+    if rgba.size != len(mesh.vertices) * 4 or not all_finite(rgba):
+        raise SettingsError("colour attribute %r needs %d finite values, got %d"
                                      % (name, len(mesh.vertices) * 4, rgba.size))
     old = mesh.attributes.get(name)
     saved = _attribute_snapshot(old) if old is not None else None
@@ -532,15 +537,15 @@ def read_face_values(obj, name, triangles, triangle_polygons):
         attribute.data.foreach_get("value", values)
         values = values[triangle_polygons] if attribute.domain == "FACE" else values[triangles].mean(axis=1)
     elif attribute is not None:
-        raise pipeline.SettingsError("attribute %r must be a FLOAT face or vertex attribute, it is %s on %s"
+        raise SettingsError("attribute %r must be a FLOAT face or vertex attribute, it is %s on %s"
                                      % (name, attribute.data_type, attribute.domain))
     elif obj.vertex_groups.get(name) is not None:
         values = read_vertex_group(obj, name)[triangles].mean(axis=1)
     else:
-        raise pipeline.SettingsError("object %r has no face attribute or vertex group %r" % (obj.name, name))
+        raise SettingsError("object %r has no face attribute or vertex group %r" % (obj.name, name))
     values = np.ascontiguousarray(values, dtype=np.float32)
-    if not pipeline.all_finite(values) or (values.size and values.min() < 0.0):
-        raise pipeline.SettingsError("override %r must hold finite values >= 0" % name)
+    if not all_finite(values) or (values.size and values.min() < 0.0):
+        raise SettingsError("override %r must hold finite values >= 0" % name)
     return values
 
 
@@ -552,7 +557,7 @@ def check_polygons(num_vertices, loop_starts, loop_totals, corner_verts):
     if starts.shape != totals.shape or (totals.size and totals.min() < 3) or \
             not np.array_equal(starts, np.concatenate([[0], np.cumsum(totals)[:-1]])[:starts.size]) or \
             int(totals.sum()) != corners.size or (corners.size and (corners.min() < 0 or corners.max() >= num_vertices)):
-        raise pipeline.SettingsError("decal geometry is inconsistent (polygon offsets, sizes or vertex indices)")
+        raise SettingsError("decal geometry is inconsistent (polygon offsets, sizes or vertex indices)")
 
 
 def new_polygon_mesh(name, positions, loop_starts, loop_totals, corner_verts, uv_name="", corner_uvs=None,

@@ -29,7 +29,7 @@ SOURCE, SINK = 1, -1
 
 @dataclasses.dataclass
 class FieldState:
-    """One mesh's field data in world space (arrays: pipeline.MeshArrays)."""
+    """One mesh's field data in world space (arrays: core.layers.MeshArrays)."""
     arrays: object
     guide: np.ndarray          # (N, 3) float32, zero rows unset
     singularity: np.ndarray    # (N,) int32

@@ -18,7 +18,8 @@ import numpy as np
 
 from .. import compat
 from ..bridge import mesh_io
-from ..core import pipeline
+from ..core.layers import MeshArrays
+from ..core.settings import SURFACE_METHODS, SettingsError
 from . import authoring, overlay
 from ..ui import operators, properties
 from ..uv_methods import synthesis
@@ -59,9 +60,9 @@ def field_mesh_for(obj, arrays):
 def _active_mesh(context):
     obj = context.active_object
     if obj is None or obj.type != "MESH":
-        raise pipeline.SettingsError("select a mesh object first")
+        raise SettingsError("select a mesh object first")
     if obj.data.library is not None:
-        raise pipeline.SettingsError("mesh %r is linked from a library and cannot be edited" % obj.data.name)
+        raise SettingsError("mesh %r is linked from a library and cannot be edited" % obj.data.name)
     return obj
 
 
@@ -115,7 +116,7 @@ PATCH_PREVIEW_SIZE = 256
 
 
 def _arrays_from_memory(obj, state, attributes):
-    """pipeline.MeshArrays for the synthesizer from the edit's FieldState, with the direction as a
+    """MeshArrays for the synthesizer from the edit's FieldState, with the direction as a
     fresh Synthesize would read it back from the attribute (object space -> world, same float32
     rounding), or None when the mesh no longer matches the state (counts, transform or positions
     changed: the caller then re-reads everything)."""
@@ -127,7 +128,7 @@ def _arrays_from_memory(obj, state, attributes):
     if not np.array_equal(mesh_io.read_positions(obj, matrix), a.positions):
         return None
     direction = mesh_io.vectors_to_world(attributes[authoring.DIRECTION_NAME][1].reshape(-1, 3), matrix)
-    return pipeline.MeshArrays(a.positions, a.corner_verts, a.poly_starts, a.poly_sizes, direction=direction)
+    return MeshArrays(a.positions, a.corner_verts, a.poly_starts, a.poly_sizes, direction=direction)
 
 
 def live_update(context, obj, state=None, attributes=None, write_field=None):
@@ -148,8 +149,8 @@ def live_update(context, obj, state=None, attributes=None, write_field=None):
         if write_field is not None:
             write_field()  # the preview reads the field from the mesh
         return _patch_preview(context, obj, props, settings)
-    if settings.method in pipeline.SURFACE_METHODS + ("PARTICLES",):
-        raise pipeline.SettingsError("live update is not available for %s: press Synthesize"
+    if settings.method in SURFACE_METHODS + ("PARTICLES",):
+        raise SettingsError("live update is not available for %s: press Synthesize"
                                      % props.bl_rna.properties["method"].enum_items[settings.method].name)
     settings.validate()
     sample = operators.sample_from_settings(props)
@@ -183,7 +184,7 @@ def live_update(context, obj, state=None, attributes=None, write_field=None):
     last_timings["live_update"] = time.perf_counter() - start
     last_timings["live_native"] = report.native_stats.get(obj.name, {}).get("seconds", 0.0)
     if report.failures:
-        raise pipeline.SettingsError(report.summary())
+        raise SettingsError(report.summary())
     return report
 
 
@@ -201,7 +202,7 @@ def _patch_preview(context, obj, props, settings):
     last_timings["live_update"] = time.perf_counter() - start
     last_timings["live_native"] = report.native_stats.get(obj.name, {}).get("seconds_synthesis", 0.0)
     if report.failures:
-        raise pipeline.SettingsError(report.summary())
+        raise SettingsError(report.summary())
     return report
 
 
@@ -462,12 +463,12 @@ class TEXSYNTH_OT_field_from_strokes(bpy.types.Operator):
             obj = _active_mesh(context)
             strokes = guide_strokes(context)
             if not strokes:
-                raise pipeline.SettingsError("no annotation or Grease Pencil strokes found: draw some on the surface")
+                raise SettingsError("no annotation or Grease Pencil strokes found: draw some on the surface")
             state = field_state(context, obj)
             used = authoring.anchors_from_strokes(state, caster_for(obj, state.arrays), strokes,
                                                props.field_brush_radius, props.field_brush_strength)
             if not used:
-                raise pipeline.SettingsError("no stroke point lies within the brush radius of %r" % obj.name)
+                raise SettingsError("no stroke point lies within the brush radius of %r" % obj.name)
             _report_warning(self, commit_edit(context, obj, state))
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))

@@ -13,13 +13,13 @@ import os
 import numpy as np
 
 from .. import native
-from ..core import pipeline
+from ..core.settings import PARTICLE_CLASS_RANGE, SettingsError
 from ..surface_colour import core as surface_core
 
 ATLAS_MAX_SIDE = 4096
 ATLAS_PADDING = 2            # transparent pixels around every sprite (no bleeding under mipmaps or Linear)
 DECAL_OFFSET_FACTOR = 1e-4   # x bbox diagonal x (class rank + 1): decals above the surface, classes ordered
-MAX_LABEL_COLOURS = pipeline.PARTICLE_CLASS_RANGE[1]
+MAX_LABEL_COLOURS = PARTICLE_CLASS_RANGE[1]
 MIN_BACKGROUND_SHARE = 0.02  # a sample whose background class holds less is "all particles"
 PARTICLE_ID_NAME = "particle_id"
 ROTATION_NAME, SCALE_NAME, CLASS_NAME = "rotation", "scale", "class"
@@ -50,16 +50,16 @@ def labels_from_image(rgba_bottom_first, sample_width, sample_height, name="labe
     pixels = np.asarray(rgba_bottom_first)
     if pixels.ndim != 3 or pixels.shape[:2] != (sample_height, sample_width):
         got = "%d x %d" % (pixels.shape[1], pixels.shape[0]) if pixels.ndim == 3 else str(pixels.shape)
-        raise pipeline.SettingsError("%s is %s pixels but the sample is %d x %d: paint the labels on an image of "
+        raise SettingsError("%s is %s pixels but the sample is %d x %d: paint the labels on an image of "
                                      "the sample's size" % (name, got, sample_width, sample_height))
     colour = np.round(np.clip(pixels[:, :, :3], 0.0, 1.0) * 255.0).astype(np.int32)
     key = (colour[:, :, 0] << 16) | (colour[:, :, 1] << 8) | colour[:, :, 2]
     values, first, inverse = np.unique(key.ravel(), return_index=True, return_inverse=True)
     if values.size > MAX_LABEL_COLOURS:
-        raise pipeline.SettingsError("%s has %d colours; at most %d classes (one flat colour each, no "
+        raise SettingsError("%s has %d colours; at most %d classes (one flat colour each, no "
                                      "antialiasing)" % (name, values.size, MAX_LABEL_COLOURS))
     if values.size < 2:
-        raise pipeline.SettingsError("%s has one colour: paint at least a background and one particle class" % name)
+        raise SettingsError("%s has one colour: paint at least a background and one particle class" % name)
     rank = np.empty(values.size, np.int32)
     rank[np.argsort(first, kind="stable")] = np.arange(values.size, dtype=np.int32)
     return np.ascontiguousarray(rank[inverse].reshape(key.shape))
@@ -74,7 +74,7 @@ def original_id(shown, count, merges):
     """The first pre-merge class id that became class `shown` (the view lists classes after merges)."""
     matches = np.flatnonzero(merged_ids(count, merges) == shown)
     if matches.size == 0:
-        raise pipeline.SettingsError("class %d does not exist after the merges" % shown)
+        raise SettingsError("class %d does not exist after the merges" % shown)
     return int(matches[0])
 
 
@@ -86,7 +86,7 @@ def merge_labels(labels, merges):
     target = np.arange(count, dtype=np.int32)
     for a, b in merges:
         if not (0 <= a < count and 0 <= b < count):
-            raise pipeline.SettingsError("class merge %d -> %d names a class the analysis does not have "
+            raise SettingsError("class merge %d -> %d names a class the analysis does not have "
                                          "(classes 0..%d)" % (a, b, count - 1))
         target[target == a] = target[b]
     kept = np.unique(target)
@@ -151,7 +151,7 @@ def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=anal
     if background >= 0:
         count = int(labels.max()) + 1 if labels is not None else int(settings.particle_classes)
         if background >= count:
-            raise pipeline.SettingsError("background class %d does not exist (classes 0..%d)" % (background, count - 1))
+            raise SettingsError("background class %d does not exist (classes 0..%d)" % (background, count - 1))
         kwargs["background"] = background
     analysis = module.particle_analysis(sample, **kwargs)
     cache.put(key, analysis)
@@ -183,16 +183,16 @@ def check_usable(analysis):
     total = analysis.width * analysis.height
     particles = sum(row["particles"] for row in rows if not row["background"])
     if particles == 0:
-        raise pipeline.SettingsError(
+        raise SettingsError(
             "the sample has no particles: it is one colour, or every component is smaller than the minimum area "
             "(%d px); use a sample of distinct elements or lower the minimum area" % analysis.min_area)
     background = sum(row["pixels"] for row in rows if row["background"])
     if background < MIN_BACKGROUND_SHARE * total:
-        raise pipeline.SettingsError(
+        raise SettingsError(
             "the sample is all particles: the background class covers %.1f %% of it (at least %.0f %% needed); "
             "choose another background class or fewer classes" % (100.0 * background / total, 100 * MIN_BACKGROUND_SHARE))
     if not any(row["has_complete"] for row in rows if not row["background"]):
-        raise pipeline.SettingsError(
+        raise SettingsError(
             "no class has a complete particle (every particle is cut by the sample's border or joined into one "
             "region): use a sample where whole elements lie inside, or mark it tileable")
     notes = []
@@ -231,7 +231,7 @@ def segmentation_preview(analysis):
 def class_at(analysis, x, y):
     """Class id of sample pixel (x, y) (x right, y up from the bottom row); SettingsError outside."""
     if not (0 <= x < analysis.width and 0 <= y < analysis.height):
-        raise pipeline.SettingsError("(%d, %d) is outside the %d x %d sample" % (x, y, analysis.width, analysis.height))
+        raise SettingsError("(%d, %d) is outside the %d x %d sample" % (x, y, analysis.width, analysis.height))
     return int(analysis.labels[int(y), int(x)])
 
 
@@ -243,12 +243,12 @@ def class_order(analysis, settings):
         order = [int(c) for c in settings.particle_class_order]
         for c in order:
             if not 0 <= c < len(rows):
-                raise pipeline.SettingsError("class order names class %d; the analysis has classes 0..%d"
+                raise SettingsError("class order names class %d; the analysis has classes 0..%d"
                                              % (c, len(rows) - 1))
             if rows[c]["background"]:
-                raise pipeline.SettingsError("class %d is the background: it is synthesized as texture, not placed" % c)
+                raise SettingsError("class %d is the background: it is synthesized as texture, not placed" % c)
             if not rows[c]["has_complete"]:
-                raise pipeline.SettingsError("class %d has no complete particle to place" % c)
+                raise SettingsError("class %d has no complete particle to place" % c)
         return order
     usable = [row for row in rows if not row["background"] and row["has_complete"]]
     return [row["id"] for row in sorted(usable, key=lambda row: (-row["particles"], row["id"]))]
@@ -260,7 +260,7 @@ def parse_class_list(text):
     try:
         return tuple(int(item) for item in items)
     except ValueError:
-        raise pipeline.SettingsError("class order must be class numbers separated by commas, got %r" % text)
+        raise SettingsError("class order must be class numbers separated by commas, got %r" % text)
 
 
 def parse_merges(text):
@@ -273,7 +273,7 @@ def parse_merges(text):
         except ValueError:
             merges.append(None)
         if merges[-1] is None:
-            raise pipeline.SettingsError("class merges are written a>b (class a joins b), got %r" % item)
+            raise SettingsError("class merges are written a>b (class a joins b), got %r" % item)
     return tuple(merges)
 
 
@@ -332,9 +332,9 @@ def pack_atlas(sprite_ids, sizes, classes, seed=0, max_side=ATLAS_MAX_SIDE, padd
     sizes = np.asarray(sizes, np.int64).reshape(-1, 2)
     classes = np.asarray(classes, np.int32)
     if ids.size == 0:
-        raise pipeline.SettingsError("no sprite to put in the atlas")
+        raise SettingsError("no sprite to put in the atlas")
     if np.any(sizes + 2 * padding > max_side):
-        raise pipeline.SettingsError("a particle is larger than the %d px atlas" % max_side)
+        raise SettingsError("a particle is larger than the %d px atlas" % max_side)
     keep = np.ones(ids.size, bool)
     rng = np.random.default_rng(seed)
     priority = rng.random(ids.size)  # lower = dropped first
@@ -362,7 +362,7 @@ def pack_atlas(sprite_ids, sizes, classes, seed=0, max_side=ATLAS_MAX_SIDE, padd
                 keep[members[np.argsort(priority[members])[:drop]]] = False
                 changed = True
         if not changed:
-            raise pipeline.SettingsError("the particles do not fit into a %d px atlas" % max_side)
+            raise SettingsError("the particles do not fit into a %d px atlas" % max_side)
 
 
 def atlas_pixels(atlas, sprites):

@@ -22,7 +22,8 @@ import numpy as np
 
 from .. import native
 from ..bridge import mesh_io
-from ..core import pipeline
+from ..core.reporting import Report, Timings
+from ..core.settings import Settings, SettingsError, object_seed
 from ..surface_colour import core as surface_core
 from ..surface_colour.synthesis import sample_pixels
 from ..uv_methods import synthesis as uv_synthesis
@@ -55,7 +56,7 @@ class Job:
         self.label_pixels = label_pixels   # (H, W, 4) bottom row first, or None
         self.only_class = only_class
         self.material_mode, self.scene = material_mode, scene_
-        self.report, self.timings = pipeline.Report(uses_cache=False), pipeline.Timings()
+        self.report, self.timings = Report(uses_cache=False), Timings()
         self.items = []
         self.background_job = None
         self.token = None
@@ -67,18 +68,18 @@ class Job:
     def prepare(self):
         settings = self.settings.validate()
         if settings.method != "PARTICLES":
-            raise pipeline.SettingsError("method %r is not Texture Particles" % settings.method)
+            raise SettingsError("method %r is not Texture Particles" % settings.method)
         module = native.require()
         meshes, self.report.failures = mesh_objects(self.objects)
         if not meshes:
-            raise pipeline.SettingsError("no mesh object selected")
+            raise SettingsError("no mesh object selected")
         self.collection = None
         if settings.particle_output != "DECALS":
             self.collection = bpy.data.collections.get(settings.particle_collection)
             if self.collection is None:
-                raise pipeline.SettingsError("instance collection %r does not exist" % settings.particle_collection)
+                raise SettingsError("instance collection %r does not exist" % settings.particle_collection)
             if not self.collection.all_objects:
-                raise pipeline.SettingsError("instance collection %r is empty: add the objects to place per class"
+                raise SettingsError("instance collection %r is empty: add the objects to place per class"
                                              % self.collection.name)
         self.token = module.CancelToken()
         with self.timings.phase("read"):
@@ -94,7 +95,7 @@ class Job:
         self.order = core.class_order(self.analysis, settings)
         if self.only_class is not None:
             if self.only_class not in self.order:
-                raise pipeline.SettingsError("class %d is not placed (placed classes: %s)"
+                raise SettingsError("class %d is not placed (placed classes: %s)"
                                              % (self.only_class, ", ".join(str(c) for c in self.order)))
         self.report.cache_status = "analysis " + source
         self.report.cache_hit = source != "built"
@@ -105,10 +106,10 @@ class Job:
             except (ValueError, RuntimeError) as error:
                 self.report.failures.append((obj.name, str(error)))
         if not self.items:
-            raise pipeline.SettingsError("; ".join("%s: %s" % failure for failure in self.report.failures))
+            raise SettingsError("; ".join("%s: %s" % failure for failure in self.report.failures))
         missing = missing_native(module)
         if missing:  # checked after the inputs, whose errors are worth more to the artist
-            raise pipeline.SettingsError("this build of texsynth_native lacks %s: rebuild with scripts/build.sh"
+            raise SettingsError("this build of texsynth_native lacks %s: rebuild with scripts/build.sh"
                                          % ", ".join(missing))
         if settings.particle_background != "NONE" and self.only_class is None:
             self._prepare_background([item.obj for item in self.items])
@@ -120,7 +121,7 @@ class Job:
         arrays.scale_multiplier = mesh_io.read_scale_multiplier(obj, settings)
         triangles, _ = mesh_io.read_loop_triangles(obj)
         if triangles.shape[0] == 0 or core.triangle_areas(arrays.positions, triangles).sum() <= 0.0:
-            raise pipeline.SettingsError("mesh %r has no area: particles need faces to sit on" % obj.data.name)
+            raise SettingsError("mesh %r has no area: particles need faces to sit on" % obj.data.name)
         overrides = {}
         polygons = None
         for key, name in (("face_density", settings.particle_density_source),
@@ -139,7 +140,7 @@ class Job:
         os.makedirs(self.cache_dir, exist_ok=True)
         if not os.path.isfile(path):
             scene.save_background(self.analysis.background, path)
-        uv_settings = pipeline.Settings(**{**self.settings.__dict__, "method": self.settings.particle_background})
+        uv_settings = Settings(**{**self.settings.__dict__, "method": self.settings.particle_background})
         self.background_job = uv_synthesis.Job(objects, uv_synthesis.Sample(path=path), uv_settings,
                                                self.cache_dir, self.material_mode, self.scene).prepare()
 
@@ -188,19 +189,19 @@ class Job:
         directions = np.ascontiguousarray(surface_core.directions(arrays, settings), dtype=np.float32)
         kwargs = dict(sample_world_width=float(settings.sample_world_size), classes=list(self.order),
                       size_jitter=float(settings.particle_size_jitter),
-                      seed=int(pipeline.object_seed(settings.seed, item.obj.name)), cancel=self.token)
+                      seed=int(object_seed(settings.seed, item.obj.name)), cancel=self.token)
         if arrays.scale_multiplier is not None:
             kwargs["vertex_scale"] = arrays.scale_multiplier
         kwargs.update(item.overrides)
         if self.only_class is not None:
             if "output_classes" not in (module.place_particles.__doc__ or ""):  # a build from before issue 30
-                raise pipeline.SettingsError("this build of texsynth_native's place_particles cannot re-synthesize "
+                raise SettingsError("this build of texsynth_native's place_particles cannot re-synthesize "
                                              "one class: rebuild with scripts/build.sh")
             kwargs["output_classes"] = [self.only_class]
         placed = dict(module.place_particles(self.analysis, walk_mesh, directions, **kwargs))
         for key in PLACEMENT_KEYS:
             if key not in placed:
-                raise pipeline.SettingsError("place_particles returned no %r" % key)
+                raise SettingsError("place_particles returned no %r" % key)
         return walk_mesh, placed
 
     def _compute_item(self, module, item):
@@ -212,7 +213,7 @@ class Job:
                       "seconds_placement": time.perf_counter() - start, "seconds_atlas": 0.0,
                       "seconds_decal_mesh": 0.0}
         if len(placed["class"]) == 0:
-            raise pipeline.SettingsError("no particle could be placed (surface too small for the particles at "
+            raise SettingsError("no particle could be placed (surface too small for the particles at "
                                          "this scale, or every face overridden to 0)")
         classes = [self.only_class] if self.only_class is not None else list(self.order)
         rank = {c: self.order.index(c) for c in classes}
@@ -243,7 +244,7 @@ class Job:
                         np.ascontiguousarray(part["barycentric"], np.float64), axes, rects, uv_rects,
                         offset=core.decal_offset(rank[c], diagonal), cancel=self.token))
                 if "source_triangle" not in out.decals:  # a build from before baking needed them
-                    raise pipeline.SettingsError("this build of texsynth_native's decal_mesh returns no source "
+                    raise SettingsError("this build of texsynth_native's decal_mesh returns no source "
                                                  "triangles: rebuild with scripts/build.sh")
                 item.stats["seconds_decal_mesh"] += time.perf_counter() - start
             if points:
@@ -325,7 +326,7 @@ class Job:
 
 def synthesize(objects, sample, settings, cache_dir="", label_pixels=None, only_class=None, material_mode="NEW",
                progress=None, scene_=None):
-    """Every stage; returns the pipeline.Report."""
+    """Every stage; returns the Report."""
     job = Job(objects, sample, settings, cache_dir, label_pixels, only_class, material_mode, scene_).prepare()
     return job.compute(progress).apply(progress)
 

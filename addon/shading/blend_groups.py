@@ -26,14 +26,15 @@ import math
 import bpy
 
 from .. import compat
-from ..core import pipeline
+from ..core.layers import BASE_UV_NAME, GROUPS_NAME, SET_ATTRIBUTE_NAMES, WEIGHTS_NAME
+from ..core.settings import TEXTON_PATCH_ZONE
 from ..core.names import fit_name
 
 GROUP_PREFIX = "TexSynth Blend: "
 MATERIAL_PREFIX = "TexSynth: "
 NODE_PREFIX = "TexSynth "
 TARGETS = ("Base Color", "Roughness", "Metallic", "Normal")  # Principled inputs named alike in 3.x and 4.x
-BLEND_MODES = ("HISTOGRAM", "VARIANCE", "LINEAR")  # resolved modes (pipeline.Settings also has AUTO)
+BLEND_MODES = ("HISTOGRAM", "VARIANCE", "LINEAR")  # resolved modes (core.settings.Settings also has AUTO)
 MODE_SUFFIX = {"HISTOGRAM": "", "VARIANCE": " (variance)", "LINEAR": " (linear)"}
 
 
@@ -64,17 +65,17 @@ class BlendInputs:
 
 
 def blend_inputs(blend, image, method="JUMPMAP"):
-    """BlendInputs for pipeline.BlendShading `blend` of `image` (loads the histogram images)."""
+    """BlendInputs for uv_methods.core.BlendShading `blend` of `image` (loads the histogram images)."""
     inputs = BlendInputs(mode=blend.mode, mean=blend.mean, correlation_length=blend.correlation_length,
                          size=(int(image.size[0]), int(image.size[1])),
-                         patch_zone=pipeline.TEXTON_PATCH_ZONE if method == "TEXTON" else 0.0)
+                         patch_zone=TEXTON_PATCH_ZONE if method == "TEXTON" else 0.0)
     if blend.files is not None:
         inputs.gaussian, inputs.inverse_lut = histogram_images(blend.files, image)
     return inputs
 
 
 def histogram_images(files, image):
-    """(Gaussianized image, inverse look-up table) as bpy images for pipeline.HistogramFiles `files`,
+    """(Gaussianized image, inverse look-up table) as bpy images for uv_methods.core.HistogramFiles `files`,
     packed into the .blend so it renders anywhere. The table holds the sample's own values, so it is
     read in the sample's colour space; the Gaussianized image is data."""
     loaded = []
@@ -172,13 +173,13 @@ class _Terms:
 
 
 def _blend_terms(b, patch_zone, sharpen=False):
-    weights = b.attribute(pipeline.WEIGHTS_NAME, -1600, 600)
+    weights = b.attribute(WEIGHTS_NAME, -1600, 600)
     w012 = weights.outputs["Vector"]
     w0, w1, w2 = b.separate(w012, -1400, 600)
-    # Alpha stores 1 - w3 (see pipeline.weights_rgba): a missing attribute reads (0,0,0,1) = no weights.
+    # Alpha stores 1 - w3 (see uv_methods.encoding.weights_rgba): a missing attribute reads (0,0,0,1) = no weights.
     w3 = b.math("SUBTRACT", 1.0, weights.outputs["Alpha"], -1400, 450)
     set_uvs = []
-    for index, name in enumerate(pipeline.SET_ATTRIBUTE_NAMES):
+    for index, name in enumerate(SET_ATTRIBUTE_NAMES):
         y = 200 - 300 * index
         sets = b.attribute(name, -1600, y)
         # Vector = (u_a, v_a, u_b): an Image Texture reads x, y only; set b is (z, alpha).
@@ -186,7 +187,7 @@ def _blend_terms(b, patch_zone, sharpen=False):
         z = b.separate(sets.outputs["Vector"], -1400, y)[2]
         set_uvs.append(b.combine(z, sets.outputs["Alpha"], 0.0, -1200, y))
     weights = [w0, w1, w2, w3]
-    base_uv = b.node("ShaderNodeUVMap", -1600, -500, uv_map=pipeline.BASE_UV_NAME).outputs["UV"]
+    base_uv = b.node("ShaderNodeUVMap", -1600, -500, uv_map=BASE_UV_NAME).outputs["UV"]
     if patch_zone <= 0:
         total = b.math("ADD", b.vector_dot(w012, (1.0, 1.0, 1.0), -1200, 700), w3, -1000, 650)
         base_weight = b.math("SUBTRACT", 1.0, total, -800, 650, clamp=True)
@@ -262,9 +263,9 @@ def _mixture_variance(b, terms, inputs):
 
 def _group_variance(b, terms):
     """Texton zones: sigma^2 = (b + r G_0)^2 + r^2 (G_1^2 + G_2^2 + G_3^2) with r = 1 - b and G the
-    per-corner group weights (pipeline.mapping_groups_rgba: identical mappings summed, distinct ones
+    per-corner group weights (uv_methods.encoding.mapping_groups_rgba: identical mappings summed, distinct ones
     independent). A mesh without the attribute reads G = (0, 0, 0, 1): one independent group."""
-    groups = b.attribute(pipeline.GROUPS_NAME, -1600, 1200)
+    groups = b.attribute(GROUPS_NAME, -1600, 1200)
     g012, g3 = groups.outputs["Vector"], groups.outputs["Alpha"]
     g0 = b.separate(g012, -1400, 1200)[0]
     base, rest = terms.base, terms.rest
@@ -292,7 +293,7 @@ def _build(group, image, inputs):
         # Texton zones are rescaled too, from groups of identical mappings: on stochastic samples
         # (moss, bark) distinct patches are nearly independent and the unscaled mix lost 9-12 % of
         # the gradient next to the edges. Periodic samples (bricks), whose matched patches are
-        # strongly correlated, are left to Linear by Auto (pipeline.blend_shading).
+        # strongly correlated, are left to Linear by Auto (uv_methods.core.blend_shading).
         variance = _mixture_variance(b, blend, inputs) if inputs.patch_zone <= 0 else _group_variance(b, blend)
         variance = b.math("MAXIMUM", variance, 1e-6, 0, 500)
         inverse = b.math("INVERSE_SQRT", variance, None, 150, 500)
@@ -374,7 +375,7 @@ def insert_into_material(material, image, target="Base Color", inputs=None):
         nodes = material.node_tree.nodes
         normal_map = nodes.get(group_node.name + " Normal Map") or nodes.new("ShaderNodeNormalMap")
         normal_map.name = group_node.name + " Normal Map"
-        normal_map.uv_map = pipeline.BASE_UV_NAME
+        normal_map.uv_map = BASE_UV_NAME
         normal_map.location = (group_node.location[0] + 200, group_node.location[1])
         links.new(group_node.outputs["Color"], normal_map.inputs["Color"])
         links.new(normal_map.outputs["Normal"], principled.inputs["Normal"])

@@ -14,7 +14,9 @@ import threading
 import numpy as np
 
 from .. import native
-from ..core import pipeline
+from ..core.finite import all_finite
+from ..core.sample_image import srgb_to_linear
+from ..core.settings import SettingsError, check_patch_boundary
 
 COLOUR_ATTRIBUTE_NAME = "TexSynth_Colour"  # VERTICES target: FLOAT_COLOR point attribute
 IMAGE_PREFIXES = {"ROUND": "TexSynth Round: ", "PATCHES": "TexSynth Patches: "}  # default IMAGE target names
@@ -40,7 +42,7 @@ def output_values(colour, sample_srgb, output_linear):
     colour = np.asarray(colour, dtype=np.float32)
     if bool(sample_srgb) == (not output_linear):
         return colour
-    convert = pipeline.srgb_to_linear if sample_srgb else linear_to_srgb
+    convert = srgb_to_linear if sample_srgb else linear_to_srgb
     out = colour.copy()
     channels = min(3, colour.shape[-1])
     out[..., :channels] = convert(colour[..., :channels]).astype(np.float32)
@@ -52,14 +54,14 @@ def synthesis_sample(pixels_top_first):
     round_synthesize expects: rows grow along the texture's up). Grey samples become RGB."""
     pixels = np.asarray(pixels_top_first, dtype=np.float32)
     if pixels.ndim != 3 or pixels.shape[0] < 2 or pixels.shape[1] < 2:
-        raise pipeline.SettingsError("sample must be an image of at least 2 x 2 pixels, got shape %s" % (pixels.shape,))
+        raise SettingsError("sample must be an image of at least 2 x 2 pixels, got shape %s" % (pixels.shape,))
     channels = pixels.shape[2]
     if channels == 1:
         pixels = np.repeat(pixels, 3, axis=2)
     elif channels == 2:  # grey + alpha
         pixels = np.concatenate([np.repeat(pixels[:, :, :1], 3, axis=2), pixels[:, :, 1:]], axis=2)
-    if not pipeline.all_finite(pixels):
-        raise pipeline.SettingsError("sample contains NaN or infinite pixel values")
+    if not all_finite(pixels):
+        raise SettingsError("sample contains NaN or infinite pixel values")
     return np.ascontiguousarray(pixels[::-1])
 
 
@@ -134,12 +136,12 @@ def directions(mesh_arrays, settings):
     if settings.orientation == "AXIS":
         return module.compute_field(*mesh, orientation="axis", axis=tuple(float(c) for c in settings.axis))
     if mesh_arrays.direction is None:
-        raise pipeline.SettingsError("mesh has no vector attribute %r for the orientation" % settings.direction_attribute)
+        raise SettingsError("mesh has no vector attribute %r for the orientation" % settings.direction_attribute)
     if settings.orientation == "FIELD":
         return module.compute_field(*mesh, orientation="field", direction=mesh_arrays.direction)
     anchors = np.flatnonzero(np.linalg.norm(mesh_arrays.direction, axis=1) > 1e-12).astype(np.int32)
     if anchors.size == 0:
-        raise pipeline.SettingsError("attribute %r has no non-zero vectors: no anchors" % settings.direction_attribute)
+        raise SettingsError("attribute %r has no non-zero vectors: no anchors" % settings.direction_attribute)
     return module.compute_field(*mesh, orientation="anchors", anchor_vertices=anchors,
                                 anchor_directions=np.ascontiguousarray(mesh_arrays.direction[anchors]))
 
@@ -208,7 +210,7 @@ def synthesize_round(sample, mesh_arrays, triangles, corner_uvs, settings, seed,
     native module's) on bad input, e.g. overlapping UV islands or a target above the memory limit."""
     module = native.require()
     if mesh_arrays.num_faces == 0 or triangles.shape[0] == 0:
-        raise pipeline.SettingsError("mesh has no faces")
+        raise SettingsError("mesh has no faces")
     up = directions(mesh_arrays, settings)
     density = target_density(mesh_arrays.positions, triangles, corner_uvs, target)
     full_width = sample.shape[1]
@@ -419,7 +421,7 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
     (V, C). ValueError on bad input (overlapping UV islands, a target above the memory limit, ...)."""
     module = native.require()
     if mesh_arrays.num_faces == 0 or triangles.shape[0] == 0:
-        raise pipeline.SettingsError("mesh has no faces")
+        raise SettingsError("mesh has no faces")
     stage = stage or (lambda name: None)
     extra = {} if cancel is None else {"cancel": cancel}
     up = directions(mesh_arrays, settings)
@@ -442,8 +444,8 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
                                                tileable=bool(settings.tileable), mode=settings.patch_mode.lower(),
                                                levels=PATCH_LEVELS)
     except ValueError as error:  # a working sample too small for any patch
-        raise pipeline.SettingsError(str(error))
-    pipeline.check_patch_boundary(settings.patch_boundary, level_sizes)
+        raise SettingsError(str(error))
+    check_patch_boundary(settings.patch_boundary, level_sizes)
     stage("context")
     if target.kind == "IMAGE":
         texels = cached[1] if cached else module.sample_texels(
@@ -451,10 +453,10 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
             margin=int(target.margin), **extra)
         covered = int(texels["texel"].size)
         if covered == 0:
-            raise pipeline.SettingsError("the UV map covers no texel of a %dx%d image" % (target.width, target.height))
+            raise SettingsError("the UV map covers no texel of a %dx%d image" % (target.width, target.height))
         overlapping = int(texels["num_overlapping_texels"])
         if overlapping > MAX_OVERLAP_FRACTION * covered:
-            raise pipeline.SettingsError(
+            raise SettingsError(
                 "UV map has overlapping islands: %d of %d texels are covered twice; unwrap without overlaps "
                 "(or let TexSynth make a map with Smart UV Project)" % (overlapping, covered))
         positions, normals = texels["position"], texels["normal"]
@@ -478,7 +480,7 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
                       "traced and the sample analysed at its resolution" % (sample.shape[1], sample.shape[0], finer))
         else:
             advice = "use a smaller image, Patch Sampling mode, larger patches or a smaller sample"
-        raise pipeline.SettingsError(
+        raise SettingsError(
             "%d surface samples with %d px patches in %s mode need about %d MB (limit %d MB): %s"
             % (positions.shape[0], level_sizes[0][2], mode.lower(), needed, PATCH_MAX_MEGABYTES, advice))
     exemplar, exemplar_from = cache.get(sample, settings.patch_size, settings.tileable,

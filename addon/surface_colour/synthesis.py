@@ -17,7 +17,8 @@ import numpy as np
 from .. import native
 from ..bake import baking, options
 from ..bridge import mesh_io
-from ..core import pipeline
+from ..core.reporting import Report, Timings
+from ..core.settings import SURFACE_METHODS, SettingsError, object_seed, texels_per_unit
 from ..core.names import fit_name
 from ..shading import surface_material
 from ..uv_methods.synthesis import Cancelled, mesh_objects
@@ -55,7 +56,7 @@ class Job:
         self.cache_dir = cache_dir  # PATCHES: where analysed samples are kept ('' = memory only)
         self.request = request or options.BakeRequest(create_uv=True)
         self.material_mode, self.context = material_mode, context or bpy.context
-        self.report, self.timings = pipeline.Report(uses_cache=False), pipeline.Timings()
+        self.report, self.timings = Report(uses_cache=False), Timings()
         self.items = []
         self.token = None
         self.cancelled = False
@@ -66,16 +67,16 @@ class Job:
 
     def prepare(self):
         settings = self.settings.validate()
-        if settings.method not in pipeline.SURFACE_METHODS:
-            raise pipeline.SettingsError("method %r is not a surface-colour method" % settings.method)
+        if settings.method not in SURFACE_METHODS:
+            raise SettingsError("method %r is not a surface-colour method" % settings.method)
         meshes, self.report.failures = mesh_objects(self.objects)
         if not meshes:
-            raise pipeline.SettingsError("no mesh object selected")
+            raise SettingsError("no mesh object selected")
         image_target = settings.surface_target == "IMAGE"
         if image_target:
             self.request.validate()
             if self.request.target and len(meshes) > 1:
-                raise pipeline.SettingsError("image %r can hold one object's texture; %d objects are selected "
+                raise SettingsError("image %r can hold one object's texture; %d objects are selected "
                                              "(leave the image name empty for one image per object)"
                                              % (self.request.target, len(meshes)))
         module = native.require()
@@ -83,7 +84,7 @@ class Job:
         with self.timings.phase("read"):
             pixels, self.sample_srgb = sample_pixels(self.sample)
             self.sample_array = core.synthesis_sample(pixels)
-        self.texels_per_unit = pipeline.texels_per_unit(int(pixels.shape[1]), settings.sample_world_size)
+        self.texels_per_unit = texels_per_unit(int(pixels.shape[1]), settings.sample_world_size)
         for obj in meshes:
             item = None
             try:
@@ -91,7 +92,7 @@ class Job:
                     arrays = mesh_io.read_mesh(obj, settings.direction_attribute if settings.orientation != "AXIS" else "")
                     arrays.scale_multiplier = mesh_io.read_scale_multiplier(obj, settings)
                     if arrays.num_faces == 0:
-                        raise pipeline.SettingsError("mesh %r has no faces" % obj.data.name)
+                        raise SettingsError("mesh %r has no faces" % obj.data.name)
                     item = _Item(obj, arrays)
                     if image_target:
                         self._prepare_image_target(item)
@@ -111,9 +112,9 @@ class Job:
         item.uv_map = baking.choose_uv_map(obj.data, request)
         if item.uv_map is None:
             if obj.data.library is not None:
-                raise pipeline.SettingsError("mesh %r is linked from a library: cannot add a UV map" % obj.data.name)
+                raise SettingsError("mesh %r is linked from a library: cannot add a UV map" % obj.data.name)
             if obj.name not in self.context.view_layer.objects:
-                raise pipeline.SettingsError("object %r is not in the active view layer (Smart UV Project "
+                raise SettingsError("object %r is not in the active view layer (Smart UV Project "
                                              "needs it)" % obj.name)
             item.uv_map = item.created_uv = baking.smart_project(obj, request, self.context)
             self.report.notes.append("%s: created UV map %r with Smart UV Project (it had none besides "
@@ -168,7 +169,7 @@ class Job:
                 size = self.request.size
                 target = core.SurfaceTarget(target_kind, size, size, self.request.margin) \
                     if target_kind == "IMAGE" else core.SurfaceTarget("VERTICES")
-                seed = pipeline.object_seed(self.settings.seed, item.obj.name)
+                seed = object_seed(self.settings.seed, item.obj.name)
                 try:
                     with self.timings.phase("synthesis"):
                         if self.settings.method == "PATCHES":
@@ -283,7 +284,7 @@ class Job:
 
 def synthesize(objects, sample, settings, request=None, material_mode="NEW", progress=None, context=None,
                cache_dir=""):
-    """Runs every stage; returns the pipeline.Report (discarding prepare()'s changes on failure)."""
+    """Runs every stage; returns the Report (discarding prepare()'s changes on failure)."""
     job = Job(objects, sample, settings, request, material_mode, context, cache_dir).prepare()
     try:
         job.compute(progress)

@@ -7,7 +7,8 @@ import weakref
 import bpy
 
 from .. import compat
-from ..core import pipeline
+from ..core.reporting import Timings
+from ..core.settings import SURFACE_METHODS, SettingsError
 from . import properties
 from ..uv_methods import synthesis
 
@@ -18,7 +19,7 @@ cache_status_by_sample = {}
 def sample_from_settings(settings):
     if settings.sample_source == "IMAGE":
         if settings.sample_image is None:
-            raise pipeline.SettingsError("no sample image: choose an image in the .blend")
+            raise SettingsError("no sample image: choose an image in the .blend")
         return synthesis.Sample(image=settings.sample_image)
     return synthesis.Sample(path=settings.sample_path)
 
@@ -52,7 +53,7 @@ class TEXSYNTH_OT_preprocess(bpy.types.Operator):
 
     def execute(self, context):
         props = context.scene.texsynth
-        if props.method in pipeline.SURFACE_METHODS + ("PARTICLES",):
+        if props.method in SURFACE_METHODS + ("PARTICLES",):
             self.report({"INFO"}, "TexSynth: %s works on the sample directly; nothing to preprocess"
                         % props.bl_rna.properties["method"].enum_items[props.method].name)
             return {"FINISHED"}
@@ -61,7 +62,7 @@ class TEXSYNTH_OT_preprocess(bpy.types.Operator):
             settings = props.to_settings().validate()
             with _Progress(context) as progress:
                 progress(0.0, "TexSynth: preprocessing %s" % sample.describe())
-                timings = pipeline.Timings()
+                timings = Timings()
                 pre = synthesis.preprocess(sample, settings, properties.cache_dir(context), timings)
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
@@ -182,7 +183,7 @@ class TEXSYNTH_OT_synthesize(JobOperator, bpy.types.Operator):
         if settings.method == "PARTICLES":
             from .particle_operators import particle_job
             return particle_job(context, objects)
-        if settings.method in pipeline.SURFACE_METHODS:
+        if settings.method in SURFACE_METHODS:
             from ..surface_colour import synthesis as surface_synthesis
             return surface_synthesis.Job(objects, sample_from_settings(props), settings, props.to_bake_request(),
                                          props.material_mode, context,

@@ -3,7 +3,8 @@
 import bpy
 
 from .. import native
-from ..core import pipeline
+from ..core.layers import BASE_UV_NAME
+from ..core.settings import SURFACE_METHODS, UV_METHODS
 from . import operators
 
 
@@ -50,7 +51,7 @@ class TEXSYNTH_PT_sample(_SubPanel, bpy.types.Panel):
         else:
             layout.template_ID(props, "sample_image", open="image.open")
             key = props.sample_image.name if props.sample_image else "<none>"
-        if props.method in pipeline.SURFACE_METHODS + ("PARTICLES",):
+        if props.method in SURFACE_METHODS + ("PARTICLES",):
             layout.label(text="No preprocessing needed", icon="INFO")
             return
         row = layout.row(align=True)
@@ -70,7 +71,7 @@ class TEXSYNTH_PT_method(_SubPanel, bpy.types.Panel):
         layout.prop(props, "seed")
         if props.method == "JUMPMAP":
             layout.prop(props, "jump_rate")
-        if props.method in pipeline.UV_METHODS:
+        if props.method in UV_METHODS:
             column = layout.column(align=True)
             column.prop(props, "working_size")
             column.prop(props, "neighbourhood")
@@ -94,7 +95,7 @@ class TEXSYNTH_PT_method(_SubPanel, bpy.types.Panel):
             layout.label(text="Synthesis Resolution:")
             layout.prop(props, "round_resolution", text="")
             return
-        if props.method in pipeline.SURFACE_METHODS:
+        if props.method in SURFACE_METHODS:
             column = layout.column(align=True)
             column.prop(props, "round_levels")
             column.prop(props, "round_coarse_rings")
@@ -154,7 +155,7 @@ class TEXSYNTH_PT_output(_SubPanel, bpy.types.Panel):
         layout.prop(props, "material_mode", text="")
         if props.method == "PARTICLES":
             return  # the particles' own outputs are in the Particles panel
-        surface = props.method in pipeline.SURFACE_METHODS
+        surface = props.method in SURFACE_METHODS
         if surface:
             layout.label(text="Target:")
             layout.prop(props, "surface_target", expand=True)
@@ -169,7 +170,7 @@ class TEXSYNTH_PT_output(_SubPanel, bpy.types.Panel):
         obj = context.active_object
         if obj is not None and obj.type == "MESH":
             box.prop_search(props, "bake_uv_map", obj.data, "uv_layers", text="")
-            if props.bake_uv_map == pipeline.BASE_UV_NAME:
+            if props.bake_uv_map == BASE_UV_NAME:
                 box.label(text="TexSynth's map overlaps", icon="ERROR")
         else:
             box.prop(props, "bake_uv_map", text="")

@@ -6,7 +6,7 @@ import os
 import bpy
 
 from ..bridge import mesh_io
-from ..core import pipeline
+from ..core.settings import Settings, SettingsError
 from . import operators, properties
 
 
@@ -25,7 +25,7 @@ def analyse(context):
     props = context.scene.texsynth
     settings = props.to_settings()
     if settings.method != "PARTICLES":
-        settings = pipeline.Settings(**{**settings.__dict__, "method": "PARTICLES",
+        settings = Settings(**{**settings.__dict__, "method": "PARTICLES",
                                         **properties.TexSynthSettings.particle_settings(_AsParticles(props))})
     sample = operators.sample_from_settings(props)
     analysis, source, notes = synthesis.analyse(sample, settings, properties.cache_dir(context), label_pixels(props))
@@ -108,7 +108,7 @@ class TEXSYNTH_OT_particle_pick_class(bpy.types.Operator):
     def _cursor(context):
         space = context.space_data
         if space is None or space.type != "IMAGE_EDITOR" or space.image is None:
-            raise pipeline.SettingsError("pick a class in the Image Editor (showing the segmentation or the sample), "
+            raise SettingsError("pick a class in the Image Editor (showing the segmentation or the sample), "
                                          "or give the pixel's x and y")
         u, v = space.cursor_location
         return int(u * space.image.size[0]), int(v * space.image.size[1])
@@ -161,7 +161,7 @@ class TEXSYNTH_OT_particle_merge(bpy.types.Operator):
         try:
             merges = core.parse_merges(props.particle_merges)
             if a == b or not (0 <= a < shown and 0 <= b < shown):
-                raise pipeline.SettingsError("merge needs two different classes of the analysis (0..%d)" % (shown - 1))
+                raise SettingsError("merge needs two different classes of the analysis (0..%d)" % (shown - 1))
             count = shown + len(merges)  # classes before the merges
             pair = (core.original_id(a, count, merges), core.original_id(b, count, merges))
         except (ValueError, RuntimeError) as error:

@@ -3,7 +3,9 @@
 import bpy
 
 from ..bake import options as bake_options
-from ..core import pipeline
+from ..core.settings import (PARTICLE_CLASS_RANGE, PARTICLE_MAX_BLUR, PARTICLE_MAX_JITTER, PATCH_BOUNDARY_RANGE,
+    PATCH_ITERATION_RANGE, PATCH_SIZE_RANGE, PATCH_TOLERANCE_RANGE, ROUND_CANDIDATE_RANGE, ROUND_LEVEL_RANGE,
+    ROUND_RING_RANGE, Settings, WORKING_SIZE_RANGE)
 
 ADDON_ID = __package__
 
@@ -45,16 +47,16 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                                   "keeping their arrangement (Dischler et al.)")),
         default="JUMPMAP")
     particle_classes: bpy.props.IntProperty(
-        name="Classes", default=4, min=pipeline.PARTICLE_CLASS_RANGE[0], max=pipeline.PARTICLE_CLASS_RANGE[1],
+        name="Classes", default=4, min=PARTICLE_CLASS_RANGE[0], max=PARTICLE_CLASS_RANGE[1],
         description="Colour classes the sample is segmented into (background included)")
     particle_blur: bpy.props.FloatProperty(
-        name="Blur", default=1.0, min=0.0, max=pipeline.PARTICLE_MAX_BLUR, subtype="PIXEL",
+        name="Blur", default=1.0, min=0.0, max=PARTICLE_MAX_BLUR, subtype="PIXEL",
         description="Smoothing before segmentation (sample pixels): higher ignores fine texture inside elements")
     particle_min_area: bpy.props.IntProperty(
         name="Min Area", default=0, min=0, subtype="PIXEL",
         description="Smaller regions join the background (0: automatic, max(16 px, 0.02 % of the sample))")
     particle_background_class: bpy.props.IntProperty(
-        name="Background Class", default=-1, min=-1, max=pipeline.PARTICLE_CLASS_RANGE[1] - 1,
+        name="Background Class", default=-1, min=-1, max=PARTICLE_CLASS_RANGE[1] - 1,
         description="Class synthesized as texture under the particles (-1: the largest)")
     particle_merges: bpy.props.StringProperty(
         name="Merges", default="", description="Class merges a>b (class a joins b), comma separated")
@@ -75,7 +77,7 @@ class TexSynthSettings(bpy.types.PropertyGroup):
         name="Instances", type=bpy.types.Collection,
         description="Objects placed per class (child i for class i, wrapping): any objects, e.g. a thorn")
     particle_size_jitter: bpy.props.FloatProperty(
-        name="Size Jitter", default=0.0, min=0.0, max=pipeline.PARTICLE_MAX_JITTER, subtype="FACTOR",
+        name="Size Jitter", default=0.0, min=0.0, max=PARTICLE_MAX_JITTER, subtype="FACTOR",
         description="Each particle's size varies by up to this fraction")
     particle_density_source: bpy.props.StringProperty(
         name="Density", default="",
@@ -103,13 +105,13 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                ("VERTICES", "Vertices", "A colour attribute: one colour per vertex of a dense mesh (attribute TexSynth_Colour)")),
         default="IMAGE")
     round_levels: bpy.props.IntProperty(
-        name="Levels", default=3, min=pipeline.ROUND_LEVEL_RANGE[0], max=pipeline.ROUND_LEVEL_RANGE[1],
+        name="Levels", default=3, min=ROUND_LEVEL_RANGE[0], max=ROUND_LEVEL_RANGE[1],
         description="Resolution levels on the surface: more levels keep larger structures together")
     round_coarse_rings: bpy.props.IntProperty(
-        name="Coarse Rings", default=4, min=pipeline.ROUND_RING_RANGE[0], max=pipeline.ROUND_RING_RANGE[1],
+        name="Coarse Rings", default=4, min=ROUND_RING_RANGE[0], max=ROUND_RING_RANGE[1],
         description="Neighbourhood radius (in rings of samples) at the coarsest level, which lays out the structure")
     round_fine_rings: bpy.props.IntProperty(
-        name="Fine Rings", default=2, min=pipeline.ROUND_RING_RANGE[0], max=pipeline.ROUND_RING_RANGE[1],
+        name="Fine Rings", default=2, min=ROUND_RING_RANGE[0], max=ROUND_RING_RANGE[1],
         description="Neighbourhood radius at the finer levels, which refine the detail")
     round_resolution: bpy.props.EnumProperty(
         name="Resolution",
@@ -118,8 +120,8 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                ("FULL", "Full Sample", "Always synthesize from the full-resolution sample")),
         default="AUTO")
     round_candidates: bpy.props.IntProperty(
-        name="Random Candidates", default=2, min=pipeline.ROUND_CANDIDATE_RANGE[0],
-        max=pipeline.ROUND_CANDIDATE_RANGE[1],
+        name="Random Candidates", default=2, min=ROUND_CANDIDATE_RANGE[0],
+        max=ROUND_CANDIDATE_RANGE[1],
         description="Random sample positions tried per point at the coarsest level: more gives more variety")
     patch_mode: bpy.props.EnumProperty(
         name="Mode",
@@ -129,19 +131,19 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                                 "optimisation (slower, fewer broken structures)")),
         default="SAMPLING")
     patch_size: bpy.props.IntProperty(
-        name="Patch Size", default=32, min=pipeline.PATCH_SIZE_RANGE[0], max=pipeline.PATCH_SIZE_RANGE[1], step=4,
+        name="Patch Size", default=32, min=PATCH_SIZE_RANGE[0], max=PATCH_SIZE_RANGE[1], step=4,
         description="Patch width in sample pixels (a multiple of 4): larger keeps larger structures whole")
     patch_boundary: bpy.props.IntProperty(
-        name="Boundary", default=4, min=pipeline.PATCH_BOUNDARY_RANGE[0], max=pipeline.PATCH_BOUNDARY_RANGE[1],
+        name="Boundary", default=4, min=PATCH_BOUNDARY_RANGE[0], max=PATCH_BOUNDARY_RANGE[1],
         description="Width in sample pixels of the zone where a new patch is matched and cross-faded into its "
                     "neighbours: at most half the patch size (of the smaller patches a small sample or a coarse "
                     "optimisation level gets)")
     patch_tolerance: bpy.props.FloatProperty(
-        name="Tolerance", default=1.2, min=pipeline.PATCH_TOLERANCE_RANGE[0], max=pipeline.PATCH_TOLERANCE_RANGE[1],
+        name="Tolerance", default=1.2, min=PATCH_TOLERANCE_RANGE[0], max=PATCH_TOLERANCE_RANGE[1],
         description="Candidates matching within this factor of the best are equally likely: higher gives more "
                     "variety, lower better fits")
     patch_iterations: bpy.props.IntProperty(
-        name="Iterations", default=6, min=pipeline.PATCH_ITERATION_RANGE[0], max=pipeline.PATCH_ITERATION_RANGE[1],
+        name="Iterations", default=6, min=PATCH_ITERATION_RANGE[0], max=PATCH_ITERATION_RANGE[1],
         description="Optimisation passes over every patch")
     scale: bpy.props.FloatProperty(name="Scale", subtype="DISTANCE", default=1.0, min=1e-4, soft_max=100.0,
                                    description="World size of the sample's width: one sample spans this many "
@@ -151,7 +153,7 @@ class TexSynthSettings(bpy.types.PropertyGroup):
         name="Neighbourhood", default=11, min=3, max=25, step=2, subtype="PIXEL",
         description="Window (in analysis pixels, odd) that textons and jumps compare")
     working_size: bpy.props.IntProperty(
-        name="Analysis Size", default=512, min=0, max=pipeline.WORKING_SIZE_RANGE[1], subtype="PIXEL",
+        name="Analysis Size", default=512, min=0, max=WORKING_SIZE_RANGE[1], subtype="PIXEL",
         description="Longest side of the copy the sample is analysed at (0: its own resolution, at most 4096 "
                     "pixels). The material still shows the full image")
     jump_rate: bpy.props.FloatProperty(name="Jump Rate", default=20.0, min=0.0, soft_max=100.0,
@@ -258,7 +260,7 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                         material=self.bake_material)
 
     def to_settings(self):
-        return pipeline.Settings(method=self.method, sample_world_size=float(self.scale), seed=int(self.seed),
+        return Settings(method=self.method, sample_world_size=float(self.scale), seed=int(self.seed),
                                  jump_rate=float(self.jump_rate), blend=bool(self.blend),
                                  neighbourhood=int(self.neighbourhood) | 1, working_size=int(self.working_size),
                                  blend_mode=self.blend_mode,
@@ -279,7 +281,7 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                  **self.particle_settings())
 
     def particle_settings(self):
-        """The Texture Particles fields of pipeline.Settings (parsed only for that method: a typo in the
+        """The Texture Particles fields of Settings (parsed only for that method: a typo in the
         merges never blocks another method)."""
         from ..particles import core as particle_core
         if self.method != "PARTICLES":

@@ -14,7 +14,11 @@ import bpy
 
 from .. import native
 from ..bridge import mesh_io
-from ..core import pipeline
+from ..core.reporting import Report, Timings
+from ..core.sample_image import sample_pixels
+from ..core.settings import Settings, SettingsError, object_seed, texels_per_unit
+from .core import BlendShading, View, blend_shading
+from . import core as uv_core
 from ..shading import blend_groups
 
 
@@ -33,10 +37,10 @@ class Sample:
         if self.image is not None:
             return mesh_io.read_image_pixels(self.image)
         if not self.path:
-            raise pipeline.SettingsError("no sample image: choose an image file or an image in the .blend")
+            raise SettingsError("no sample image: choose an image file or an image in the .blend")
         path = bpy.path.abspath(self.path)
         if not os.path.isfile(path):
-            raise pipeline.SettingsError("sample image not found: %s" % path)
+            raise SettingsError("sample image not found: %s" % path)
         return path
 
     def shader_image(self):
@@ -53,20 +57,20 @@ def default_cache_dir():
         except (TypeError, ValueError):
             continue
         if base:
-            return pipeline.default_cache_dir(base)
-    return pipeline.default_cache_dir(bpy.app.tempdir or "/tmp")
+            return uv_core.default_cache_dir(base)
+    return uv_core.default_cache_dir(bpy.app.tempdir or "/tmp")
 
 
 def cache_status(sample, settings, cache_dir):
-    return pipeline.cache_status(sample.native_input(), settings, cache_dir or default_cache_dir())
+    return uv_core.cache_status(sample.native_input(), settings, cache_dir or default_cache_dir())
 
 
 def preprocess(sample, settings, cache_dir, timings=None):
     """Preprocessed sample (cached on disk)."""
-    timings = timings or pipeline.Timings()
+    timings = timings or Timings()
     with timings.phase("preprocess"):
         native_input = sample.native_input()
-        return pipeline.preprocess(native_input, settings, cache_dir or default_cache_dir())
+        return uv_core.preprocess(native_input, settings, cache_dir or default_cache_dir())
 
 
 def mesh_objects(objects):
@@ -86,7 +90,7 @@ def mesh_objects(objects):
 
 
 def camera_view(scene):
-    """The scene camera as a pipeline.View (world position, λ = render width / field of view), or None."""
+    """The scene camera as a View (world position, λ = render width / field of view), or None."""
     camera = scene.camera if scene is not None else None
     if camera is None or camera.type != "CAMERA":
         return None
@@ -94,7 +98,7 @@ def camera_view(scene):
     width = scene.render.resolution_x * scene.render.resolution_percentage / 100.0
     if not (angle > 0.0) or width <= 0:
         return None
-    return pipeline.View(position=tuple(camera.matrix_world.translation), pixels_per_radian=width / angle)
+    return View(position=tuple(camera.matrix_world.translation), pixels_per_radian=width / angle)
 
 
 class Cancelled(RuntimeError):
@@ -116,8 +120,8 @@ class Job:
         self.cache_dir, self.material_mode, self.scene = cache_dir, material_mode, scene
         self.preprocessed = preprocessed  # given: preprocessing is skipped (live updates)
         self.pixels = self.view = None
-        self.shading = pipeline.BlendShading()
-        self.report, self.timings = pipeline.Report(), pipeline.Timings()
+        self.shading = BlendShading()
+        self.report, self.timings = Report(), Timings()
         self.items = []  # [obj, arrays, result]
         self.token = None
         self.cancelled = False
@@ -127,17 +131,17 @@ class Job:
         self.settings.validate()
         meshes, self.report.failures = mesh_objects(self.objects)
         if not meshes:
-            raise pipeline.SettingsError("no mesh object selected")
+            raise SettingsError("no mesh object selected")
         module = native.require()
         self.token = module.CancelToken() if hasattr(module, "CancelToken") else None
         with self.timings.phase("preprocess"):
             self.native_input = self.sample.native_input()
         self.cache_dir = self.cache_dir or default_cache_dir()
         if self.settings.method == "TEXTON":
-            self.pixels = pipeline.sample_pixels(self.native_input)
+            self.pixels = sample_pixels(self.native_input)
             self.view = camera_view(self.scene or bpy.context.scene)
             if self.settings.blend_threshold > 0.0 and self.view is None:
-                raise pipeline.SettingsError(
+                raise SettingsError(
                     "a blend threshold needs a scene camera (the blending metric is view-dependent)")
         for obj in meshes:
             try:
@@ -146,7 +150,7 @@ class Job:
                                               if self.settings.orientation != "AXIS" else "")
                     arrays.scale_multiplier = mesh_io.read_scale_multiplier(obj, self.settings)
                 if arrays.num_faces == 0:
-                    raise pipeline.SettingsError("mesh %r has no faces" % obj.data.name)
+                    raise SettingsError("mesh %r has no faces" % obj.data.name)
                 mesh_io.check_capacity(obj.data)
                 self.items.append([obj, arrays, None])
             except (ValueError, RuntimeError) as error:
@@ -176,19 +180,19 @@ class Job:
             progress(0.0, "TexSynth: preprocessing %s" % self.sample.describe())
             if self.preprocessed is None:
                 with self.timings.phase("preprocess"):
-                    self.preprocessed = pipeline.preprocess(self.native_input, self.settings, self.cache_dir,
+                    self.preprocessed = uv_core.preprocess(self.native_input, self.settings, self.cache_dir,
                                                             self.token)
             preprocessed = self.preprocessed
             self.report.cache_hit = bool(preprocessed.cache_hit)
             self.report.cache_status = str(getattr(preprocessed, "cache_status", ""))
             if self.material_mode != "NONE" and self.items:
                 with self.timings.phase("preprocess"):
-                    self.shading = pipeline.blend_shading(self.native_input, self.settings, self.cache_dir)
+                    self.shading = blend_shading(self.native_input, self.settings, self.cache_dir)
                 self.report.blend_mode = self.shading.mode
                 self.report.blend_reason = self.shading.reason
                 if self.shading.note:
                     self.report.notes.append(self.shading.note)
-            scale = pipeline.texels_per_unit(int(preprocessed.width), self.settings.sample_world_size)
+            scale = texels_per_unit(int(preprocessed.width), self.settings.sample_world_size)
             for index, item in enumerate(self.items):
                 self._check_cancelled()
                 obj_name = item[0].name
@@ -196,8 +200,8 @@ class Job:
                          "TexSynth: %s (%d/%d)" % (obj_name, index + 1, len(self.items)))
                 try:
                     with self.timings.phase("synthesis"):
-                        item[2] = pipeline.synthesize(preprocessed, item[1], self.settings,
-                                                      pipeline.object_seed(self.settings.seed, obj_name), scale,
+                        item[2] = uv_core.synthesize(preprocessed, item[1], self.settings,
+                                                      object_seed(self.settings.seed, obj_name), scale,
                                                       self.pixels, self.view, self.token)
                 except native_cancelled:
                     raise
@@ -210,7 +214,7 @@ class Job:
         return self
 
     def apply(self, progress=None):
-        """Writes every computed result (main thread); returns the pipeline.Report."""
+        """Writes every computed result (main thread); returns the Report."""
         progress = progress or (lambda fraction, text: None)
         self._check_cancelled()
         # Loaded only now: Blender reads a file's header when loading it, and a hostile file must have
@@ -245,15 +249,15 @@ class Job:
 def blend_inputs(image, mode="HISTOGRAM", cache_dir=None, method="JUMPMAP"):
     """blend_groups.BlendInputs for any image of the .blend (e.g. a roughness or normal map driven through
     the same mapping): Gaussianizes it for HISTOGRAM (cached), falling back to VARIANCE as Synthesize does."""
-    settings = pipeline.Settings(blend_mode=mode, method=method).validate()
+    settings = Settings(blend_mode=mode, method=method).validate()
     srgb = image.colorspace_settings.name == "sRGB"
-    blend = pipeline.blend_shading(Sample(image=image).native_input(), settings, cache_dir or default_cache_dir(), srgb)
+    blend = blend_shading(Sample(image=image).native_input(), settings, cache_dir or default_cache_dir(), srgb)
     return blend_groups.blend_inputs(blend, image, method)
 
 
 def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None, scene=None,
                preprocessed=None):
-    """Synthesizes on every mesh object; returns a pipeline.Report. Raises SettingsError /
+    """Synthesizes on every mesh object; returns a Report. Raises SettingsError /
     NativeUnavailable / ValueError for problems that concern the whole run (nothing is changed then).
     `preprocessed` (optional) skips preprocessing, e.g. for live updates with a sample kept in memory."""
     job = Job(objects, sample, settings, cache_dir, material_mode, scene, preprocessed).prepare()
@@ -267,29 +271,29 @@ def synthesize_from_memory(obj, arrays, settings, preprocessed, main_thread_work
     released; meanwhile the main thread runs main_thread_work() (e.g. the field attribute writes)
     and snapshots the layers the write replaces, the bpy reads write_result would otherwise do after
     it. Then writes atomically as Synthesize does (no material). The worker touches no bpy data.
-    Returns a pipeline.Report (seconds: read, synthesis, overlap (main-thread work during the native
+    Returns a Report (seconds: read, synthesis, overlap (main-thread work during the native
     call), write, total). Raises SettingsError / ValueError / RuntimeError; main_thread_work's
     exceptions propagate after the worker has finished. overlap=False: the same steps one after
     the other on the calling thread (main_thread_work, snapshot, native, write). reuse_snapshot:
     the snapshot of the object's previous live update (its buffers are reused, see mesh_io.snapshot);
     the new one is in report.snapshot."""
     if settings.method != "JUMPMAP":
-        raise pipeline.SettingsError("synthesize_from_memory supports the jump-map method only")
+        raise SettingsError("synthesize_from_memory supports the jump-map method only")
     start = time.perf_counter()
-    report = pipeline.Report()
+    report = Report()
     seconds = {}
     arrays.scale_multiplier = mesh_io.read_scale_multiplier(obj, settings)
     if arrays.num_faces == 0:
-        raise pipeline.SettingsError("mesh %r has no faces" % obj.data.name)
-    seed = pipeline.object_seed(settings.seed, obj.name)
-    scale = pipeline.texels_per_unit(int(preprocessed.width), settings.sample_world_size)
+        raise SettingsError("mesh %r has no faces" % obj.data.name)
+    seed = object_seed(settings.seed, obj.name)
+    scale = texels_per_unit(int(preprocessed.width), settings.sample_world_size)
     seconds["read"] = time.perf_counter() - start
     outcome = {}
 
     def run():
         begin = time.perf_counter()
         try:
-            outcome["result"] = pipeline.synthesize(preprocessed, arrays, settings, seed, scale)
+            outcome["result"] = uv_core.synthesize(preprocessed, arrays, settings, seed, scale)
         except BaseException as error:  # re-raised on the main thread below
             outcome["error"] = error
         outcome["seconds"] = time.perf_counter() - begin

@@ -168,7 +168,7 @@ def main():
     synthesis.preprocess(synthesis.Sample(path=props.sample_path), settings, cache_dir)
     texsynth.ui.properties.cache_dir = lambda context: cache_dir  # the operator uses the warm bench cache
 
-    # The operator's own breakdown (pipeline.Timings of its Job), captured as the job finishes.
+    # The operator's own breakdown (core.reporting.Timings of its Job), captured as the job finishes.
     breakdowns, layer_counts = [], []
     apply = synthesis.Job.apply
 

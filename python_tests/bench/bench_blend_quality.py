@@ -170,10 +170,10 @@ def render(scene, path):
 
 
 def synthesize(obj, sample_path, mode, world_size, seed, cache_dir, axis):
-    from texsynth.core import pipeline
+    from texsynth.core import settings as core_settings
     from texsynth.uv_methods import synthesis
     method = "TEXTON" if mode.startswith("texton") else "JUMPMAP"
-    settings = pipeline.Settings(method=method, sample_world_size=world_size, seed=seed, axis=axis,
+    settings = core_settings.Settings(method=method, sample_world_size=world_size, seed=seed, axis=axis,
                                  blend=not mode.endswith("_noblend"))
     report = synthesis.synthesize([obj], synthesis.Sample(path=sample_path), settings, cache_dir=cache_dir,
                                   material_mode="NONE")

@@ -101,7 +101,7 @@ def timing_main():
     num_vertices = len(mesh[0])
     print("mesh: %d vertices, %d polygons, %d corners; %d CPUs (TBB's default: one thread each)"
           % (num_vertices, len(mesh[3]), len(mesh[1]), os.cpu_count()))
-    # The operator's arguments (pipeline.synthesize): sample a quarter of the mesh, blended, packed sets.
+    # The operator's arguments (uv_methods.core.synthesize): sample a quarter of the mesh, blended, packed sets.
     kwargs = dict(scale=float(pre.width) / (float(data["size"]) / 4.0), seed=1, pack_sets=True, blend=True,
                   jump_rate=20.0, orientation="axis", axis=(0.0, 0.0, 1.0))
     if args.module:  # child: one call of the default path, raw figures as JSON

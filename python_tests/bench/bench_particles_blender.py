@@ -88,11 +88,11 @@ def synthetic(args, obj):
 
 
 def real(args, obj, texsynth):
-    from texsynth.core import pipeline
+    from texsynth.core import settings as core_settings
     from texsynth.particles import core, scene, synthesis
     from texsynth.uv_methods.synthesis import Sample
     path = pebble_sample(os.path.join(tempfile.mkdtemp(), "pebbles.png"))
-    settings = pipeline.Settings(method="PARTICLES", particle_classes=3, particle_blur=0.0,
+    settings = core_settings.Settings(method="PARTICLES", particle_classes=3, particle_blur=0.0,
                                  particle_background="NONE", seed=3)
     probe = synthesis.Job([obj], Sample(path=path), settings).prepare()
     a = probe.analysis

@@ -67,7 +67,7 @@ def setup_render(scene, engine, texsynth):
 def main():
     args = parse_args()
     texsynth = harness.load_addon()
-    from texsynth.core import pipeline
+    from texsynth.core import settings as core_settings
     from texsynth.shading import blend_groups
     from texsynth.uv_methods import synthesis
     scene = bpy.context.scene
@@ -76,7 +76,7 @@ def main():
     for method in args.methods.split(","):
         materials = {}
         for obj_name, sample, world_size, seed in JOBS:
-            settings = pipeline.Settings(method=method, sample_world_size=world_size, seed=seed)
+            settings = core_settings.Settings(method=method, sample_world_size=world_size, seed=seed)
             path = os.path.join(harness.SAMPLES_DIR, sample)
             report = synthesis.synthesize([bpy.data.objects[obj_name]], synthesis.Sample(path=path), settings,
                                           cache_dir=cache_dir)

@@ -26,7 +26,7 @@ import harness  # noqa: E402
 texsynth = harness.load_addon()
 texsynth.register()
 from texsynth.bake import options  # noqa: E402
-from texsynth.core import pipeline  # noqa: E402
+from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.surface_colour import synthesis as surface  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
 
@@ -98,7 +98,7 @@ def main():
     print("%-36s %8s %8s %8s %8s %10s %9s" % ("run", "context", "synth", "native", "total", "samples", "peak MB"))
     for label, values in runs:
         started = time.perf_counter()
-        report = surface.synthesize([obj], sample, pipeline.Settings(**values), request, "NEW")
+        report = surface.synthesize([obj], sample, core_settings.Settings(**values), request, "NEW")
         total = time.perf_counter() - started
         if report.failures:
             raise SystemExit("bench_round_bunny: %s" % report.summary())

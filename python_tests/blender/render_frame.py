@@ -31,13 +31,13 @@ FRAMES = {
 def render(name, out_path):
     frame = FRAMES[name]
     texsynth = harness.load_addon()
-    from texsynth.core import pipeline
+    from texsynth.core import settings as core_settings
     from texsynth.uv_methods import synthesis
     for obj_name, sample, world_size, seed, *method in frame["jobs"]:
         method = method[0] if method else "JUMPMAP"
-        settings = pipeline.Settings(method=method, sample_world_size=world_size, seed=seed, blend=frame["blend"])
+        settings = core_settings.Settings(method=method, sample_world_size=world_size, seed=seed, blend=frame["blend"])
         path = os.path.join(harness.SAMPLES_DIR, sample)
-        if method in pipeline.SURFACE_METHODS:
+        if method in core_settings.SURFACE_METHODS:
             from texsynth.bake import options
             from texsynth.surface_colour import synthesis as surface
             report = surface.synthesize([bpy.data.objects[obj_name]], synthesis.Sample(path=path), settings,

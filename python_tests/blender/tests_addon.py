@@ -17,7 +17,7 @@ import harness  # noqa: E402
 texsynth = harness.load_addon()
 from texsynth import native  # noqa: E402
 from texsynth.bridge import mesh_io  # noqa: E402
-from texsynth.core import pipeline  # noqa: E402
+from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.shading import blend_groups  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
 
@@ -79,7 +79,7 @@ def expected_result(obj, props):
     arrays = mesh_io.read_mesh(obj)
     return native.get().synthesize_jumpmap(
         pre, arrays.positions, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes,
-        scale=pre.width / props.scale, jump_rate=props.jump_rate, seed=pipeline.object_seed(props.seed, obj.name),
+        scale=pre.width / props.scale, jump_rate=props.jump_rate, seed=core_settings.object_seed(props.seed, obj.name),
         blend=props.blend, orientation="axis", axis=tuple(props.axis), allow_oversized=props.allow_oversized)
 
 
@@ -419,7 +419,7 @@ def test_non_finite_result_found_during_the_write_restores_mesh_byte_identical()
             try:
                 mesh_io.write_result(obj.data, result)
                 raise AssertionError("expected an error for %s" % key)
-            except pipeline.SettingsError as error:
+            except core_settings.SettingsError as error:
                 assert "NaN or infinite" in str(error), error
             finally:
                 os.environ.pop(mesh_io.WRITE_CHECK_ENV)

@@ -19,7 +19,7 @@ import harness  # noqa: E402
 texsynth = harness.load_addon()
 texsynth.register()
 from texsynth.bake import baking, options  # noqa: E402
-from texsynth.core import pipeline  # noqa: E402
+from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
 
 CACHE = tempfile.mkdtemp(prefix="texsynth_bake_tests_")
@@ -28,7 +28,7 @@ BRICKS = os.path.join(harness.SAMPLES_DIR, "bricks.png")  # 192 x 192
 
 
 def synthesize(obj, method="JUMPMAP", sample=MOSS, scale=1.25, material_mode="NEW"):
-    settings = pipeline.Settings(method=method, sample_world_size=scale, seed=3, axis=(0.0, 1.0, 0.0))
+    settings = core_settings.Settings(method=method, sample_world_size=scale, seed=3, axis=(0.0, 1.0, 0.0))
     report = synthesis.synthesize([obj], synthesis.Sample(path=sample), settings, cache_dir=CACHE,
                                   material_mode=material_mode)
     assert not report.failures and report.objects, report.summary()

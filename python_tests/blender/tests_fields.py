@@ -17,7 +17,8 @@ from uv_jacobians import triangle_jacobians  # noqa: E402
 texsynth = harness.load_addon()
 from texsynth import native  # noqa: E402
 from texsynth.bridge import mesh_io  # noqa: E402
-from texsynth.core import pipeline  # noqa: E402
+from texsynth.core import layers  # noqa: E402
+from texsynth.uv_methods import core as uv_core  # noqa: E402
 from texsynth.fields import authoring, tools  # noqa: E402
 
 assert native.get() is not None and hasattr(native.get(), "RayCaster"), native.reason()
@@ -329,11 +330,11 @@ def texsynth_layers(obj):
     mesh = obj.data
     layers = {}
     for layer in mesh.uv_layers:
-        if pipeline.is_texsynth_uv_name(layer.name):
+        if layers.is_texsynth_uv_name(layer.name):
             values = np.empty(len(mesh.loops) * 2, np.float32)
             layer.data.foreach_get("uv", values)
             layers["uv:" + layer.name] = values
-    for name in pipeline.ATTRIBUTE_NAMES:
+    for name in layers.ATTRIBUTE_NAMES:
         attribute = mesh.attributes.get(name)
         if attribute is not None:
             values = np.empty(len(mesh.loops) * 4, np.float32)
@@ -435,16 +436,16 @@ def test_live_update_from_memory_failing_write_keeps_the_field_and_restores_the_
         stored = mesh_io.read_point_attribute(obj.data, authoring.GUIDE_NAME, "FLOAT_VECTOR")
         np.testing.assert_array_equal(stored, mesh_io.field_attributes(obj, state)[authoring.GUIDE_NAME][1])
     # An error in the worker thread reaches the caller as a warning after the field was written.
-    original = pipeline.synthesize
+    original = uv_core.synthesize
 
     def failing(*args, **kwargs):
         raise RuntimeError("native failure in the worker")
-    pipeline.synthesize = failing
+    uv_core.synthesize = failing
     try:
         comb(state, obj, (1.0, 1.0, 0.0), centre_vertex=200)
         warning = tools.commit_edit(bpy.context, obj, state)
     finally:
-        pipeline.synthesize = original
+        uv_core.synthesize = original
     assert warning is not None and "native failure in the worker" in warning, warning
     assert_same_layers(texsynth_layers(obj), before)
     stored = mesh_io.read_point_attribute(obj.data, authoring.DIRECTION_NAME, "FLOAT_VECTOR")

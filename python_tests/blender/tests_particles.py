@@ -21,7 +21,8 @@ import harness  # noqa: E402
 texsynth = harness.load_addon()
 texsynth.register()
 from texsynth import native  # noqa: E402
-from texsynth.core import pipeline  # noqa: E402
+from texsynth.core import layers  # noqa: E402
+from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.particles import core, scene, synthesis  # noqa: E402
 from texsynth.uv_methods.synthesis import Sample  # noqa: E402
 
@@ -168,7 +169,7 @@ def test_live_field_update_is_refused_for_particles():
     try:
         texsynth.fields.tools.live_update(bpy.context, obj)
         raise AssertionError("live update ran the UV path for Texture Particles")
-    except pipeline.SettingsError as error:
+    except core_settings.SettingsError as error:
         assert "not available for Texture Particles" in str(error), error
     assert "TexSynth" not in obj.data.uv_layers
 
@@ -216,7 +217,7 @@ def test_pick_class_reads_the_image_editor_cursor():
     try:
         picker._cursor(SimpleNamespace(space_data=None))
         raise AssertionError("picked a class without an Image Editor")
-    except pipeline.SettingsError as error:
+    except core_settings.SettingsError as error:
         assert "Image Editor" in str(error)
 
 
@@ -624,7 +625,7 @@ def test_texton_background_writes_the_texton_layers():
     clean()
     target = plane(size=4.0, cuts=20)
     assert full_run(target, scale=1.5, particle_background="TEXTON") == {"FINISHED"}
-    assert "TexSynth" in target.data.uv_layers and pipeline.EDGE_BLENDED_NAME in target.data.attributes
+    assert "TexSynth" in target.data.uv_layers and layers.EDGE_BLENDED_NAME in target.data.attributes
     assert scene.owned_objects("Plane", ("DECALS",))
 
 

@@ -21,7 +21,7 @@ texsynth = harness.load_addon()
 texsynth.register()
 from texsynth.bake import options  # noqa: E402
 from texsynth.bridge import mesh_io  # noqa: E402
-from texsynth.core import pipeline  # noqa: E402
+from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.fields import authoring, tools  # noqa: E402
 from texsynth.surface_colour import core, synthesis as surface  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
@@ -34,7 +34,7 @@ IMAGE = "TexSynth Patches: Plane"
 def settings(**changes):
     values = dict(method="PATCHES", sample_world_size=3.0, seed=5, axis=(0.0, 1.0, 0.0), patch_size=16)
     values.update(changes)
-    return pipeline.Settings(**values)
+    return core_settings.Settings(**values)
 
 
 def run(objects, request=None, cache_dir="", **changes):
@@ -148,7 +148,7 @@ def test_bad_patch_settings_are_refused_and_change_nothing():
         try:
             run([obj], **changes)
             raise AssertionError("accepted %r" % (changes,))
-        except pipeline.SettingsError as error:
+        except core_settings.SettingsError as error:
             assert fragment in str(error), (changes, str(error))
         assert state(obj) == before
 
@@ -306,7 +306,7 @@ def test_a_boundary_wider_than_half_the_patches_used_is_refused_by_the_addon():
     # The limit the message gives is the one that runs; the UI property's range is the add-on's one range.
     assert run([obj], request, **dict(wide, patch_boundary=4)).objects == ["Plane"]
     rna = props.bl_rna.properties["patch_boundary"]
-    assert (rna.hard_min, rna.hard_max) == pipeline.PATCH_BOUNDARY_RANGE, (rna.hard_min, rna.hard_max)
+    assert (rna.hard_min, rna.hard_max) == core_settings.PATCH_BOUNDARY_RANGE, (rna.hard_min, rna.hard_max)
 
 
 if __name__ == "__main__":

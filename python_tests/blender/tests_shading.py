@@ -19,7 +19,8 @@ import harness  # noqa: E402
 
 texsynth = harness.load_addon()
 texsynth.register()
-from texsynth.core import pipeline  # noqa: E402
+from texsynth.core import layers  # noqa: E402
+from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.shading import blend_groups  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
 
@@ -78,7 +79,7 @@ def emission_with_group(group):
 
 def render_luminance(obj, scene, image, mode, blend=True, method="JUMPMAP"):
     # 1.2 world units per sample width: ~1 texel per pixel for the 128 px moss sample at this view.
-    settings = pipeline.Settings(method=method, sample_world_size=1.2, seed=3, blend=blend, axis=(0.0, 1.0, 0.0))
+    settings = core_settings.Settings(method=method, sample_world_size=1.2, seed=3, blend=blend, axis=(0.0, 1.0, 0.0))
     report = synthesis.synthesize([obj], synthesis.Sample(path=MOSS), settings, cache_dir=CACHE, material_mode="NONE")
     assert not report.failures, report.summary()
     group = blend_groups.ensure_blend_group(image, synthesis.blend_inputs(image, mode, CACHE, method))
@@ -156,7 +157,7 @@ def test_texton_variance_blending_keeps_the_detail_linear_blending_loses():
     unblended = _gradient(render_luminance(obj, scene, image, "LINEAR", blend=False, method="TEXTON"))
     linear = _gradient(render_luminance(obj, scene, image, "LINEAR", method="TEXTON"))
     variance = _gradient(render_luminance(obj, scene, image, "VARIANCE", method="TEXTON"))
-    assert obj.data.attributes.get(pipeline.GROUPS_NAME) is not None
+    assert obj.data.attributes.get(layers.GROUPS_NAME) is not None
     print("TEXTON gradient unblended %.4f linear %.4f variance %.4f" % (unblended, linear, variance))
     assert linear < 0.96 * unblended, (linear, unblended)
     # Not below the unblended render, and not sharpened far past it (measured 1.05 here, where the view

@@ -20,7 +20,7 @@ texsynth = harness.load_addon()
 texsynth.register()
 from texsynth.bake import baking, options  # noqa: E402
 from texsynth.bridge import mesh_io  # noqa: E402
-from texsynth.core import pipeline  # noqa: E402
+from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.surface_colour import core, synthesis as surface  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
 
@@ -55,7 +55,7 @@ def plane(cells=4, size=2.0):
 def settings(**changes):
     values = dict(method="ROUND", sample_world_size=3.0, seed=5, axis=(0.0, 1.0, 0.0))
     values.update(changes)
-    return pipeline.Settings(**values)
+    return core_settings.Settings(**values)
 
 
 def run(objects, request=None, material_mode="NEW", **changes):
@@ -321,7 +321,7 @@ def test_a_uv_map_made_for_a_mesh_without_one_is_active_and_bake_works_after():
     assert 0 <= layers.active_index < len(layers) and layers.active is not None, layers.active_index
     assert layers[layers.active_index].name == "UVMap"
     # Then a UV method on the same mesh, and Bake through the map made above.
-    settings_jumpmap = pipeline.Settings(method="JUMPMAP", sample_world_size=3.0, seed=3, axis=(0.0, 1.0, 0.0))
+    settings_jumpmap = core_settings.Settings(method="JUMPMAP", sample_world_size=3.0, seed=3, axis=(0.0, 1.0, 0.0))
     uv_report = synthesis.synthesize([obj], synthesis.Sample(path=os.path.join(harness.SAMPLES_DIR, "moss.png")),
                                      settings_jumpmap, cache_dir=tempfile.mkdtemp(prefix="texsynth_surface_"))
     assert uv_report.objects == ["Cube"], uv_report.summary()
