@@ -12,7 +12,7 @@ import pytest
 import addon_package
 
 finite = addon_package.load("core.finite")
-layers = addon_package.load("core.layers")
+core_layers = addon_package.load("core.layers")
 reporting = addon_package.load("core.reporting")
 sample_image = addon_package.load("core.sample_image")
 core_settings = addon_package.load("core.settings")
@@ -62,13 +62,13 @@ def test_object_seed_is_stable_distinct_and_in_range():
 
 
 def test_one_uv_map_capacity_and_legacy_names():
-    assert layers.is_texsynth_uv_name("TexSynth") and layers.is_texsynth_uv_name("TexSynth_B2")  # 0.1 layers
-    assert not layers.is_texsynth_uv_name("TexSynth_Bx") and not layers.is_texsynth_uv_name("UVMap")
+    assert core_layers.is_texsynth_uv_name("TexSynth") and core_layers.is_texsynth_uv_name("TexSynth_B2")  # 0.1 layers
+    assert not core_layers.is_texsynth_uv_name("TexSynth_Bx") and not core_layers.is_texsynth_uv_name("UVMap")
     # TexSynth needs one UV map: 7 foreign ones leave room, and its own (older ones too) are replaced.
-    layers.check_uv_capacity(["U%d" % k for k in range(7)])
-    layers.check_uv_capacity(["U%d" % k for k in range(3)] + ["TexSynth"] + ["TexSynth_B%d" % k for k in range(4)])
+    core_layers.check_uv_capacity(["U%d" % k for k in range(7)])
+    core_layers.check_uv_capacity(["U%d" % k for k in range(3)] + ["TexSynth"] + ["TexSynth_B%d" % k for k in range(4)])
     with pytest.raises(core_settings.SettingsError, match="at most 8"):
-        layers.check_uv_capacity(["U%d" % k for k in range(8)])
+        core_layers.check_uv_capacity(["U%d" % k for k in range(8)])
 
 
 def test_blend_set_rgba_packs_two_sets_per_attribute():
@@ -221,7 +221,7 @@ def test_load_sample_checks_paths_and_arrays(tmp_path):
 
 def test_report_summary_and_json():
     report = reporting.Report()
-    arrays = layers.MeshArrays(np.zeros((4, 3), np.float32), np.zeros(8, np.int32),
+    arrays = core_layers.MeshArrays(np.zeros((4, 3), np.float32), np.zeros(8, np.int32),
                                  np.array([0, 4], np.int32), np.array([4, 4], np.int32))
     report.add_object("A", arrays, {"jumps": 3})
     report.failures.append(("B", "mesh has no faces"))
@@ -304,15 +304,15 @@ def test_texton_method_calls_the_native_texton_synthesizer_and_returns_corner_at
     ys, xs = np.mgrid[0:5, 0:5]
     pos = np.stack([xs.ravel(), ys.ravel(), np.zeros(25)], 1).astype(np.float32) * 0.1
     quads = [[y * 5 + x, y * 5 + x + 1, y * 5 + x + 6, y * 5 + x + 5] for y in range(4) for x in range(4)]
-    arrays = layers.MeshArrays(pos, np.array(sum(quads, []), np.int32), np.arange(0, 64, 4, dtype=np.int32),
+    arrays = core_layers.MeshArrays(pos, np.array(sum(quads, []), np.int32), np.arange(0, 64, 4, dtype=np.int32),
                                  np.full(16, 4, np.int32))
     settings = core_settings.Settings(method="TEXTON").validate()
     with pytest.raises(core_settings.SettingsError, match="pixels"):
         uv_core.synthesize(pre, arrays, settings, 1, 60.0)
     result = uv_core.synthesize(pre, arrays, settings, 1, 60.0, pixels=image)
     extras = encoding.corner_attributes(result, 64)
-    assert set(extras) == {layers.EDGE_BLENDED_NAME, layers.EDGE_ERROR_NAME}
-    blended = extras[layers.EDGE_BLENDED_NAME]
+    assert set(extras) == {core_layers.EDGE_BLENDED_NAME, core_layers.EDGE_ERROR_NAME}
+    blended = extras[core_layers.EDGE_BLENDED_NAME]
     # Each of the 4 x 4 quads' 4 edges: interior edges are blended (every corner but the boundary ones).
     assert blended.sum() == 64 - 16 and set(np.unique(blended)) <= {0.0, 1.0}
     np.testing.assert_array_equal(encoding.check_result(result, 64), result["base_uv"])

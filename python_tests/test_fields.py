@@ -11,14 +11,14 @@ import texsynth_native as ts
 from test_synth import face_jacobians, grid, pack
 
 authoring = addon_package.load("fields.authoring")
-layers = addon_package.load("core.layers")
+core_layers = addon_package.load("core.layers")
 native = addon_package.load("native")
 # One copy of the extension per process: texsynth.texsynth_native would register its types twice.
 native._module, native._reason, native._tried = ts, None, True
 
 
 def mesh_arrays(pos, corner_verts, starts, sizes):
-    return layers.MeshArrays(pos, corner_verts, starts, sizes)
+    return core_layers.MeshArrays(pos, corner_verts, starts, sizes)
 
 
 def new_state(arrays, axis=(0.0, 1.0, 0.0)):

@@ -7,7 +7,7 @@ import pytest
 
 import addon_package
 
-layers = addon_package.load("core.layers")
+core_layers = addon_package.load("core.layers")
 core_settings = addon_package.load("core.settings")
 core = addon_package.load("surface_colour.core")
 
@@ -109,12 +109,12 @@ def test_smallest_sample_side_is_what_the_synthesizer_accepts():
 
 def test_context_cache_keys_on_geometry_target_and_parameters():
     positions, triangles, uvs = square()
-    arrays = layers.MeshArrays(positions, np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0, np.int32))
+    arrays = core_layers.MeshArrays(positions, np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0, np.int32))
     settings = core_settings.Settings(method="ROUND")
     target = core.SurfaceTarget("IMAGE", 64, 64, 2)
     key = core.ContextCache.key(arrays, triangles, uvs, target, 10.0, settings)
     assert key == core.ContextCache.key(arrays, triangles, uvs.copy(), target, 10.0, settings)
-    moved = layers.MeshArrays(positions + 1, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes)
+    moved = core_layers.MeshArrays(positions + 1, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes)
     others = [core.ContextCache.key(moved, triangles, uvs, target, 10.0, settings),
               core.ContextCache.key(arrays, triangles, uvs * 0.5, target, 10.0, settings),
               core.ContextCache.key(arrays, triangles, uvs, core.SurfaceTarget("IMAGE", 128, 128, 2), 10.0, settings),

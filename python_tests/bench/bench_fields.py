@@ -24,7 +24,7 @@ import addon_package  # noqa: E402
 import texsynth_native as ts  # noqa: E402
 
 authoring = addon_package.load("fields.authoring")
-layers = addon_package.load("core.layers")
+core_layers = addon_package.load("core.layers")
 native = addon_package.load("native")
 native._module, native._reason, native._tried = ts, None, True
 
@@ -42,7 +42,7 @@ def bumpy_torus(faces):
     i1, j1 = (i + 1) % segments, (j + 1) % rings
     quads = np.stack([i * rings + j, i1 * rings + j, i1 * rings + j1, i * rings + j1], axis=-1).reshape(-1)
     n = segments * rings
-    return layers.MeshArrays(positions, quads.astype(np.int32), np.arange(0, 4 * n, 4, dtype=np.int32),
+    return core_layers.MeshArrays(positions, quads.astype(np.int32), np.arange(0, 4 * n, 4, dtype=np.int32),
                                np.full(n, 4, np.int32))
 
 

@@ -17,7 +17,7 @@ from uv_jacobians import triangle_jacobians  # noqa: E402
 texsynth = harness.load_addon()
 from texsynth import native  # noqa: E402
 from texsynth.bridge import mesh_io  # noqa: E402
-from texsynth.core import layers  # noqa: E402
+from texsynth.core import layers as core_layers  # noqa: E402
 from texsynth.uv_methods import core as uv_core  # noqa: E402
 from texsynth.fields import authoring, tools  # noqa: E402
 
@@ -330,11 +330,11 @@ def texsynth_layers(obj):
     mesh = obj.data
     layers = {}
     for layer in mesh.uv_layers:
-        if layers.is_texsynth_uv_name(layer.name):
+        if core_layers.is_texsynth_uv_name(layer.name):
             values = np.empty(len(mesh.loops) * 2, np.float32)
             layer.data.foreach_get("uv", values)
             layers["uv:" + layer.name] = values
-    for name in layers.ATTRIBUTE_NAMES:
+    for name in core_layers.ATTRIBUTE_NAMES:
         attribute = mesh.attributes.get(name)
         if attribute is not None:
             values = np.empty(len(mesh.loops) * 4, np.float32)

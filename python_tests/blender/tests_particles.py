@@ -21,7 +21,7 @@ import harness  # noqa: E402
 texsynth = harness.load_addon()
 texsynth.register()
 from texsynth import native  # noqa: E402
-from texsynth.core import layers  # noqa: E402
+from texsynth.core import layers as core_layers  # noqa: E402
 from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.particles import core, scene, synthesis  # noqa: E402
 from texsynth.uv_methods.synthesis import Sample  # noqa: E402
@@ -625,7 +625,7 @@ def test_texton_background_writes_the_texton_layers():
     clean()
     target = plane(size=4.0, cuts=20)
     assert full_run(target, scale=1.5, particle_background="TEXTON") == {"FINISHED"}
-    assert "TexSynth" in target.data.uv_layers and layers.EDGE_BLENDED_NAME in target.data.attributes
+    assert "TexSynth" in target.data.uv_layers and core_layers.EDGE_BLENDED_NAME in target.data.attributes
     assert scene.owned_objects("Plane", ("DECALS",))
 
 

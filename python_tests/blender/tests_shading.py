@@ -19,7 +19,7 @@ import harness  # noqa: E402
 
 texsynth = harness.load_addon()
 texsynth.register()
-from texsynth.core import layers  # noqa: E402
+from texsynth.core import layers as core_layers  # noqa: E402
 from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.shading import blend_groups  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
@@ -157,7 +157,7 @@ def test_texton_variance_blending_keeps_the_detail_linear_blending_loses():
     unblended = _gradient(render_luminance(obj, scene, image, "LINEAR", blend=False, method="TEXTON"))
     linear = _gradient(render_luminance(obj, scene, image, "LINEAR", method="TEXTON"))
     variance = _gradient(render_luminance(obj, scene, image, "VARIANCE", method="TEXTON"))
-    assert obj.data.attributes.get(layers.GROUPS_NAME) is not None
+    assert obj.data.attributes.get(core_layers.GROUPS_NAME) is not None
     print("TEXTON gradient unblended %.4f linear %.4f variance %.4f" % (unblended, linear, variance))
     assert linear < 0.96 * unblended, (linear, unblended)
     # Not below the unblended render, and not sharpened far past it (measured 1.05 here, where the view
