@@ -106,8 +106,10 @@ def parse_args(argv):
                         help="jumpmap/texton: longest side the sample is analysed at (0 = its own resolution)")
     parser.add_argument("--no-blend", action="store_true", help="only the base UV layer, no blend sets")
     parser.add_argument("--blend-mode", choices=("auto", "histogram", "variance", "linear"), default="auto",
-                        help="how the shader cross-fades the blend sets (default auto: histogram for jump maps, "
-                             "linear for texton patches)")
+                        help="how the shader cross-fades the blend sets. auto (default): jumpmap takes histogram, "
+                             "or variance when the histogram transform keeps under 97 %% of the sample's detail or "
+                             "cannot serve the sample; texton takes linear for periodic samples (periodicity >= 0.5), "
+                             "variance for stochastic ones")
     parser.add_argument("--blend-threshold", type=float, default=0.0,
                         help="texton method: blend only edges whose blending metric from the scene camera "
                              "exceeds this (0 = every edge)")

@@ -189,3 +189,23 @@ def test_texton_method_writes_layers_and_blended_edge_attributes(tmp_path):
         corners = int(reopened.stdout.split("BLENDED_CORNERS")[1].split()[0])
         assert corners == 2 * counts[name]  # each blended (manifold) edge is listed by its two corners
     assert 0 < counts["threshold"] < counts["all"]
+
+
+def cli_help():
+    process = blender_run.cli("--help")
+    assert process.returncode == 0, process.stdout[-2000:] + process.stderr[-2000:]
+    return " ".join(process.stdout.split())
+
+
+def test_blend_mode_help_says_what_auto_does():
+    """Auto is not 'linear for texton patches': texton takes linear or variance by the sample's periodicity,
+    the jump map histogram or variance by the histogram transform's fidelity (core/settings.py, uv_methods/core.py)."""
+    settings = addon_package.load("core.settings")
+    text = cli_help()
+    start = text.rindex("--blend-mode {")  # the option's entry, after the usage line
+    blend_help = text[start:text.index("--blend-threshold", start)]
+    assert "linear for texton patches" not in blend_help.lower(), blend_help
+    for number in (settings.AUTO_TEXTON_LINEAR_PERIODICITY, settings.AUTO_HISTOGRAM_MIN_FIDELITY):
+        assert "%g" % number in blend_help or "%g %%" % (100 * number) in blend_help, (number, blend_help)
+    for word in ("periodic", "stochastic", "variance", "histogram", "linear"):
+        assert word in blend_help.lower(), (word, blend_help)

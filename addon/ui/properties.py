@@ -203,7 +203,9 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                   description="Write blend sets and weights that hide patch seams")
     blend_mode: bpy.props.EnumProperty(
         name="Blend Mode",
-        items=(("AUTO", "Auto", "Histogram for jump maps, Linear for texton patches (what measured best for each)"),
+        items=(("AUTO", "Auto", "What measured best per sample: jump maps take Histogram, or Variance when the "
+                                "histogram transform would lose the sample's detail; texton strings take Linear "
+                                "for periodic samples, Variance for stochastic ones"),
                ("HISTOGRAM", "Histogram", "Keep the sample's contrast and colours where patches overlap "
                 "(Gaussianized look-ups; slightly more shader work)"),
                ("VARIANCE", "Variance", "Keep the sample's contrast where patches overlap"),
