@@ -24,6 +24,10 @@ opened .blend, or "example" for the thorn collection of blend_samples/particle_i
 background synthesized by --background; --density/--probability/--size name a face attribute or vertex group;
 --bake bakes the background and composites the decals over it.
 
+--method round and patches keep their colours only in the scene, so from the command line they need somewhere
+to keep or show them: --bake, --save, --render or --stats (timings only); without any they are refused
+(exit 2) before anything is done.
+
 Exit 0 on success; bad arguments or inputs print one line "texsynth_cli: error: ..." and exit 2
 (arguments) or 1 (inputs, synthesis failures).
 """
@@ -56,13 +60,16 @@ class _Parser(argparse.ArgumentParser):
 
 
 def parse_args(argv):
-    parser = _Parser(prog=PROG, description="TexSynth: synthesize a sample texture on a mesh, headless.")
+    parser = _Parser(prog=PROG, description="TexSynth: synthesize a sample texture on a mesh, headless.",
+                     epilog="--method round and patches keep their colours only in the scene: they need --bake, "
+                            "--save, --render or --stats, and are refused (exit 2) without any of them.")
     parser.add_argument("--sample", required=True, help="sample texture image file")
     target = parser.add_mutually_exclusive_group(required=True)
     target.add_argument("--object", action="append", metavar="NAME",
                         help="mesh object in the opened scene (repeatable)")
     target.add_argument("--mesh", metavar="FILE", help=".obj, .ply or .stl file to import")
-    parser.add_argument("--method", default="jumpmap", choices=["jumpmap", "texton", "round", "patches", "particles"])
+    parser.add_argument("--method", default="jumpmap", choices=["jumpmap", "texton", "round", "patches", "particles"],
+                        help="synthesis method (default jumpmap); round and patches need an output, see below")
     parser.add_argument("--target", choices=("image", "vertices"), default=None,
                         help="round, patches: colours per texel of the --bake image (default) or per vertex")
     parser.add_argument("--mode", choices=("sampling", "optimisation", "optimization"), default=None,
@@ -179,6 +186,16 @@ def parse_args(argv):
 
 PARTICLE_OPTIONS = ("classes", "blur", "min_area", "background_class", "merges", "class_order", "labels",
                     "particle_output", "instances", "size_jitter", "density", "probability", "size", "background")
+
+
+def check_kept_output(args):
+    """round and patches leave their colours in the scene only (an image or attribute): refused from the
+    command line when nothing would save, bake, render or measure them. In-process callers (main) read the scene."""
+    if args.method not in ("round", "patches") or any((args.bake, args.save, args.render, args.stats)):
+        return
+    where = "--save OUT.blend" if args.target == "vertices" else "--bake IMAGE.png or --save OUT.blend"
+    raise UsageError("--method %s keeps its result only in the scene and nothing would be written: add %s "
+                     "(or --render OUT.png, --stats OUT.json)" % (args.method, where))
 
 
 def check_particle_args(args):
@@ -376,9 +393,11 @@ def render(scene, objects, path, resolution):
         raise CliError("render did not write %s" % path)
 
 
-def main(argv):
+def main(argv, command_line=False):
     started = time.perf_counter()
     args = parse_args(argv)
+    if command_line:
+        check_kept_output(args)
     addon = load_addon()
     if addon.UNSUPPORTED:
         raise CliError(addon.UNSUPPORTED)
@@ -445,7 +464,7 @@ def main(argv):
 def run():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     try:
-        main(argv)
+        main(argv, command_line=True)
     except CliError as error:
         print("%s: error: %s" % (PROG, " ".join(str(error).split())), file=sys.stderr, flush=True)
         sys.exit(error.exit_code)

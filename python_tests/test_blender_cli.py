@@ -209,3 +209,33 @@ def test_blend_mode_help_says_what_auto_does():
         assert "%g" % number in blend_help or "%g %%" % (100 * number) in blend_help, (number, blend_help)
     for word in ("periodic", "stochastic", "variance", "histogram", "linear"):
         assert word in blend_help.lower(), (word, blend_help)
+
+
+def write_quad_grid(path, cells=4, size=2.0):
+    """A flat grid of cells x cells quads, `size` units wide, with one UV map (UVMap)."""
+    step = size / cells
+    lines = ["v %g %g 0" % (x * step, y * step) for y in range(cells + 1) for x in range(cells + 1)]
+    lines += ["vt %g %g" % (x / cells, y / cells) for y in range(cells + 1) for x in range(cells + 1)]
+    for y in range(cells):
+        for x in range(cells):
+            a = y * (cells + 1) + x + 1
+            lines.append("f %d/%d %d/%d %d/%d %d/%d" % (a, a, a + 1, a + 1, a + cells + 2, a + cells + 2,
+                                                        a + cells + 1, a + cells + 1))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("extra", [("--method", "round"), ("--method", "patches"),
+                                   ("--method", "round", "--target", "vertices")])
+def test_surface_methods_without_an_output_are_refused(tmp_path, extra):
+    """round and patches keep their colours only in the scene: with no --bake, --save, --render or --stats
+    the run would write nothing, so it is refused before anything is done."""
+    mesh = write_quad_grid(tmp_path / "grid.obj")
+    process = blender_run.cli("--sample", BRICKS, "--mesh", str(mesh), "--scale", "3", *extra)
+    lines = blender_run.error_lines(process)
+    assert process.returncode == 2, process.stdout[-2000:] + process.stderr[-2000:]
+    assert len(lines) == 1 and "--save" in lines[0], lines
+    assert ("--bake" in lines[0]) == ("vertices" not in extra), lines
+    assert "TexSynth:" not in process.stdout  # no run summary: nothing was synthesized
+    assert os.listdir(tmp_path) == ["grid.obj"]
+    assert "--method round and patches" in cli_help()
