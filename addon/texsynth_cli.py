@@ -425,7 +425,7 @@ def main(argv, command_line=False):
                         round_resolution=args.synthesis_resolution.upper(),
                         patch_mode=args.mode.upper(), patch_size=args.patch_size,
                         patch_boundary=args.boundary_width, patch_tolerance=args.tolerance,
-                        patch_iterations=args.iterations, **particle_settings(args))
+                        patch_iterations=args.iterations, interface="CLI", **particle_settings(args))
     sample = synthesis.Sample(path=os.path.abspath(args.sample))
     surface = settings.method in SURFACE_METHODS
     try:

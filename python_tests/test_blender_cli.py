@@ -239,3 +239,69 @@ def test_surface_methods_without_an_output_are_refused(tmp_path, extra):
     assert "TexSynth:" not in process.stdout  # no run summary: nothing was synthesized
     assert os.listdir(tmp_path) == ["grid.obj"]
     assert "--method round and patches" in cli_help()
+
+
+NATIVE_OVERSIZED = ("1 of 1 faces are larger than the 512x512 sample at scale 512 texels/unit (worst face 14.1421x "
+                    "the sample); lower the scale by at least that factor, subdivide those faces, or pass "
+                    "allow_oversized=True")
+
+
+def test_oversized_advice_in_each_interfaces_terms():
+    """The native advice (lower texels per unit, allow_oversized=True) reworded: the CLI's --scale and the
+    panel's Scale are world sizes, so they must be raised, and each names its own switch."""
+    messages = addon_package.load("core.messages")
+    cli = messages.for_interface("Plane: " + NATIVE_OVERSIZED, "CLI", 1.0)
+    assert cli.startswith("Plane: 1 of 1 faces are larger than the 512x512 sample"), cli
+    assert "raise --scale to at least 14.2," in cli and "--allow-oversized" in cli, cli
+    assert "allow_oversized" not in cli and "lower" not in cli and "texels/unit" not in cli, cli
+    panel = messages.for_interface(NATIVE_OVERSIZED, "PANEL", 2.0)
+    assert "raise Scale to at least 28.3," in panel and "Allow Oversized Faces" in panel, panel
+    assert "allow_oversized" not in panel and "--" not in panel, panel
+    assert "allow_oversized=True" in messages.for_interface(NATIVE_OVERSIZED, "API", 1.0)
+    assert messages.world_size_that_fits(1.0, 10.0) > 10.0  # a face exactly the sample's size is refused too
+    assert messages.for_interface("no such advice", "CLI", 1.0) == "no such advice"
+
+
+def test_cli_oversized_error_names_scale_to_raise_and_allow_oversized(tmp_path):
+    big = tmp_path / "big.obj"
+    big.write_text("v 0 0 0\nv 10 0 0\nv 10 10 0\nv 0 10 0\nf 1 2 3 4\n")  # a 10-unit quad, 1-unit sample
+    process = blender_run.cli("--sample", BRICKS, "--mesh", str(big), "--scale", "1")
+    lines = blender_run.error_lines(process)
+    assert process.returncode == 1 and len(lines) == 1, process.stdout[-2000:] + process.stderr[-2000:]
+    assert "--allow-oversized" in lines[0] and "allow_oversized" not in lines[0], lines
+    assert "raise --scale to at least " in lines[0] and "lower" not in lines[0], lines
+    fits = lines[0].split("raise --scale to at least ")[1].split(",")[0]
+    assert float(fits) >= 10.0, lines
+    stats = tmp_path / "stats.json"
+    process = blender_run.cli("--sample", BRICKS, "--mesh", str(big), "--scale", fits, "--stats", str(stats))
+    assert process.returncode == 0, process.stdout[-2000:] + process.stderr[-2000:]
+    assert json.loads(stats.read_text())["faces"] == 1
+
+
+ADDON_OVERSIZED = """
+import sys
+sys.path.insert(0, %r)
+import bpy, harness
+harness.load_addon().register()
+bpy.ops.mesh.primitive_plane_add(size=10.0)
+props = bpy.context.scene.texsynth
+props.sample_path, props.scale, props.material_mode = %r, 1.0, "NONE"
+for method in ("JUMPMAP", "TEXTON"):
+    props.method = method
+    try:
+        bpy.ops.texsynth.synthesize()
+        raise AssertionError("oversized faces were accepted")
+    except RuntimeError as error:
+        print("ADDON_REPORT", method, " ".join(str(error).split()))
+"""
+
+
+def test_addon_oversized_report_names_the_panels_properties():
+    script = ADDON_OVERSIZED % (blender_run.BLENDER_TESTS, BRICKS)
+    process = blender_run.blender("--python-expr", script)
+    assert process.returncode == 0, process.stdout[-3000:] + process.stderr[-3000:]
+    reports = [line for line in process.stdout.splitlines() if line.startswith("ADDON_REPORT")]
+    assert len(reports) == 2, process.stdout[-3000:]
+    for report in reports:
+        assert "larger than" in report and "allow_oversized=True" not in report, report
+        assert "raise Scale to at least " in report and "Allow Oversized Faces" in report, report

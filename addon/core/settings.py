@@ -119,6 +119,8 @@ class Settings:
     particle_probability_source: str = ""
     particle_size_source: str = ""
     particle_background: str = "JUMPMAP"
+    # Who reads the messages (core/messages.py INTERFACES): native advice is reworded in its terms.
+    interface: str = "API"
 
     def validate(self):
         """Raises SettingsError naming the first bad setting; returns self."""

@@ -279,7 +279,7 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                  round_resolution=self.round_resolution, patch_mode=self.patch_mode,
                                  patch_size=int(self.patch_size) // 4 * 4, patch_boundary=int(self.patch_boundary),
                                  patch_tolerance=float(self.patch_tolerance),
-                                 patch_iterations=int(self.patch_iterations),
+                                 patch_iterations=int(self.patch_iterations), interface="PANEL",
                                  **self.particle_settings())
 
     def particle_settings(self):

@@ -8,6 +8,7 @@ import numpy as np
 
 from .. import native
 from ..core.layers import EDGE_BLENDED_NAME, EDGE_ERROR_NAME
+from ..core.messages import reworded_for
 from ..core.sample_image import correlation_length, load_sample, periodicity, sample_pixels, sample_size, shader_mean
 from ..core.settings import AUTO_HISTOGRAM_MIN_FIDELITY, AUTO_TEXTON_LINEAR_PERIODICITY, HISTOGRAM_MAX_PIXELS, SettingsError
 from .encoding import check_result, mapping_groups_rgba
@@ -189,7 +190,8 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale, pixels=None, vi
             if view is None:
                 raise SettingsError("a blend threshold needs a scene camera (the blending metric is view-dependent)")
             kwargs.update(blend_threshold=float(settings.blend_threshold))
-        result = dict(module.synthesize_texton(preprocessed, pixels, *mesh, **kwargs))
+        with reworded_for(settings, SettingsError):
+            result = dict(module.synthesize_texton(preprocessed, pixels, *mesh, **kwargs))
         result["corner_attributes"] = {
             EDGE_BLENDED_NAME: np.asarray(result.pop("corner_edge_blended"), dtype=np.float32),
             EDGE_ERROR_NAME: np.asarray(result.pop("corner_edge_error"), dtype=np.float32)}
@@ -198,7 +200,8 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale, pixels=None, vi
             result["mapping_groups"] = mapping_groups_rgba(result, mesh_arrays.poly_starts, mesh_arrays.poly_sizes)
     else:
         kwargs.update(jump_rate=float(settings.jump_rate))
-        result = dict(module.synthesize_jumpmap(preprocessed, *mesh, **kwargs))
+        with reworded_for(settings, SettingsError):
+            result = dict(module.synthesize_jumpmap(preprocessed, *mesh, **kwargs))
     if not settings.blend:
         # Without blending the native single set is the base mapping with weight 1: write the base only.
         result.update(num_blend_sets=0, blend_uv=None, blend_set_pairs=None, blend_weights=None)
