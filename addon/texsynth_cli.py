@@ -28,6 +28,8 @@ background synthesized by --background; --density/--probability/--size name a fa
 to keep or show them: --bake, --save, --render or --stats (timings only); without any they are refused
 (exit 2) before anything is done.
 
+--mesh without a .blend replaces Blender's factory Cube, Camera and Light by a camera framing the mesh and a sun.
+
 Exit 0 on success; bad arguments or inputs print one line "texsynth_cli: error: ..." and exit 2
 (arguments) or 1 (inputs, synthesis failures).
 """
@@ -329,16 +331,48 @@ def load_addon():
     return module
 
 
+# Blender's factory scene: (name, type, location). Matched exactly so a scene someone set up is never touched.
+FACTORY_OBJECTS = (("Cube", "MESH", (0.0, 0.0, 0.0)), ("Camera", "CAMERA", (7.3589, -6.9258, 4.9583)),
+                   ("Light", "LIGHT", (4.0762, 1.0055, 5.9039)))
+
+
+def factory_objects(scene):
+    """The factory startup's Cube, Camera and Light still in place, when no .blend was opened."""
+    if bpy.data.filepath:
+        return []
+    found = []
+    for name, kind, location in FACTORY_OBJECTS:
+        obj = scene.objects.get(name)
+        if (obj is not None and obj.type == kind and obj.parent is None
+                and all(abs(a - b) < 1e-3 for a, b in zip(obj.location, location))
+                and (kind != "MESH" or (len(obj.data.vertices), len(obj.data.polygons)) == (8, 6))):
+            found.append(obj)
+    return found
+
+
+def remove_factory_objects(scene):
+    """--mesh without a .blend: the default Cube would hide the mesh and the default camera and light are
+    placed for that cube, so all three go; frame_scene then adds a camera and a sun for the mesh."""
+    for obj in factory_objects(scene):
+        data = obj.data
+        datablocks = {"MESH": bpy.data.meshes, "CAMERA": bpy.data.cameras, "LIGHT": bpy.data.lights}[obj.type]
+        bpy.data.objects.remove(obj)
+        if data.users == 0:
+            datablocks.remove(data)
+
+
 def find_objects(args, compat):
     if args.mesh:
         if not os.path.isfile(args.mesh):
             raise CliError("mesh file not found: %s" % args.mesh)
+        remove_factory_objects(bpy.context.scene)
         try:
             objects = compat.import_mesh_file(os.path.abspath(args.mesh))
         except (RuntimeError, ValueError) as error:
             raise CliError("could not import %s: %s" % (args.mesh, str(error).strip().splitlines()[-1]))
         if not objects:
             raise CliError("no mesh found in %s" % args.mesh)
+        frame_scene(bpy.context.scene, objects)
         return objects
     objects = []
     for name in args.object:

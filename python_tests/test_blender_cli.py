@@ -305,3 +305,43 @@ def test_addon_oversized_report_names_the_panels_properties():
     for report in reports:
         assert "larger than" in report and "allow_oversized=True" not in report, report
         assert "raise Scale to at least " in report and "Allow Oversized Faces" in report, report
+
+
+FRAMED_CHECK = """
+import bpy
+from bpy_extras.object_utils import world_to_camera_view
+from mathutils import Vector
+scene = bpy.context.scene
+names = sorted(o.name for o in scene.objects)
+print("OBJECTS", names)
+assert "Cube" not in bpy.data.objects, names
+assert scene.camera is not None and any(o.type == "LIGHT" for o in scene.objects), names
+obj = bpy.data.objects["far"]
+for corner in obj.bound_box:
+    p = world_to_camera_view(scene, scene.camera, obj.matrix_world @ Vector(corner))
+    assert 0.0 <= p.x <= 1.0 and 0.0 <= p.y <= 1.0 and p.z > 0.0, (names, tuple(p))
+"""
+
+
+def test_mesh_replaces_the_factory_scene_and_is_framed(tmp_path):
+    """--mesh with no .blend: the factory Cube goes, and the camera and light become ones that show the mesh
+    (here far from the factory camera's view); a .blend's own objects stay."""
+    mesh = tmp_path / "far.obj"
+    mesh.write_text("o far\n" + "".join("v %g %g 1\n" % (30 + 6 * (i % 2), -2 + 6 * (i // 2)) for i in (0, 1, 3, 2))
+                    + "f 1 2 3 4\n")
+    saved, render = tmp_path / "far.blend", tmp_path / "far.png"
+    process = blender_run.cli("--sample", BRICKS, "--mesh", str(mesh), "--scale", "8", "--save", str(saved),
+                              "--render", str(render), "--resolution", "64", "48")
+    assert process.returncode == 0, process.stdout[-2000:] + process.stderr[-2000:]
+    assert render.is_file()
+    reopened = blender_run.blender("--python-expr", FRAMED_CHECK, blend_file=str(saved))
+    assert reopened.returncode == 0, reopened.stdout[-2000:] + reopened.stderr[-2000:]
+    kept = tmp_path / "kept.blend"
+    process = blender_run.cli("--sample", BRICKS, "--mesh", str(mesh), "--scale", "8", "--save", str(kept),
+                              blend_file=SCENE)
+    assert process.returncode == 0, process.stdout[-2000:] + process.stderr[-2000:]
+    check = ("import bpy\nnames = set(bpy.data.objects.keys())\nprint('OBJECTS', names)\n"
+             "assert {'Suzanne', 'far', bpy.context.scene.camera.name} <= names\n"
+             "assert not any(n.startswith('TexSynth') for n in names), names\n")
+    reopened = blender_run.blender("--python-expr", check, blend_file=str(kept))
+    assert reopened.returncode == 0, reopened.stdout[-2000:] + reopened.stderr[-2000:]
