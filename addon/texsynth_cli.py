@@ -4,7 +4,7 @@
   blender -b [scene.blend] --python-exit-code 1 --python addon/texsynth_cli.py -- \\
       --sample IMAGE (--object NAME | --mesh FILE.obj|.ply|.stl) [--method jumpmap|texton|round|patches] [--scale S]
       [--seed N] [--no-blend] [--blend-mode auto|histogram|variance|linear] [--blend-threshold PHI]
-      [--direction-attribute NAME]
+      [--direction-attribute NAME | --field-preset axis|curvature|smooth] [--axis X|Y|Z|-X|-Y|-Z|x,y,z]
       [--scale-attribute NAME | --scale-group NAME [--scale-range LO HI]] [--save OUT.blend]
       [--render OUT.png] [--resolution W H] [--stats OUT.json]
       [--bake IMAGE.png [--bake-uv NAME|auto] [--bake-size N] [--bake-margin PX] [--bake-material]]
@@ -126,6 +126,13 @@ def parse_args(argv):
                         help="map faces larger than the sample at this scale instead of refusing them")
     parser.add_argument("--direction-attribute", metavar="NAME", default="",
                         help="orient the texture along this vertex vector attribute (e.g. TexSynth_Direction)")
+    parser.add_argument("--axis", default=None, metavar="X|Y|Z|-X|-Y|-Z|x,y,z",
+                        help="the panel's Axis: texture 'up' follows this global axis projected on the surface "
+                             "(default Z); with --field-preset, the field's fallback direction")
+    parser.add_argument("--field-preset", choices=("axis", "curvature", "smooth"), default=None,
+                        help="the add-on's Field Preset: writes the direction field TexSynth_Direction (axis: "
+                             "--axis projected; curvature: along the least curvature; smooth: the mesh's "
+                             "field relaxed, 10 iterations) and orients the texture along it")
     scale = parser.add_mutually_exclusive_group()
     scale.add_argument("--scale-attribute", metavar="NAME", default="",
                        help="per-vertex density multiplier from this float vertex attribute (e.g. TexSynth_Scale)")
@@ -148,7 +155,11 @@ def parse_args(argv):
     parser.add_argument("--bake-margin", type=int, default=None, metavar="PX", help="bake margin (default 16 px)")
     parser.add_argument("--bake-material", action="store_true",
                         help="also create and assign 'TexSynth Baked: <object>' using only the baked image")
-    args = parser.parse_args(argv)
+    args = parser.parse_args(with_axis_values(argv))
+    args.axis = parse_axis(args.axis)
+    if args.field_preset and args.direction_attribute not in ("", FIELD_NAME):
+        raise UsageError("--field-preset writes %s and orients along it: drop --direction-attribute %s"
+                         % (FIELD_NAME, args.direction_attribute))
     if not math.isfinite(args.scale) or args.scale <= 0:
         raise UsageError("--scale must be a positive number of world units, got %s" % args.scale)
     if not all(math.isfinite(v) and v > 0 for v in args.scale_range):
@@ -184,6 +195,49 @@ def parse_args(argv):
             if not os.path.isdir(folder):
                 raise UsageError("--%s folder does not exist: %s" % (option, folder))
     return args
+
+
+AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
+FIELD_NAME = "TexSynth_Direction"  # fields/authoring.DIRECTION_NAME, what Field Preset writes
+
+
+def with_axis_values(argv):
+    """argparse takes `--axis -X` for two options: joined into `--axis=-X`."""
+    argv, joined = list(argv), []
+    while argv:
+        item = argv.pop(0)
+        if item == "--axis" and argv and argv[0].startswith("-") and not argv[0].startswith("--"):
+            item = "--axis=" + argv.pop(0)
+        joined.append(item)
+    return joined
+
+
+def parse_axis(text):
+    """--axis: a signed axis name or three numbers, as the panel's Axis vector (default Z)."""
+    if text is None:
+        return AXES["Z"]
+    name = text.strip().upper()
+    if name.lstrip("+-") in AXES and len(name) <= 2:
+        return tuple(-c if name.startswith("-") else c for c in AXES[name.lstrip("+-")])
+    try:
+        vector = tuple(float(value) for value in text.split(","))
+    except ValueError:
+        vector = ()
+    if len(vector) != 3 or not all(math.isfinite(v) for v in vector) or not any(vector):
+        raise UsageError("--axis must be X, Y, Z, -X, -Y, -Z or three numbers x,y,z not all 0, got %r" % text)
+    return vector
+
+
+def apply_field_preset(args, objects):
+    """--field-preset: the Field Preset operator's work (fields/tools.py) on every object, written to the
+    direction attribute the synthesis then follows."""
+    from texsynth.bridge import mesh_io
+    from texsynth.fields import tools
+    for obj in objects:
+        try:
+            mesh_io.write_field_state(obj, tools.preset_field(obj, args.field_preset.upper(), args.axis))
+        except (ValueError, RuntimeError) as error:
+            raise CliError("--field-preset %s on %s: %s" % (args.field_preset, obj.name, error))
 
 
 PARTICLE_OPTIONS = ("classes", "blur", "min_area", "background_class", "merges", "class_order", "labels",
@@ -443,12 +497,15 @@ def main(argv, command_line=False):
     if not os.path.isfile(args.sample):
         raise CliError("sample image not found: %s" % args.sample)
     objects = find_objects(args, compat)
+    if args.field_preset:
+        apply_field_preset(args, objects)
+    direction_attribute = args.direction_attribute or (FIELD_NAME if args.field_preset else "")
     settings = Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
                         jump_rate=args.jump_rate, working_size=args.working_size, blend=not args.no_blend,
                         blend_mode=args.blend_mode.upper(),
                         allow_oversized=args.allow_oversized, blend_threshold=args.blend_threshold,
-                        orientation="FIELD" if args.direction_attribute else "AXIS",
-                        direction_attribute=args.direction_attribute,
+                        orientation="FIELD" if direction_attribute else "AXIS", axis=args.axis,
+                        direction_attribute=direction_attribute,
                         scale_source="ATTRIBUTE" if args.scale_attribute else
                         "VERTEX_GROUP" if args.scale_group else "NONE",
                         scale_attribute=args.scale_attribute or "TexSynth_Scale",

@@ -13,6 +13,9 @@ BRICKS = os.path.join(blender_run.SAMPLES, "bricks.png")
 
 # Suzanne in blend_samples/scene.blend is Blender's monkey primitive: 507 vertices, 500 faces, 1968 corners.
 SUZANNE = {"vertices": 507, "faces": 500, "corners": 1968}
+needs_real = pytest.mark.skipif(not addon_package.real_synthesizer_available(),
+                                reason="needs the real texsynth_native (the contract double has no oversized "
+                                       "check and no fields)")
 
 
 def run_failing(*args, code, fragment, blend_file=None):
@@ -262,6 +265,7 @@ def test_oversized_advice_in_each_interfaces_terms():
     assert messages.for_interface("no such advice", "CLI", 1.0) == "no such advice"
 
 
+@needs_real
 def test_cli_oversized_error_names_scale_to_raise_and_allow_oversized(tmp_path):
     big = tmp_path / "big.obj"
     big.write_text("v 0 0 0\nv 10 0 0\nv 10 10 0\nv 0 10 0\nf 1 2 3 4\n")  # a 10-unit quad, 1-unit sample
@@ -296,6 +300,7 @@ for method in ("JUMPMAP", "TEXTON"):
 """
 
 
+@needs_real
 def test_addon_oversized_report_names_the_panels_properties():
     script = ADDON_OVERSIZED % (blender_run.BLENDER_TESTS, BRICKS)
     process = blender_run.blender("--python-expr", script)
@@ -345,3 +350,86 @@ def test_mesh_replaces_the_factory_scene_and_is_framed(tmp_path):
              "assert not any(n.startswith('TexSynth') for n in names), names\n")
     reopened = blender_run.blender("--python-expr", check, blend_file=str(kept))
     assert reopened.returncode == 0, reopened.stdout[-2000:] + reopened.stderr[-2000:]
+
+
+def write_tube(path, segments=24, rows=8):
+    """An open tube along z, radius 0.5, length 3 (the least-curvature direction is along it)."""
+    import math
+    verts = ["v %.6f %.6f %.6f" % (0.5 * math.cos(2 * math.pi * j / segments), 0.5 * math.sin(2 * math.pi * j / segments),
+                                   -1.5 + 3.0 * i / rows) for i in range(rows + 1) for j in range(segments)]
+    faces = ["f %d %d %d %d" % (i * segments + j + 1, i * segments + (j + 1) % segments + 1,
+                                (i + 1) * segments + (j + 1) % segments + 1, (i + 1) * segments + j + 1)
+             for i in range(rows) for j in range(segments)]
+    path.write_text("o tube\n" + "\n".join(verts + faces) + "\n")
+    return path
+
+
+# Loads the CLI's saved results, then makes them again with the add-on's own operators on the same mesh.
+FIELD_CHECK = """
+import sys
+sys.path.insert(0, %(tests)r)
+import bpy, numpy as np, harness
+def vectors(name):
+    mesh = bpy.data.objects["tube"].data
+    values = np.zeros(len(mesh.vertices) * 3, np.float32)
+    mesh.attributes[name].data.foreach_get("vector", values)
+    return values.reshape(-1, 3)
+def uvs():
+    mesh = bpy.data.objects["tube"].data
+    values = np.zeros(len(mesh.loops) * 2, np.float32)
+    mesh.uv_layers["TexSynth"].data.foreach_get("uv", values)
+    return values.reshape(-1, 2)
+cli = {}
+for name in ("curvature", "axis_x", "synth_x"):
+    bpy.ops.wm.open_mainfile(filepath=%(folder)r + "/" + name + ".blend")
+    cli[name] = uvs() if name == "synth_x" else vectors("TexSynth_Direction")
+harness.reset_scene()
+harness.load_addon().register()
+bpy.ops.wm.obj_import(filepath=%(mesh)r) if hasattr(bpy.ops.wm, "obj_import") else bpy.ops.import_scene.obj(filepath=%(mesh)r)
+harness.select_only([bpy.data.objects["tube"]])
+props = bpy.context.scene.texsynth
+props.sample_path, props.scale, props.blend, props.material_mode = %(sample)r, 1.0, False, "NONE"
+assert bpy.ops.texsynth.field_preset(preset="CURVATURE") == {"FINISHED"}
+curvature = vectors("TexSynth_Direction")
+props.axis = (1.0, 0.0, 0.0)
+assert bpy.ops.texsynth.field_preset(preset="AXIS") == {"FINISHED"}
+axis_x = vectors("TexSynth_Direction")
+print("DIFFERENCES", np.abs(cli["curvature"] - curvature).max(), np.abs(cli["axis_x"] - axis_x).max())
+assert np.allclose(cli["curvature"], curvature, atol=1e-5) and np.allclose(cli["axis_x"], axis_x, atol=1e-5)
+assert np.median(np.abs(curvature[:, 2])) > 0.99 and np.median(np.abs(axis_x[:, 2])) < 0.1
+props.orientation, props.axis = "AXIS", (-1.0, 0.0, 0.0)
+assert bpy.ops.texsynth.synthesize() == {"FINISHED"}
+synth_x = uvs()
+props.axis = (0.0, 0.0, 1.0)
+assert bpy.ops.texsynth.synthesize() == {"FINISHED"}
+print("UV", np.abs(cli["synth_x"] - synth_x).max(), np.abs(cli["synth_x"] - uvs()).max())
+assert np.allclose(cli["synth_x"], synth_x, atol=1e-5) and not np.allclose(cli["synth_x"], uvs(), atol=1e-3)
+print("FIELDS_MATCH")
+"""
+
+
+@needs_real
+def test_axis_and_field_preset_match_the_addon(tmp_path):
+    """--field-preset runs the add-on's Field Preset (the direction it writes is the operator's, and the
+    synthesis follows it); --axis is the panel's Axis (X = (1, 0, 0); `--axis -X` too, which argparse alone
+    would take for an option)."""
+    mesh = write_tube(tmp_path / "tube.obj")
+    common = ("--sample", BRICKS, "--mesh", str(mesh), "--scale", "1", "--no-blend", "--material", "none")
+    for name, extra in (("curvature", ("--field-preset", "curvature")),
+                        ("axis_x", ("--field-preset", "axis", "--axis", "X")), ("synth_x", ("--axis", "-X"))):
+        stats = tmp_path / (name + ".json")
+        process = blender_run.cli(*common, *extra, "--save", str(tmp_path / (name + ".blend")), "--stats", str(stats))
+        assert process.returncode == 0, process.stdout[-2000:] + process.stderr[-2000:]
+    script = FIELD_CHECK % dict(tests=blender_run.BLENDER_TESTS, folder=str(tmp_path), mesh=str(mesh), sample=BRICKS)
+    check = blender_run.blender("--python-expr", script)
+    assert check.returncode == 0 and "FIELDS_MATCH" in check.stdout, check.stdout[-3000:] + check.stderr[-3000:]
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (("--axis", "W"), "--axis"),
+    (("--axis", "0,0,0"), "--axis"),
+    (("--field-preset", "curvature", "--direction-attribute", "Other"), "--direction-attribute"),
+    (("--field-preset", "spiral"), "--field-preset"),
+])
+def test_bad_axis_and_field_preset_exit_2(args, fragment):
+    run_failing("--sample", BRICKS, "--object", "Suzanne", *args, code=2, fragment=fragment, blend_file=SCENE)

@@ -72,6 +72,25 @@ def field_state(context, obj):
     return state
 
 
+PRESETS = ("AXIS", "CURVATURE", "SMOOTH")
+
+
+def preset_field(obj, preset, axis, iterations=10):
+    """obj's field state (read from the mesh; axis: the fallback direction) with a preset applied, not
+    written yet: the Field Preset operator and the CLI's --field-preset."""
+    state = mesh_io.read_field_state(obj, tuple(axis))
+    state.field_mesh = field_mesh_for(obj, state.arrays)
+    if preset == "AXIS":
+        authoring.preset_axis(state, tuple(axis))
+    elif preset == "CURVATURE":
+        authoring.preset_curvature(state)
+    elif preset == "SMOOTH":
+        authoring.preset_smooth(state, iterations)
+    else:
+        raise SettingsError("unknown field preset %r (choose one of %s)" % (preset, ", ".join(PRESETS)))
+    return state
+
+
 def commit_edit(context, obj, state):
     """Writes the edited field, refreshes the overlay and re-synthesizes when Live Update is on.
     Returns a warning when the live update failed (the field edit itself is kept), else None."""
@@ -418,13 +437,7 @@ class TEXSYNTH_OT_field_preset(bpy.types.Operator):
     def execute(self, context):
         try:
             obj = _active_mesh(context)
-            state = field_state(context, obj)
-            if self.preset == "AXIS":
-                authoring.preset_axis(state, tuple(context.scene.texsynth.axis))
-            elif self.preset == "CURVATURE":
-                authoring.preset_curvature(state)
-            else:
-                authoring.preset_smooth(state, self.iterations)
+            state = preset_field(obj, self.preset, context.scene.texsynth.axis, self.iterations)
             _report_warning(self, commit_edit(context, obj, state))
         except (ValueError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
