@@ -26,7 +26,7 @@ background synthesized by --background; --density/--probability/--size name a fa
 
 --method round and patches keep their colours only in the scene, so from the command line they need somewhere
 to keep or show them: --bake, --save, --render or --stats (timings only); without any they are refused
-(exit 2) before anything is done.
+(exit 2) before anything is synthesized.
 
 --mesh without a .blend replaces Blender's factory Cube, Camera and Light by a camera framing the mesh and a sun.
 
@@ -484,8 +484,6 @@ def render(scene, objects, path, resolution):
 def main(argv, command_line=False):
     started = time.perf_counter()
     args = parse_args(argv)
-    if command_line:
-        check_kept_output(args)
     addon = load_addon()
     if addon.UNSUPPORTED:
         raise CliError(addon.UNSUPPORTED)
@@ -521,6 +519,8 @@ def main(argv, command_line=False):
     surface = settings.method in SURFACE_METHODS
     try:
         settings.validate()
+        if command_line:  # after the settings' own errors (exit 1), before any synthesis
+            check_kept_output(args)
         if settings.method == "PARTICLES":
             report = run_particles(args, objects, sample, settings)
         elif surface:

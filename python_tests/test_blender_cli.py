@@ -232,7 +232,7 @@ def write_quad_grid(path, cells=4, size=2.0):
                                    ("--method", "round", "--target", "vertices")])
 def test_surface_methods_without_an_output_are_refused(tmp_path, extra):
     """round and patches keep their colours only in the scene: with no --bake, --save, --render or --stats
-    the run would write nothing, so it is refused before anything is done."""
+    the run would write nothing, so it is refused before anything is synthesized."""
     mesh = write_quad_grid(tmp_path / "grid.obj")
     process = blender_run.cli("--sample", BRICKS, "--mesh", str(mesh), "--scale", "3", *extra)
     lines = blender_run.error_lines(process)
