@@ -246,7 +246,8 @@ PARTICLE_OPTIONS = ("classes", "blur", "min_area", "background_class", "merges",
 
 def check_kept_output(args):
     """round and patches leave their colours in the scene only (an image or attribute): refused from the
-    command line when nothing would save, bake, render or measure them. In-process callers (main) read the scene."""
+    command line when nothing would save, bake, render or measure them. Not checked for main() called from
+    Python, whose caller reads the scene (python_tests/blender/output_digest.py)."""
     if args.method not in ("round", "patches") or any((args.bake, args.save, args.render, args.stats)):
         return
     where = "--save OUT.blend" if args.target == "vertices" else "--bake IMAGE.png or --save OUT.blend"
@@ -406,27 +407,31 @@ def factory_objects(scene):
 
 def remove_factory_objects(scene):
     """--mesh without a .blend: the default Cube would hide the mesh and the default camera and light are
-    placed for that cube, so all three go; frame_scene then adds a camera and a sun for the mesh."""
-    for obj in factory_objects(scene):
+    placed for that cube, so all three go; frame_scene then adds a camera and a sun for the mesh. Returns
+    whether any went."""
+    found = factory_objects(scene)
+    for obj in found:
         data = obj.data
         datablocks = {"MESH": bpy.data.meshes, "CAMERA": bpy.data.cameras, "LIGHT": bpy.data.lights}[obj.type]
         bpy.data.objects.remove(obj)
         if data.users == 0:
             datablocks.remove(data)
+    return bool(found)
 
 
 def find_objects(args, compat):
     if args.mesh:
         if not os.path.isfile(args.mesh):
             raise CliError("mesh file not found: %s" % args.mesh)
-        remove_factory_objects(bpy.context.scene)
+        replaced = remove_factory_objects(bpy.context.scene)
         try:
             objects = compat.import_mesh_file(os.path.abspath(args.mesh))
         except (RuntimeError, ValueError) as error:
             raise CliError("could not import %s: %s" % (args.mesh, str(error).strip().splitlines()[-1]))
         if not objects:
             raise CliError("no mesh found in %s" % args.mesh)
-        frame_scene(bpy.context.scene, objects)
+        if replaced:  # a .blend's own scene is only framed by --render, as before
+            frame_scene(bpy.context.scene, objects)
         return objects
     objects = []
     for name in args.object:
