@@ -12,6 +12,7 @@
 #include "synthetic_texture.hpp"
 #include "texsynth/common/fixed_order_product.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/patches/exemplar_cache.hpp"
 #include "texsynth/patches/exemplar_index.hpp"
 #include "texsynth/preprocess/preprocess.hpp"
 

@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -18,6 +19,7 @@
 #include "temp_dir.hpp"
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/patches/exemplar_cache.hpp"
 #include "texsynth/patches/exemplar_index.hpp"
 
 namespace {
@@ -382,15 +384,15 @@ TEST(PatchesExemplar, SerializationRoundTripAndCorruptBuffers) {
   ExemplarParams other = p;
   other.seed = 4;
   EXPECT_NE(texsynth::exemplar_key(s.view(), other), e.key);
-  EXPECT_THROW(texsynth::deserialize_exemplar_index(bytes.data(), bytes.size(), e.key + 1), std::invalid_argument);
+  EXPECT_THROW(texsynth::deserialize_exemplar_index(bytes.data(), bytes.size(), e.key + 1), texsynth::CacheError);
   // Truncated anywhere, bytes flipped anywhere.
   for (size_t n = 0; n < bytes.size(); n += std::max<size_t>(1, bytes.size() / 97))
-    EXPECT_THROW(texsynth::deserialize_exemplar_index(bytes.data(), n), std::invalid_argument) << n;
-  EXPECT_THROW(texsynth::deserialize_exemplar_index(nullptr, 0), std::invalid_argument);
+    EXPECT_THROW(texsynth::deserialize_exemplar_index(bytes.data(), n), texsynth::CacheError) << n;
+  EXPECT_THROW(texsynth::deserialize_exemplar_index(nullptr, 0), texsynth::CacheError);
   for (size_t at = 0; at < bytes.size(); at += bytes.size() / 61) {
     std::vector<uint8_t> bad = bytes;
     bad[at] ^= 0x5a;
-    EXPECT_THROW(texsynth::deserialize_exemplar_index(bad.data(), bad.size()), std::invalid_argument) << at;
+    EXPECT_THROW(texsynth::deserialize_exemplar_index(bad.data(), bad.size()), texsynth::CacheError) << at;
   }
   // Fields that pass the checksum are still validated (a buffer written by a buggy writer).
   auto resealed = [&](size_t at, const void* value, size_t size) {
@@ -407,7 +409,7 @@ TEST(PatchesExemplar, SerializationRoundTripAndCorruptBuffers) {
                           resealed(28, &five, 4), resealed(32, &huge, 4), resealed(48, &huge, 4),
                           resealed(bytes.size() - 12, &nan, 4), resealed(60, &nan, 4)}) {
     if (bad == bytes) continue;
-    EXPECT_THROW(texsynth::deserialize_exemplar_index(bad.data(), bad.size()), std::invalid_argument);
+    EXPECT_THROW(texsynth::deserialize_exemplar_index(bad.data(), bad.size()), texsynth::CacheError);
   }
   // The tail (reduced vectors and the HNSW link lists): all-ones in any 4-byte field is invalid
   // (NaN, a label, level, count or link out of range), checksum or not.
@@ -416,7 +418,7 @@ TEST(PatchesExemplar, SerializationRoundTripAndCorruptBuffers) {
   for (size_t at = (bytes.size() * 6 / 10) & ~size_t(3); at + 8 < bytes.size(); at += 4 * 37, ++tried) {
     const auto bad = resealed(at, &ones, 4);
     if (bad == bytes) continue;
-    EXPECT_THROW(texsynth::deserialize_exemplar_index(bad.data(), bad.size()), std::invalid_argument) << at;
+    EXPECT_THROW(texsynth::deserialize_exemplar_index(bad.data(), bad.size()), texsynth::CacheError) << at;
   }
   EXPECT_GT(tried, 100);
   // Files: round trip, missing file.
@@ -425,7 +427,29 @@ TEST(PatchesExemplar, SerializationRoundTripAndCorruptBuffers) {
   EXPECT_EQ(dir.entry_count(), 1u);  // no temporary left behind
   const ExemplarIndex from_file = texsynth::load_exemplar_index(dir.file("x.tsexemplar"), e.key);
   EXPECT_EQ(from_file.full->reduced, e.full->reduced);
-  EXPECT_THROW(texsynth::load_exemplar_index(dir.file("missing")), std::invalid_argument);
+  EXPECT_THROW(texsynth::load_exemplar_index(dir.file("missing")), texsynth::CacheError);
+}
+
+// A cache file cut short (a full disk, a killed write) is a CacheError, as with the other caches,
+// so callers rebuild it instead of reporting bad input.
+TEST(PatchesExemplar, TruncatedCacheFileIsACacheError) {
+  const Pixels s = noise_sample(40, 40);
+  const ExemplarIndex e = texsynth::build_exemplar_index(s.view(), small_params());
+  texsynth_test::TempDir dir;
+  const std::string path = dir.file("cut.tsexemplar");
+  texsynth::save_exemplar_index(e, path);
+  const uintmax_t full = std::filesystem::file_size(path);
+  for (const uintmax_t keep : {full - 1, full / 2, uintmax_t(7)}) {
+    std::filesystem::resize_file(path, keep);
+    try {
+      texsynth::load_exemplar_index(path, e.key);
+      ADD_FAILURE() << "a " << keep << "-byte file loaded";
+    } catch (const texsynth::CacheError& error) {
+      EXPECT_NE(std::string(error.what()).find("cut.tsexemplar"), std::string::npos) << error.what();
+    } catch (const std::exception& error) {
+      ADD_FAILURE() << keep << " bytes: not a CacheError: " << error.what();
+    }
+  }
 }
 
 TEST(PatchesExemplar, CancelAndProgress) {

@@ -3,6 +3,7 @@
 from the returned triangle + barycentrics land on the returned positions, a cylinder's grid follows
 its circumferential field, and a raised CancelToken stops tracing."""
 import math
+import os
 
 import numpy as np
 import pytest
@@ -123,6 +124,21 @@ def lattice_samples(pos, tris, res):
     return positions, tri, bary
 
 
+def test_a_truncated_exemplar_cache_is_a_cache_error(tmp_path):
+    # As the other caches: the add-on rebuilds on CacheError (a ValueError).
+    sample = np.random.default_rng(4).random((40, 40, 3)).astype(np.float32)
+    exemplar = tn.patch_exemplar(sample, patch_size=16, seed=1)
+    path = str(tmp_path / "cut.tsx")
+    exemplar.save(path)
+    size = os.path.getsize(path)
+    for keep in (size - 1, size // 2, 7):
+        os.truncate(path, keep)
+        with pytest.raises(tn.CacheError, match="cut.tsx"):
+            tn.load_patch_exemplar(path, exemplar.key)
+    with pytest.raises(tn.CacheError):
+        tn.load_patch_exemplar(str(tmp_path / "missing.tsx"))
+
+
 def test_exemplar_and_synthesis_round_trip_through_numpy_and_a_cache_file(tmp_path):
     rng = np.random.default_rng(3)
     sample = rng.random((40, 40, 3)).astype(np.float32)
@@ -131,12 +147,12 @@ def test_exemplar_and_synthesis_round_trip_through_numpy_and_a_cache_file(tmp_pa
     path = str(tmp_path / "sample.tsx")
     exemplar.save(path)
     assert tn.load_patch_exemplar(path, exemplar.key).key == exemplar.key
-    with pytest.raises(ValueError):
+    with pytest.raises(tn.CacheError, match="key mismatch"):
         tn.load_patch_exemplar(path, exemplar.key + 1)  # stale: another sample's key
     with open(path, "r+b") as handle:
         handle.seek(100)
         handle.write(b"\0" * 32)
-    with pytest.raises(ValueError):
+    with pytest.raises(tn.CacheError):
         tn.load_patch_exemplar(path)
     pos, tris = plane(n=4, spacing=0.25, jitter=0.0)
     positions, tri, bary = lattice_samples(pos, tris, 32)

@@ -25,6 +25,7 @@
 
 #include "texsynth/common/rng.hpp"
 #include "texsynth/image/image.hpp"
+#include "texsynth/patches/exemplar_cache.hpp"
 #include "texsynth/patches/exemplar_index.hpp"
 
 namespace {

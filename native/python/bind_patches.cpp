@@ -12,6 +12,7 @@
 
 #include "array_args.hpp"
 #include "cancel_arg.hpp"
+#include "texsynth/patches/exemplar_cache.hpp"
 #include "texsynth/patches/grid_patch.hpp"
 #include "texsynth/patches/patch_synth.hpp"
 
@@ -227,7 +228,8 @@ void bind_patches(py::module_& m) {
         return index;
       },
       py::arg("path"), py::arg("key") = py::none(),
-      "Loads a PatchExemplar saved with save(); ValueError for a missing, corrupt or stale file (another key).");
+      "Loads a PatchExemplar saved with save(); CacheError (a ValueError) for a missing, corrupt, truncated or "
+      "stale file (another key).");
 
   m.def(
       "synthesize_patches",

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "texsynth/patches/exemplar_index.hpp"
 
+#include "exemplar_graph.hpp"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
@@ -23,13 +25,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <mutex>
 #include <sstream>
-#include <unistd.h>
 
-#include "texsynth/common/byte_writer.hpp"
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/fixed_order_product.hpp"
 #include "texsynth/common/hash.hpp"
@@ -163,6 +161,8 @@ int64_t origin_count(int32_t w, int32_t h, int p, bool tileable) {
   return tileable ? int64_t(w) * h : int64_t(std::max(0, w - p + 1)) * std::max(0, h - p + 1);
 }
 
+}  // namespace
+
 std::vector<std::array<int32_t, 2>> patch_cells(PatchRegion region, int p, int band) {
   std::vector<std::array<int32_t, 2>> cells;
   const int n = p / kPatchCellSize;
@@ -173,6 +173,8 @@ std::vector<std::array<int32_t, 2>> patch_cells(PatchRegion region, int p, int b
         cells.push_back({kPatchCellSize * i + kPatchCellOffset, kPatchCellSize * j + kPatchCellOffset});
   return cells;
 }
+
+namespace {
 
 // Per-element bytes of hnswlib 0.6-0.8: level-0 links + data + label, level and link-list pointer,
 // label map entry, upper levels (1/M of the nodes on average).
@@ -695,329 +697,81 @@ ExemplarIndex build_exemplar_index(const ExemplarSample& s, const ExemplarParams
   return out;
 }
 
-// --- serialization --------------------------------------------------------------------------------
-// Serialization: the HNSW graph is stored as its link lists, in our own layout, and restored into
-// a fresh hnswlib index after every field was checked (labels a permutation, levels <= 32, link
-// counts <= M (2M at level 0), links to nodes that exist at that level). Rebuilding it from the
-// reduced vectors instead took as long as the first build (bench_patches_exemplar, 256², 32²
-// patches: 1.8 s of a 1.9 s preprocessing, 3.9 s of 3.7 s with the band index), so a cache hit would
-// have saved nothing. hnswlib's own loadIndex is not used: it trusts its input (a corrupt link list
-// is read out of bounds). Restoring touches hnswlib's public members (link lists, levels, labels),
-// which 0.6 and 0.8 name and lay out alike.
+// --- HNSW graph as link lists (for exemplar_cache.cpp) --------------------------------------------
+// The cache stores the graph as its link lists and restores them into a fresh hnswlib index:
+// rebuilding from the reduced vectors took as long as the first build (bench_patches_exemplar,
+// 256², 32² patches: 1.8 s of a 1.9 s preprocessing), and hnswlib's own loadIndex trusts its input
+// (a corrupt link list is read out of bounds). This touches hnswlib's public members (link lists,
+// levels, labels), which 0.6 and 0.8 name and lay out alike.
 
-namespace {
-
-constexpr char kMagic[8] = {'T', 'S', 'E', 'X', 'E', 'M', 'P', 'L'};
-constexpr uint64_t kChecksumSeed = 0x74736578656d706cull;
-
-class Reader {
- public:
-  Reader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
-  template <typename T>
-  T get() {
-    need(sizeof(T));
-    T value;
-    std::memcpy(&value, data_ + at_, sizeof(T));
-    at_ += sizeof(T);
-    return value;
-  }
-  int32_t get_int(const char* what, int32_t lo, int32_t hi) {
-    const int32_t v = get<int32_t>();
-    if (v < lo || v > hi) corrupt(std::string(what) + " out of range");
-    return v;
-  }
-  // `count` finite floats.
-  std::vector<float> get_floats(size_t count, const char* what) {
-    if (count > (size_ - at_) / sizeof(float)) corrupt("truncated");
-    std::vector<float> v(count);
-    if (count) std::memcpy(v.data(), data_ + at_, count * sizeof(float));
-    at_ += count * sizeof(float);
-    for (float f : v)
-      if (!std::isfinite(f)) corrupt(std::string(what) + " has NaN or infinite values");
-    return v;
-  }
-  size_t at() const { return at_; }
-  [[noreturn]] static void corrupt(const std::string& what) {
-    throw std::invalid_argument("exemplar index buffer: " + what);
-  }
-
- private:
-  void need(size_t n) {
-    if (n > size_ - at_) corrupt("truncated");
-  }
-  const uint8_t* data_;
-  size_t size_;
-  size_t at_ = 0;
-};
-
-void put_graph(ByteWriter& w, const PatchIndex& ix) {
+HnswLinks hnsw_links(const PatchIndex& ix) {
   if (!ix.graph) throw std::invalid_argument("serialize_exemplar_index: an index without its HNSW graph");
   const auto& h = ix.graph->hnsw;
   if (h.cur_element_count != size_t(ix.count())) throw std::invalid_argument("serialize_exemplar_index: graph size");
-  w.put<int32_t>(int32_t(h.maxlevel_));
-  w.put<uint32_t>(uint32_t(h.enterpoint_node_));
-  for (hnswlib::tableint i = 0; i < hnswlib::tableint(ix.count()); ++i) {
-    w.put<uint32_t>(uint32_t(h.getExternalLabel(i)));
+  HnswLinks out;
+  out.top_level = int32_t(h.maxlevel_);
+  out.entry = uint32_t(h.enterpoint_node_);
+  const size_t n = size_t(ix.count());
+  out.labels.resize(n);
+  out.levels.resize(n);
+  out.first.resize(n);
+  for (hnswlib::tableint i = 0; i < hnswlib::tableint(n); ++i) {
+    out.labels[i] = uint32_t(h.getExternalLabel(i));
     const int level = h.element_levels_[i];
-    w.put<int32_t>(level);
+    out.levels[i] = level;
+    out.first[i] = out.links.size();
     for (int l = 0; l <= level; ++l) {
       hnswlib::linklistsizeint* list = l == 0 ? h.get_linklist0(i) : h.get_linklist(i, l);
-      const unsigned short n = h.getListCount(list);
-      w.put<uint32_t>(n);
+      const unsigned short count = h.getListCount(list);
+      out.links.push_back(count);
       const auto* ids = reinterpret_cast<const hnswlib::tableint*>(list + 1);
-      for (unsigned short k = 0; k < n; ++k) w.put<uint32_t>(ids[k]);
+      for (unsigned short k = 0; k < count; ++k) out.links.push_back(ids[k]);
     }
   }
+  return out;
 }
 
-// Reads and checks the link lists, then restores them into a fresh index (see "Serialization").
-void get_graph(Reader& r, PatchIndex& ix, const std::atomic<bool>* cancel) {
-  constexpr int kMaxLevel = 32;  // P(level >= 32) = M^-32: never drawn
+void restore_hnsw_graph(PatchIndex& ix, const HnswLinks& links, const std::atomic<bool>* cancel) {
   const uint32_t n = uint32_t(ix.count());
   const uint32_t max_m = uint32_t(ix.spec.hnsw.M), max_m0 = 2 * max_m;
-  const int32_t max_level = r.get_int("HNSW top level", 0, kMaxLevel);
-  const uint32_t entry = r.get<uint32_t>();
-  if (entry >= n) Reader::corrupt("HNSW entry point out of range");
-  struct Node {
-    uint32_t label;
-    int32_t level;
-    size_t links;  // offset into `links`
-  };
-  std::vector<Node> nodes(n);
-  std::vector<uint32_t> links;  // per node and level: count, then ids
-  links.reserve(size_t(n) * (max_m + 2));
-  std::vector<uint8_t> seen(n, 0);
-  for (uint32_t i = 0; i < n; ++i) {
-    if ((i & 4095) == 0) throw_if_cancelled(cancel);
-    Node& node = nodes[i];
-    node.label = r.get<uint32_t>();
-    if (node.label >= n || seen[node.label]) Reader::corrupt("HNSW labels are not a permutation");
-    seen[node.label] = 1;
-    node.level = r.get_int("HNSW node level", 0, max_level);
-    node.links = links.size();
-    for (int32_t l = 0; l <= node.level; ++l) {
-      const uint32_t count = r.get<uint32_t>();
-      if (count > (l == 0 ? max_m0 : max_m)) Reader::corrupt("HNSW link count out of range");
-      links.push_back(count);
-      for (uint32_t k = 0; k < count; ++k) links.push_back(r.get<uint32_t>());
-    }
-  }
-  if (nodes[entry].level != max_level) Reader::corrupt("HNSW entry point is not on the top level");
-  for (uint32_t i = 0; i < n; ++i) {  // every link points to a node that has that level
-    size_t at = nodes[i].links;
-    for (int32_t l = 0; l <= nodes[i].level; ++l) {
-      const uint32_t count = links[at++];
-      for (uint32_t k = 0; k < count; ++k, ++at)
-        if (links[at] >= n || nodes[links[at]].level < l) Reader::corrupt("HNSW link out of range");
-    }
-  }
-
   auto graph = make_graph(ix.dims, size_t(n), ix.spec.hnsw.M, ix.spec.hnsw.ef_construction, ix.graph_seed);
   auto& h = graph->hnsw;
   if (h.maxM0_ != max_m0 || h.maxM_ != max_m || h.data_size_ != size_t(ix.dims) * sizeof(float))
     throw std::runtime_error("exemplar index: unexpected hnswlib layout");
   for (uint32_t i = 0; i < n; ++i) {
     if ((i & 4095) == 0) throw_if_cancelled(cancel);
-    const Node& node = nodes[i];
+    const uint32_t label = links.labels[i];
+    const int32_t level = links.levels[i];
     std::memset(h.data_level0_memory_ + size_t(i) * h.size_data_per_element_ + h.offsetLevel0_, 0,
                 h.size_data_per_element_);
-    h.setExternalLabel(i, node.label);
-    std::memcpy(h.getDataByInternalId(i), ix.reduced_at(int32_t(node.label)), h.data_size_);
-    h.element_levels_[i] = node.level;
+    h.setExternalLabel(i, label);
+    std::memcpy(h.getDataByInternalId(i), ix.reduced_at(int32_t(label)), h.data_size_);
+    h.element_levels_[i] = level;
     h.linkLists_[i] = nullptr;
-    if (node.level > 0) {
-      h.linkLists_[i] = static_cast<char*>(std::malloc(h.size_links_per_element_ * size_t(node.level) + 1));
+    if (level > 0) {
+      h.linkLists_[i] = static_cast<char*>(std::malloc(h.size_links_per_element_ * size_t(level) + 1));
       if (!h.linkLists_[i]) {
         h.element_levels_[i] = 0;
         h.cur_element_count = i;
         throw std::bad_alloc();
       }
-      std::memset(h.linkLists_[i], 0, h.size_links_per_element_ * size_t(node.level) + 1);
+      std::memset(h.linkLists_[i], 0, h.size_links_per_element_ * size_t(level) + 1);
     }
     h.cur_element_count = i + 1;  // the destructor frees what is counted
-    size_t at = node.links;
-    for (int32_t l = 0; l <= node.level; ++l) {
+    size_t at = links.first[i];
+    for (int32_t l = 0; l <= level; ++l) {
       hnswlib::linklistsizeint* list = l == 0 ? h.get_linklist0(i) : h.get_linklist(i, l);
-      const uint32_t count = links[at++];
+      const uint32_t count = links.links[at++];
       h.setListCount(list, static_cast<unsigned short>(count));
-      std::memcpy(list + 1, links.data() + at, sizeof(uint32_t) * count);
+      std::memcpy(list + 1, links.links.data() + at, sizeof(uint32_t) * count);
       at += count;
     }
-    h.label_lookup_[node.label] = i;
+    h.label_lookup_[label] = i;
   }
-  h.enterpoint_node_ = entry;
-  h.maxlevel_ = max_level;
+  h.enterpoint_node_ = links.entry;
+  h.maxlevel_ = links.top_level;
   h.setEf(size_t(ix.spec.hnsw.ef_search));
   ix.graph = std::move(graph);
-}
-
-void put_index(ByteWriter& w, const PatchIndex& ix) {
-  w.put<int32_t>(int32_t(ix.spec.region));
-  w.put<int32_t>(ix.spec.patch_size);
-  w.put<int32_t>(ix.spec.band_width);
-  w.put<int32_t>(ix.spec.dims);
-  w.put<int32_t>(ix.spec.hnsw.M);
-  w.put<int32_t>(ix.spec.hnsw.ef_construction);
-  w.put<int32_t>(ix.spec.hnsw.ef_search);
-  w.put<uint64_t>(ix.graph_seed);
-  w.put<int32_t>(ix.raw_dims);
-  w.put<int32_t>(ix.dims);
-  w.put_floats(ix.mean);
-  w.put_floats(ix.basis);
-  w.put_floats(ix.reduced);
-  put_graph(w, ix);
-}
-
-PatchIndex get_index(Reader& r, const ExemplarAppearance& a, PatchRegion expected, const std::atomic<bool>* cancel) {
-  PatchIndex ix;
-  ix.spec.region = PatchRegion(r.get_int("region", 0, 1));
-  if (ix.spec.region != expected) Reader::corrupt("index region mismatch");
-  ix.spec.patch_size = r.get_int("patch size", kMinPatchSize, kMaxPatchSize);
-  if (ix.spec.patch_size % kPatchCellSize) Reader::corrupt("patch size not a multiple of 4");
-  ix.spec.band_width = r.get_int("band width", 0, ix.spec.patch_size / 2);
-  if ((expected == PatchRegion::kBand) != (ix.spec.band_width > 0)) Reader::corrupt("band width inconsistent");
-  ix.spec.dims = r.get_int("patch dims", 1, kMaxPatchDims);
-  ix.spec.hnsw.M = r.get_int("HNSW M", 2, 64);
-  ix.spec.hnsw.ef_construction = r.get_int("HNSW ef_construction", 1, 1000);
-  ix.spec.hnsw.ef_search = r.get_int("HNSW ef_search", 1, 4096);
-  ix.graph_seed = r.get<uint64_t>();
-  const int32_t need = a.tileable ? ix.spec.patch_size : ix.spec.patch_size + 3;
-  if (a.width < need || a.height < need) Reader::corrupt("sample too small for its patch size");
-  ix.sample_width = a.width;
-  ix.sample_height = a.height;
-  ix.tileable = a.tileable;
-  ix.origins_x = a.tileable ? a.width : a.width - ix.spec.patch_size + 1;
-  ix.origins_y = a.tileable ? a.height : a.height - ix.spec.patch_size + 1;
-  ix.appearance_dims = a.space.dims;
-  ix.cells = patch_cells(ix.spec.region, ix.spec.patch_size, ix.spec.band_width);
-  ix.raw_dims = r.get_int("raw dims", 1, 1 << 20);
-  if (ix.raw_dims != int(ix.cells.size()) * a.space.dims) Reader::corrupt("raw dims inconsistent");
-  ix.dims = r.get_int("dims", 1, kMaxPatchDims);
-  if (ix.dims != std::min(ix.spec.dims, ix.raw_dims)) Reader::corrupt("dims inconsistent");
-  ix.mean = r.get_floats(size_t(ix.raw_dims), "patch mean");
-  ix.basis = r.get_floats(size_t(ix.dims) * size_t(ix.raw_dims), "patch basis");
-  ix.reduced = r.get_floats(size_t(ix.count()) * size_t(ix.dims), "reduced vectors");
-  get_graph(r, ix, cancel);
-  ix.build_columns(a);
-  return ix;
-}
-
-}  // namespace
-
-uint64_t exemplar_checksum(const void* data, size_t size) { return hash_bytes(data, size, kChecksumSeed); }
-
-std::vector<uint8_t> serialize_exemplar_index(const ExemplarIndex& e) {
-  const ExemplarAppearance& a = e.appearance;
-  if (a.width != e.width || a.height != e.height || a.space.channels != e.channels ||
-      a.values.size() != size_t(a.width) * size_t(a.height) * size_t(a.space.dims) ||
-      a.space.basis.size() != size_t(a.space.dims) * size_t(a.space.raw_dims()) ||
-      a.space.mean.size() != size_t(a.space.raw_dims()) || (!e.full && !e.band))
-    throw std::invalid_argument("serialize_exemplar_index: inconsistent ExemplarIndex");
-  ByteWriter w;
-  w.bytes.reserve(size_t(1) << 16);
-  for (char c : kMagic) w.put<char>(c);
-  w.put<uint32_t>(kExemplarFormatVersion);
-  w.put<uint64_t>(e.key);
-  w.put<int32_t>(e.width);
-  w.put<int32_t>(e.height);
-  w.put<int32_t>(e.channels);
-  w.put<int32_t>(e.patch_size);
-  w.put<uint32_t>(e.tileable ? 1 : 0);
-  w.put<uint64_t>(e.seed);
-  w.put<int32_t>(a.space.dims);
-  w.put_floats(a.space.weights);
-  w.put_floats(a.space.mean);
-  w.put_floats(a.space.basis);
-  w.put_floats(a.values);
-  w.put<uint32_t>((e.full ? 1u : 0u) | (e.band ? 2u : 0u));
-  if (e.full) put_index(w, *e.full);
-  if (e.band) put_index(w, *e.band);
-  w.put<uint64_t>(exemplar_checksum(w.bytes.data(), w.bytes.size()));
-  return std::move(w.bytes);
-}
-
-ExemplarIndex deserialize_exemplar_index(const uint8_t* data, size_t size, std::optional<uint64_t> expected_key,
-                                         const std::atomic<bool>* cancel) {
-  if (!data && size) Reader::corrupt("null data");
-  if (size < sizeof(kMagic) + 4 + 8 + 8) Reader::corrupt("truncated");
-  if (std::memcmp(data, kMagic, sizeof(kMagic)) != 0) Reader::corrupt("not an exemplar index (bad magic)");
-  uint64_t stored_sum;
-  std::memcpy(&stored_sum, data + size - 8, 8);
-  if (exemplar_checksum(data, size - 8) != stored_sum) Reader::corrupt("checksum mismatch (truncated or corrupt)");
-  Reader r(data, size - 8);
-  for (size_t i = 0; i < sizeof(kMagic); ++i) r.get<char>();
-  const uint32_t version = r.get<uint32_t>();
-  if (version != kExemplarFormatVersion)
-    Reader::corrupt("format version " + std::to_string(version) + ", expected " + std::to_string(kExemplarFormatVersion));
-  ExemplarIndex e;
-  e.key = r.get<uint64_t>();
-  if (expected_key && *expected_key != e.key) Reader::corrupt("key mismatch (made for another sample or parameters)");
-  e.width = r.get_int("width", 1, kMaxImageSide);
-  e.height = r.get_int("height", 1, kMaxImageSide);
-  if (int64_t(e.width) * e.height > kMaxImagePixels) Reader::corrupt("sample size out of range");
-  e.channels = r.get_int("channels", 3, 4);
-  e.patch_size = r.get_int("patch size", kMinPatchSize, kMaxPatchSize);
-  const uint32_t tileable = r.get<uint32_t>();
-  if (tileable > 1) Reader::corrupt("tileable flag out of range");
-  e.tileable = tileable == 1;
-  e.seed = r.get<uint64_t>();
-  ExemplarAppearance& a = e.appearance;
-  a.width = e.width;
-  a.height = e.height;
-  a.tileable = e.tileable;
-  a.space.channels = e.channels;
-  a.space.dims = r.get_int("appearance dims", 1, kAppearanceWindow * kAppearanceWindow * e.channels);
-  a.space.weights = r.get_floats(kAppearanceWindow * kAppearanceWindow, "appearance weights");
-  a.space.mean = r.get_floats(size_t(a.space.raw_dims()), "appearance mean");
-  a.space.basis = r.get_floats(size_t(a.space.dims) * size_t(a.space.raw_dims()), "appearance basis");
-  a.values = r.get_floats(size_t(a.width) * size_t(a.height) * size_t(a.space.dims), "appearance values");
-  const uint32_t mask = r.get<uint32_t>();
-  if (mask < 1 || mask > 3) Reader::corrupt("index mask out of range");
-  const auto t0 = Clock::now();
-  if (mask & 1u) e.full = get_index(r, a, PatchRegion::kFull, cancel);
-  if (mask & 2u) e.band = get_index(r, a, PatchRegion::kBand, cancel);
-  e.stats.seconds_hnsw = seconds_since(t0);
-  for (auto* ix : {&e.full, &e.band})
-    if (*ix && (*ix)->spec.patch_size != e.patch_size) Reader::corrupt("patch size inconsistent");
-  if (r.at() != size - 8) Reader::corrupt("trailing bytes");
-  e.stats.index_bytes = int64_t(a.values.size() + a.space.basis.size()) * 4 + (e.full ? e.full->memory_bytes() : 0) +
-                        (e.band ? e.band->memory_bytes() : 0);
-  return e;
-}
-
-void save_exemplar_index(const ExemplarIndex& index, const std::string& path) {
-  namespace fs = std::filesystem;
-  const std::vector<uint8_t> bytes = serialize_exemplar_index(index);
-  const fs::path target(path);
-  const fs::path temp = target.parent_path() / ("." + target.filename().string() + ".tmp." + std::to_string(getpid()));
-  {
-    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    if (!out || !out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size())) || !out.flush()) {
-      std::error_code ec;
-      fs::remove(temp, ec);
-      throw std::runtime_error("cannot write exemplar index '" + path + "'");
-    }
-  }
-  std::error_code ec;
-  fs::rename(temp, target, ec);
-  if (ec) {
-    fs::remove(temp, ec);
-    throw std::runtime_error("cannot write exemplar index '" + path + "': rename failed");
-  }
-}
-
-ExemplarIndex load_exemplar_index(const std::string& path, std::optional<uint64_t> expected_key,
-                                  const std::atomic<bool>* cancel) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw std::invalid_argument("exemplar index '" + path + "': missing or not a file");
-  const uintmax_t size = fs::file_size(path, ec);
-  if (ec) throw std::invalid_argument("exemplar index '" + path + "': cannot read its size");
-  std::vector<uint8_t> bytes(size);
-  std::ifstream in(path, std::ios::binary);
-  if (!in || !in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size())))
-    throw std::invalid_argument("exemplar index '" + path + "': cannot read");
-  return deserialize_exemplar_index(bytes.data(), bytes.size(), expected_key, cancel);
 }
 
 }  // namespace texsynth

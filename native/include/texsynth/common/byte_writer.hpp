@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Appends plain values to a byte buffer, for the cache files (preprocess/cache.cpp,
-// patches/exemplar_index.cpp). Host byte order: little-endian hosts only (x86, ARM).
+// patches/exemplar_cache.cpp). Host byte order: little-endian hosts only (x86, ARM).
 #include <cstddef>
 #include <cstdint>
 #include <cstring>

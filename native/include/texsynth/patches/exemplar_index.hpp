@@ -210,27 +210,6 @@ ExemplarAppearance build_appearance(const ExemplarSample& sample, int appearance
 PatchIndex build_patch_index(const ExemplarAppearance& appearance, const PatchIndexSpec& spec, uint64_t seed,
                              const std::atomic<bool>* cancel = nullptr, std::atomic<float>* progress = nullptr);
 
-// Disk cache. Little-endian layout, format kExemplarFormatVersion:
-//   magic "TSEXEMPL" | u32 version | u64 key | i32 width, height, channels, patch_size | u32 tileable |
-//   u64 seed | appearance (i32 dims, f32 weights[25], mean[raw], basis[dims*raw], values[W*H*dims]) |
-//   u32 index mask (1 full, 2 band) | per index: spec (i32 region, patch_size, band_width, dims, M,
-//   ef_construction, ef_search), u64 graph_seed, i32 raw_dims, i32 dims, f32 mean[raw],
-//   basis[dims*raw], reduced[count*dims], HNSW graph (i32 top level, u32 entry point, per node:
-//   u32 label, i32 level, per level 0..level: u32 n, u32 links[n]) | u64 checksum (hash_bytes over
-//   everything before it). Every field is checked before the graph is restored (exemplar_index.cpp,
-//   "Serialization"); about 100 bytes per origin and index with M = 16.
-std::vector<uint8_t> serialize_exemplar_index(const ExemplarIndex& index);
-// The trailing checksum of a buffer whose first `size` bytes are `data` (everything before it).
-uint64_t exemplar_checksum(const void* data, size_t size);
-// Throws std::invalid_argument for anything but a complete, consistent buffer of this format version
-// (truncated, corrupt, wrong checksum, NaN/inf values) and, with expected_key, for another key.
-ExemplarIndex deserialize_exemplar_index(const uint8_t* data, size_t size,
-                                         std::optional<uint64_t> expected_key = std::nullopt,
-                                         const std::atomic<bool>* cancel = nullptr);
-// Atomic write (temporary file + rename); std::runtime_error on I/O failure.
-void save_exemplar_index(const ExemplarIndex& index, const std::string& path);
-// std::invalid_argument for a missing, unreadable or invalid file (as deserialize_exemplar_index).
-ExemplarIndex load_exemplar_index(const std::string& path, std::optional<uint64_t> expected_key = std::nullopt,
-                                  const std::atomic<bool>* cancel = nullptr);
+// Disk cache (save, load): exemplar_cache.hpp.
 
 }  // namespace texsynth
