@@ -16,6 +16,7 @@
 #include "texton_fixtures.hpp"
 #include "texsynth/field/orientation_field.hpp"
 #include "texsynth/mesh/mesh.hpp"
+#include "texsynth/mesh/mesh_edges.hpp"
 #include "texsynth/synth/texton_synth.hpp"
 
 namespace {

@@ -21,6 +21,7 @@
 #include "../mesh_fixtures.hpp"
 #include "../synthetic_texture.hpp"
 #include "texsynth/field/orientation_field.hpp"
+#include "texsynth/mesh/mesh_edges.hpp"
 #include "texsynth/preprocess/preprocess.hpp"
 #include "texsynth/synth/jumpmap_synth.hpp"
 #include "texsynth/synth/texton_synth.hpp"

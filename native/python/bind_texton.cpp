@@ -11,6 +11,7 @@
 #include "corner_map_arrays.hpp"
 #include "field_args.hpp"
 #include "texsynth/mesh/mesh.hpp"
+#include "texsynth/mesh/mesh_edges.hpp"
 #include "texsynth/preprocess/preprocessed.hpp"
 #include "texsynth/preprocess/working_image.hpp"
 #include "texsynth/synth/texton_synth.hpp"

@@ -52,6 +52,7 @@
 
 #include "texsynth/common/uninitialized_vector.hpp"
 #include "texsynth/mesh/mesh.hpp"
+#include "texsynth/mesh/mesh_edges.hpp"
 #include "texsynth/preprocess/preprocessed.hpp"
 #include "texsynth/synth/corner_maps.hpp"
 
@@ -59,16 +60,6 @@ namespace texsynth {
 
 // Blend set of corner i of a blended triangle (kCornerSet[0]) or quad (kCornerSet[1]).
 constexpr int32_t kCornerSet[2][4] = {{0, 1, 3, -1}, {0, 1, 2, 3}};
-
-// Undirected edges of a mesh and the corners that use them.
-struct MeshEdges {
-  UninitializedVector<int32_t> vertices;      // num_edges*2, (a, b) with a < b, sorted
-  UninitializedVector<int32_t> corner_edge;   // per corner: edge from this corner's vertex to the next corner's; -1 if equal
-  UninitializedVector<int32_t> edge_corner_start;  // num_edges + 1 (CSR)
-  UninitializedVector<int32_t> edge_corners;       // corners c with corner_edge[c] == e
-  int32_t num_edges() const { return int32_t(vertices.size() / 2); }
-};
-MeshEdges build_mesh_edges(const Mesh& mesh);
 
 // A sample image as given to preprocess: height*width*channels floats, row 0 = top.
 struct SampleImage {
