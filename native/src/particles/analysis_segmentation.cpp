@@ -1,0 +1,303 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Particle analysis, segmentation: blur, k-means classes, connected components, particle geometry.
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "analysis_internal.hpp"
+#include "texsynth/common/errors.hpp"
+#include "texsynth/common/rng.hpp"
+
+namespace texsynth {
+namespace particle_detail {
+
+// Separable Gaussian, radius ceil(3 sigma); borders clamp, or wrap when tileable. Per-row passes.
+std::vector<float> gaussian_blur(const ParticleSample& s, double sigma, bool tileable, const std::atomic<bool>* cancel) {
+  const int32_t W = s.width, H = s.height, C = s.channels;
+  std::vector<float> out(s.pixels, s.pixels + size_t(W) * H * C);
+  if (sigma <= 0) return out;
+  const int r = std::max(1, int(std::ceil(3 * sigma)));
+  std::vector<float> kernel(size_t(2 * r + 1));
+  double total = 0;
+  for (int i = -r; i <= r; ++i) total += kernel[size_t(i + r)] = float(std::exp(-0.5 * i * i / (sigma * sigma)));
+  for (float& k : kernel) k = float(k / total);
+  auto index = [&](int32_t v, int32_t n) { return tileable ? wrap(v, n) : std::clamp(v, 0, n - 1); };
+  // Separable: along x into tmp, then along y into out (same kernel, fixed order: deterministic).
+  std::vector<float> tmp(out.size());
+  auto pass = [&](const float* src, float* dst, bool along_x) {
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, H, 16), [&](const tbb::blocked_range<int32_t>& rows) {
+      throw_if_cancelled(cancel);
+      for (int32_t y = rows.begin(); y < rows.end(); ++y)
+        for (int32_t x = 0; x < W; ++x)
+          for (int32_t c = 0; c < C; ++c) {
+            float acc = 0;
+            for (int i = -r; i <= r; ++i) {
+              const size_t at = along_x ? size_t(y) * W + index(x + i, W) : size_t(index(y + i, H)) * W + x;
+              acc += kernel[size_t(i + r)] * src[at * C + c];
+            }
+            dst[(size_t(y) * W + x) * C + c] = acc;
+          }
+    });
+  };
+  pass(s.pixels, tmp.data(), true);
+  pass(tmp.data(), out.data(), false);
+  return out;
+}
+
+inline int32_t nearest_centre(const float* x, const std::vector<float>& centres, int k, int C) {
+  int32_t best = 0;
+  float best_d = std::numeric_limits<float>::infinity();
+  for (int j = 0; j < k; ++j) {
+    float d = 0;
+    for (int c = 0; c < C; ++c) {
+      const float e = x[c] - centres[size_t(j) * C + c];
+      d += e * e;
+    }
+    if (d < best_d) best_d = d, best = j;  // ties: lower index
+  }
+  return best;
+}
+
+// k-means++ fitted on a seeded subsample, every pixel then assigned; classes by decreasing pixel count.
+void kmeans_classes(const std::vector<float>& colours, int32_t n, int C, int k, uint64_t seed,
+                    const std::atomic<bool>* cancel, std::vector<int32_t>& labels, std::vector<float>& centres) {
+  std::vector<float> sub;
+  int32_t m = n;
+  if (n <= kParticleKMeansSubsample) {
+    sub = colours;
+  } else {
+    m = kParticleKMeansSubsample;
+    sub.resize(size_t(m) * C);
+    Rng pick(seed, 1);
+    for (int32_t i = 0; i < m; ++i) {
+      const uint32_t at = pick.below(uint32_t(n));
+      std::copy_n(&colours[size_t(at) * C], C, &sub[size_t(i) * C]);
+    }
+  }
+  Rng rng(seed, 2);
+  centres.assign(size_t(k) * C, 0.f);
+  std::vector<double> d2(size_t(m), std::numeric_limits<double>::infinity());
+  int32_t chosen = int32_t(rng.below(uint32_t(m)));
+  for (int j = 0; j < k; ++j) {
+    std::copy_n(&sub[size_t(chosen) * C], C, &centres[size_t(j) * C]);
+    if (j + 1 == k) break;
+    double total = 0;
+    for (int32_t i = 0; i < m; ++i) {
+      double d = 0;
+      for (int c = 0; c < C; ++c) {
+        const double e = double(sub[size_t(i) * C + c]) - centres[size_t(j) * C + c];
+        d += e * e;
+      }
+      d2[size_t(i)] = std::min(d2[size_t(i)], d);
+      total += d2[size_t(i)];
+    }
+    if (total <= 0) {  // fewer distinct colours than k: duplicate centres end up empty
+      chosen = int32_t(rng.below(uint32_t(m)));
+      continue;
+    }
+    double target = rng.uniform() * total;
+    chosen = m - 1;
+    for (int32_t i = 0; i < m; ++i) {
+      target -= d2[size_t(i)];
+      if (target < 0 && d2[size_t(i)] > 0) {
+        chosen = i;
+        break;
+      }
+    }
+  }
+  std::vector<int32_t> sub_labels(size_t(m), -1);
+  for (int it = 0; it < kParticleKMeansIterations; ++it) {
+    throw_if_cancelled(cancel);
+    bool changed = false;
+    for (int32_t i = 0; i < m; ++i) {
+      const int32_t l = nearest_centre(&sub[size_t(i) * C], centres, k, C);
+      changed |= l != sub_labels[size_t(i)];
+      sub_labels[size_t(i)] = l;
+    }
+    if (!changed) break;
+    std::vector<double> sums(size_t(k) * C, 0.0);
+    std::vector<int64_t> counts(size_t(k), 0);
+    for (int32_t i = 0; i < m; ++i) {
+      counts[size_t(sub_labels[size_t(i)])]++;
+      for (int c = 0; c < C; ++c) sums[size_t(sub_labels[size_t(i)]) * C + c] += sub[size_t(i) * C + c];
+    }
+    for (int j = 0; j < k; ++j)
+      if (counts[size_t(j)] > 0)
+        for (int c = 0; c < C; ++c) centres[size_t(j) * C + c] = float(sums[size_t(j) * C + c] / double(counts[size_t(j)]));
+  }
+  labels.resize(size_t(n));
+  tbb::parallel_for(tbb::blocked_range<int32_t>(0, n, 16384), [&](const tbb::blocked_range<int32_t>& r) {
+    throw_if_cancelled(cancel);
+    for (int32_t i = r.begin(); i < r.end(); ++i) labels[size_t(i)] = nearest_centre(&colours[size_t(i) * C], centres, k, C);
+  });
+  std::vector<int64_t> counts(size_t(k), 0);
+  for (int32_t l : labels) counts[size_t(l)]++;
+  std::vector<int32_t> order(static_cast<size_t>(k));
+  for (int j = 0; j < k; ++j) order[size_t(j)] = j;
+  std::stable_sort(order.begin(), order.end(), [&](int32_t a, int32_t b) { return counts[size_t(a)] > counts[size_t(b)]; });
+  std::vector<int32_t> rank(static_cast<size_t>(k));
+  std::vector<float> sorted(centres.size());
+  for (int j = 0; j < k; ++j) {
+    rank[size_t(order[size_t(j)])] = j;
+    std::copy_n(&centres[size_t(order[size_t(j)]) * C], C, &sorted[size_t(j) * C]);
+  }
+  centres.swap(sorted);
+  for (int32_t& l : labels) l = rank[size_t(l)];
+}
+
+// 8-connected components of the non-background classes; merges; ids in first-pixel order.
+void find_components(ParticleAnalysis& a, int32_t max_components, const std::atomic<bool>* cancel) {
+  const int32_t W = a.width, H = a.height;
+  const size_t N = size_t(W) * size_t(H);
+  std::vector<int32_t> comp(N, -1);
+  std::vector<int64_t> start{0};
+  std::vector<int32_t> xy;  // unwrapped (x, y), grouped by component, BFS order
+  for (int32_t y = 0; y < H; ++y) {
+    throw_if_cancelled(cancel);
+    for (int32_t x = 0; x < W; ++x) {
+      const size_t i = size_t(y) * W + x;
+      if (a.labels[i] == a.background || comp[i] >= 0) continue;
+      const int32_t id = int32_t(start.size()) - 1, cls = a.labels[i];
+      comp[i] = id;
+      size_t head = xy.size();
+      xy.push_back(x), xy.push_back(y);
+      for (; head < xy.size(); head += 2) {
+        const int32_t ux = xy[head], uy = xy[head + 1];
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int32_t nx = ux + dx, ny = uy + dy;
+            if (!a.tileable && (nx < 0 || ny < 0 || nx >= W || ny >= H)) continue;
+            const size_t j = size_t(wrap(ny, H)) * W + size_t(wrap(nx, W));
+            if (a.labels[j] != cls || comp[j] >= 0) continue;
+            comp[j] = id;
+            xy.push_back(nx), xy.push_back(ny);
+          }
+      }
+      start.push_back(int64_t(xy.size() / 2));
+    }
+  }
+  const int32_t raw = int32_t(start.size()) - 1;
+  std::vector<uint8_t> keep(size_t(raw), 1);
+  std::vector<int32_t> survivors;
+  for (int32_t c = 0; c < raw; ++c) {
+    if (start[size_t(c) + 1] - start[size_t(c)] < a.min_area) {
+      keep[size_t(c)] = 0;
+      a.merged_small++;
+    } else {
+      survivors.push_back(c);
+    }
+  }
+  if (int32_t(survivors.size()) > max_components) {  // the largest are kept
+    std::stable_sort(survivors.begin(), survivors.end(), [&](int32_t p, int32_t q) {
+      return start[size_t(p) + 1] - start[size_t(p)] > start[size_t(q) + 1] - start[size_t(q)];
+    });
+    for (size_t s = size_t(max_components); s < survivors.size(); ++s) keep[size_t(survivors[s])] = 0;
+    a.merged_over_cap = int32_t(survivors.size()) - max_components;
+  }
+  std::vector<int32_t> new_id(size_t(raw), -1);
+  a.pixel_start.assign(1, 0);
+  a.pixel_xy.clear();
+  if (a.tileable) a.unwrapped.assign(2 * N, 0);
+  for (int32_t c = 0; c < raw; ++c) {
+    const int64_t b = start[size_t(c)], e = start[size_t(c) + 1];
+    if (!keep[size_t(c)]) {
+      for (int64_t p = b; p < e; ++p) {
+        const size_t i = size_t(wrap(xy[2 * p + 1], H)) * W + size_t(wrap(xy[2 * p], W));
+        a.labels[i] = a.background;
+        comp[i] = -1;
+      }
+      continue;
+    }
+    const int32_t id = int32_t(a.particles.size());
+    new_id[size_t(c)] = id;
+    Particle part;
+    part.id = id;
+    part.class_id = a.labels[size_t(xy[2 * b + 1]) * W + size_t(xy[2 * b])];
+    part.area = int32_t(e - b);
+    // Tileable: move the whole component by whole periods so that its centroid lies inside the sample.
+    int32_t shift_x = 0, shift_y = 0;
+    if (a.tileable) {
+      double mx = 0, my = 0;
+      for (int64_t p = b; p < e; ++p) mx += xy[2 * p] + 0.5, my += xy[2 * p + 1] + 0.5;
+      shift_x = -int32_t(std::floor(mx / double(e - b) / W)) * W;
+      shift_y = -int32_t(std::floor(my / double(e - b) / H)) * H;
+    }
+    for (int64_t p = b; p < e; ++p) {
+      const int32_t ux = xy[2 * p] + shift_x, uy = xy[2 * p + 1] + shift_y;
+      a.pixel_xy.push_back(ux), a.pixel_xy.push_back(uy);
+      if (a.tileable) {
+        const size_t i = size_t(wrap(uy, H)) * W + size_t(wrap(ux, W));
+        a.unwrapped[2 * i] = ux, a.unwrapped[2 * i + 1] = uy;
+      }
+    }
+    a.pixel_start.push_back(int64_t(a.pixel_xy.size() / 2));
+    a.particles.push_back(part);
+  }
+  a.components.assign(N, -1);
+  for (size_t i = 0; i < N; ++i)
+    if (comp[i] >= 0) a.components[i] = new_id[size_t(comp[i])];
+}
+
+// Centroid, bounding box, PCA box and completeness of one particle.
+void particle_geometry(const ParticleAnalysis& a, Particle& part) {
+  const int32_t W = a.width, H = a.height;
+  const int32_t* xy = a.pixel_xy.data() + 2 * a.pixel_start[size_t(part.id)];
+  const int64_t n = part.area;
+  double mx = 0, my = 0;
+  part.x0 = part.y0 = std::numeric_limits<int32_t>::max();
+  part.x1 = part.y1 = std::numeric_limits<int32_t>::min();
+  for (int64_t p = 0; p < n; ++p) {
+    const int32_t x = xy[2 * p], y = xy[2 * p + 1];
+    mx += x + 0.5, my += y + 0.5;
+    part.x0 = std::min(part.x0, x), part.x1 = std::max(part.x1, x);
+    part.y0 = std::min(part.y0, y), part.y1 = std::max(part.y1, y);
+  }
+  mx /= double(n), my /= double(n);
+  part.centroid_x = float(mx), part.centroid_y = float(my);
+  double sxx = 0, syy = 0, sxy = 0;
+  for (int64_t p = 0; p < n; ++p) {
+    const double dx = xy[2 * p] + 0.5 - mx, dy = xy[2 * p + 1] + 0.5 - my;
+    sxx += dx * dx, syy += dy * dy, sxy += dx * dy;
+  }
+  const double half_diff = 0.5 * (sxx - syy), disc = std::sqrt(half_diff * half_diff + sxy * sxy);
+  const double l1 = 0.5 * (sxx + syy) + disc, l2 = 0.5 * (sxx + syy) - disc;
+  const double angle = (disc > 0 && l1 >= kParticleOrientedRatio * l2) ? 0.5 * std::atan2(2 * sxy, sxx - syy) : 0.0;
+  const double c = std::cos(angle), s = std::sin(angle);
+  const double foot = 0.5 * (std::abs(c) + std::abs(s));  // half of a pixel square's shadow on either axis
+  double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
+  for (int64_t p = 0; p < n; ++p) {
+    const double dx = xy[2 * p] + 0.5 - mx, dy = xy[2 * p + 1] + 0.5 - my;
+    const double u = dx * c + dy * s, v = -dx * s + dy * c;
+    u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
+  }
+  const double mu = 0.5 * (u0 + u1), mv = 0.5 * (v0 + v1);
+  part.box.cx = float(mx + mu * c - mv * s);
+  part.box.cy = float(my + mu * s + mv * c);
+  part.box.angle = float(angle);
+  part.box.half_x = float(0.5 * (u1 - u0) + foot);
+  part.box.half_y = float(0.5 * (v1 - v0) + foot);
+  int32_t boundary = 0, border = 0;
+  for (int64_t p = 0; p < n; ++p) {
+    const int32_t x = xy[2 * p], y = xy[2 * p + 1];
+    bool on_boundary = false, outside = false;
+    for (auto [dx, dy] : {std::pair{1, 0}, std::pair{-1, 0}, std::pair{0, 1}, std::pair{0, -1}}) {
+      const int32_t nx = x + dx, ny = y + dy;
+      if (!a.tileable && (nx < 0 || ny < 0 || nx >= W || ny >= H)) {
+        on_boundary = outside = true;
+        continue;
+      }
+      if (a.components[size_t(wrap(ny, H)) * W + size_t(wrap(nx, W))] != part.id) on_boundary = true;
+    }
+    boundary += on_boundary;
+    border += outside;
+  }
+  part.boundary_pixels = boundary, part.border_pixels = border;
+  part.complete = a.tileable || double(border) <= kParticleIncompleteFraction * double(boundary);
+}
+
+}  // namespace particle_detail
+}  // namespace texsynth
