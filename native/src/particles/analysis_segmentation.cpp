@@ -11,6 +11,7 @@
 #include "analysis_internal.hpp"
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/preprocess/kmeans.hpp"
 
 namespace texsynth {
 namespace particle_detail {
@@ -48,21 +49,10 @@ std::vector<float> gaussian_blur(const ParticleSample& s, double sigma, bool til
   return out;
 }
 
-inline int32_t nearest_centre(const float* x, const std::vector<float>& centres, int k, int C) {
-  int32_t best = 0;
-  float best_d = std::numeric_limits<float>::infinity();
-  for (int j = 0; j < k; ++j) {
-    float d = 0;
-    for (int c = 0; c < C; ++c) {
-      const float e = x[c] - centres[size_t(j) * C + c];
-      d += e * e;
-    }
-    if (d < best_d) best_d = d, best = j;  // ties: lower index
-  }
-  return best;
-}
-
 // k-means++ fitted on a seeded subsample, every pixel then assigned; classes by decreasing pixel count.
+// Seeding and centre updates are its own (double distances, means kept for empty clusters), not
+// preprocess/kmeans.cpp's: they set the classes, so the cached analyses and outputs depend on them.
+// The nearest-centre assignment is the shared brute force (kmeans.hpp).
 void kmeans_classes(const std::vector<float>& colours, int32_t n, int C, int k, uint64_t seed,
                     const std::atomic<bool>* cancel, std::vector<int32_t>& labels, std::vector<float>& centres) {
   std::vector<float> sub;
@@ -109,16 +99,12 @@ void kmeans_classes(const std::vector<float>& colours, int32_t n, int C, int k, 
       }
     }
   }
-  std::vector<int32_t> sub_labels(size_t(m), -1);
+  std::vector<int32_t> sub_labels(size_t(m), -1), nearest(static_cast<size_t>(m));
   for (int it = 0; it < kParticleKMeansIterations; ++it) {
     throw_if_cancelled(cancel);
-    bool changed = false;
-    for (int32_t i = 0; i < m; ++i) {
-      const int32_t l = nearest_centre(&sub[size_t(i) * C], centres, k, C);
-      changed |= l != sub_labels[size_t(i)];
-      sub_labels[size_t(i)] = l;
-    }
-    if (!changed) break;
+    assign_brute_force(sub.data(), m, C, centres, k, nearest.data(), cancel);
+    if (nearest == sub_labels) break;
+    sub_labels.swap(nearest);
     std::vector<double> sums(size_t(k) * C, 0.0);
     std::vector<int64_t> counts(size_t(k), 0);
     for (int32_t i = 0; i < m; ++i) {
@@ -130,10 +116,7 @@ void kmeans_classes(const std::vector<float>& colours, int32_t n, int C, int k, 
         for (int c = 0; c < C; ++c) centres[size_t(j) * C + c] = float(sums[size_t(j) * C + c] / double(counts[size_t(j)]));
   }
   labels.resize(size_t(n));
-  tbb::parallel_for(tbb::blocked_range<int32_t>(0, n, 16384), [&](const tbb::blocked_range<int32_t>& r) {
-    throw_if_cancelled(cancel);
-    for (int32_t i = r.begin(); i < r.end(); ++i) labels[size_t(i)] = nearest_centre(&colours[size_t(i) * C], centres, k, C);
-  });
+  assign_brute_force(colours.data(), n, C, centres, k, labels.data(), cancel);
   std::vector<int64_t> counts(size_t(k), 0);
   for (int32_t l : labels) counts[size_t(l)]++;
   std::vector<int32_t> order(static_cast<size_t>(k));

@@ -456,22 +456,30 @@ KMeansResult kmeans(const Features& points, const KMeansParams& params, const st
   return result;
 }
 
-std::vector<int32_t> assign_brute_force(const Features& points, const std::vector<float>& centres, int k) {
-  std::vector<int32_t> labels(size_t(points.count));
-  tbb::parallel_for(tbb::blocked_range<int64_t>(0, points.count, kChunk), [&](const tbb::blocked_range<int64_t>& r) {
+void assign_brute_force(const float* points, int64_t count, int dims, const std::vector<float>& centres, int k,
+                        int32_t* labels, const std::atomic<bool>* cancel) {
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, count, kChunk), [&](const tbb::blocked_range<int64_t>& r) {
+    check_cancel(cancel);
     for (int64_t i = r.begin(); i < r.end(); ++i) {
+      const float* x = points + size_t(i) * size_t(dims);
       int best = 0;
-      float best_sq = std::numeric_limits<float>::max();
+      // +inf, as the particle analysis's own loop had: every finite distance, FLT_MAX too, beats it.
+      float best_sq = std::numeric_limits<float>::infinity();
       for (int c = 0; c < k; ++c) {
-        const float d = squared_distance(points.row(i), centres.data() + size_t(c) * points.dims, points.dims);
+        const float d = squared_distance(x, centres.data() + size_t(c) * size_t(dims), dims);
         if (d < best_sq) {
           best_sq = d;
           best = c;
         }
       }
-      labels[size_t(i)] = best;
+      labels[i] = best;
     }
   });
+}
+
+std::vector<int32_t> assign_brute_force(const Features& points, const std::vector<float>& centres, int k) {
+  std::vector<int32_t> labels(size_t(points.count));
+  assign_brute_force(points.values.data(), points.count, points.dims, centres, k, labels.data());
   return labels;
 }
 

@@ -45,6 +45,11 @@ KMeansResult kmeans(const Features& points, const KMeansParams& params,
 
 // Exact nearest centre for every point (for tests and the baseline): brute force.
 std::vector<int32_t> assign_brute_force(const Features& points, const std::vector<float>& centres, int k);
+// The same over `count` rows of `dims` floats into labels[count]: squared_distance, ties to the lower
+// centre. Also the particle analysis's assignment (particles/analysis_segmentation.cpp).
+// texsynth::Cancelled if *cancel.
+void assign_brute_force(const float* points, int64_t count, int dims, const std::vector<float>& centres, int k,
+                        int32_t* labels, const std::atomic<bool>* cancel = nullptr);
 
 // Sum over points of the squared distance to their cluster's mean (computed from the labels).
 double within_cluster_sse(const Features& points, const std::vector<int32_t>& labels, int k);
