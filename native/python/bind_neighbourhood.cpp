@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "array_args.hpp"
+#include "call_helpers.hpp"
 #include "cancel_arg.hpp"
 #include "texsynth/neighbourhood/round_rings.hpp"
 
@@ -66,12 +67,11 @@ void bind_neighbourhood(py::module_& m) {
         params.facing_limit_degrees = facing_limit_degrees;
         params.max_steps = max_steps;
         params.max_megabytes = max_megabytes;
-        params.cancel = cancel_flag(cancel);
         auto result = std::make_unique<texsynth::RoundRings>();
-        {
-          py::gil_scoped_release release;
-          *result = texsynth::build_round_rings(mesh, pts, params);
-        }
+        *result = cancellable(cancel, [&](const CallControl& control) {
+          params.cancel = control.cancel;
+          return texsynth::build_round_rings(mesh, pts, params);
+        }, false);
         const texsynth::RoundRings& rr = *result;
         const py::ssize_t n = rr.num_points, e = rr.entries_per_point, entry = sizeof(texsynth::RingPoint);
         const auto* base = reinterpret_cast<const char*>(rr.points.data());

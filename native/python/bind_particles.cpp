@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "array_args.hpp"
+#include "call_helpers.hpp"
 #include "cancel_arg.hpp"
 #include "texsynth/particles/analysis.hpp"
 
@@ -165,15 +166,11 @@ void bind_particles(py::module_& m) {
                              "3 (+,-)), dx, dy, angle, neighbour (-1: class median), mirrored (0 measured, 1 opposite, "
                              "2 class median, 3 adjacent reflected).")
       .def_property_readonly("stats", [](const ParticleAnalysis& a) {
-        py::dict s;
-        s["seconds_blur"] = a.stats.seconds_blur;
-        s["seconds_kmeans"] = a.stats.seconds_kmeans;
-        s["seconds_components"] = a.stats.seconds_components;
-        s["seconds_geometry"] = a.stats.seconds_geometry;
-        s["seconds_cooccurrence"] = a.stats.seconds_cooccurrence;
-        s["seconds_background"] = a.stats.seconds_background;
-        s["seconds_total"] = a.stats.seconds_total;
-        return s;
+        const texsynth::ParticleAnalysisStats& s = a.stats;
+        return stats_dict("seconds_blur", s.seconds_blur, "seconds_kmeans", s.seconds_kmeans, "seconds_components",
+                          s.seconds_components, "seconds_geometry", s.seconds_geometry, "seconds_cooccurrence",
+                          s.seconds_cooccurrence, "seconds_background", s.seconds_background, "seconds_total",
+                          s.seconds_total);
       });
 
   m.def(
@@ -196,13 +193,12 @@ void bind_particles(py::module_& m) {
         if (!background.is_none() && p.background < 0) throw std::invalid_argument("background must be >= 0 or None");
         p.tileable = tileable;
         p.seed = seed;
-        p.cancel = cancel_flag(cancel);
-        p.progress = progress_slot(cancel);
         auto out = std::make_shared<ParticleAnalysis>();
-        {
-          py::gil_scoped_release release;
-          *out = texsynth::analyse_particles(s, p);
-        }
+        *out = cancellable(cancel, [&](const CallControl& control) {
+          p.cancel = control.cancel;
+          p.progress = control.progress;
+          return texsynth::analyse_particles(s, p);
+        });
         return out;
       },
       py::arg("sample"), py::kw_only(), py::arg("classes") = 4, py::arg("blur") = 1.0, py::arg("min_area") = py::none(),
@@ -219,11 +215,7 @@ void bind_particles(py::module_& m) {
       [](const ParticleAnalysis& analysis, py::object sample, int32_t particle_id) {
         FloatArray px = float_array(sample, "sample");
         const texsynth::ParticleSample s = sample_view<texsynth::ParticleSample>(px);
-        texsynth::ParticleSprite sprite;
-        {
-          py::gil_scoped_release release;
-          sprite = texsynth::particle_sprite(analysis, s, particle_id);
-        }
+        texsynth::ParticleSprite sprite = without_gil([&] { return texsynth::particle_sprite(analysis, s, particle_id); });
         py::dict out;
         out["rgba"] = to_numpy(std::move(sprite.rgba), {sprite.height, sprite.width, 4});
         out["origin"] = py::make_tuple(sprite.x0, sprite.y0);

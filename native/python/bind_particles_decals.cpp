@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "array_args.hpp"
+#include "call_helpers.hpp"
 #include "cancel_arg.hpp"
 #include "surface_args.hpp"
 #include "texsynth/particles/analysis_cache.hpp"
@@ -24,18 +25,9 @@ namespace {
 std::string path_arg(py::handle path) { return py::module_::import("os").attr("fspath")(path).cast<std::string>(); }
 
 py::dict decal_stats(const texsynth::DecalStats& s) {
-  py::dict d;
-  d["particles"] = s.particles;
-  d["empty"] = s.empty;
-  d["capped"] = s.capped;
-  d["curved"] = s.curved;
-  d["faces_visited"] = s.faces_visited;
-  d["faces_folded"] = s.faces_folded;
-  d["overlapping"] = s.overlapping;
-  d["min_coverage"] = s.min_coverage;
-  d["mean_coverage"] = s.mean_coverage;
-  d["seconds"] = s.seconds;
-  return d;
+  return stats_dict("particles", s.particles, "empty", s.empty, "capped", s.capped, "curved", s.curved,
+                    "faces_visited", s.faces_visited, "faces_folded", s.faces_folded, "overlapping", s.overlapping,
+                    "min_coverage", s.min_coverage, "mean_coverage", s.mean_coverage, "seconds", s.seconds);
 }
 
 }  // namespace
@@ -61,12 +53,10 @@ void bind_particles_decals(py::module_& m) {
         texsynth::DecalOptions o;
         o.offset = offset;
         o.max_normal_angle = max_normal_angle;
-        o.cancel = cancel_flag(cancel);
-        texsynth::DecalMesh d;
-        {
-          py::gil_scoped_release release;
-          d = texsynth::build_decal_mesh(mesh, ps.data(), int64_t(ps.size()), o);
-        }
+        texsynth::DecalMesh d = cancellable(cancel, [&](const CallControl& control) {
+          o.cancel = control.cancel;
+          return texsynth::build_decal_mesh(mesh, ps.data(), int64_t(ps.size()), o);
+        }, false);
         const py::ssize_t P = py::ssize_t(d.positions.size() / 3), F = py::ssize_t(d.loop_starts.size()),
                          C = py::ssize_t(d.corner_verts.size());
         py::dict out;
@@ -100,8 +90,7 @@ void bind_particles_decals(py::module_& m) {
       [](const std::shared_ptr<texsynth::ParticleAnalysis>& analysis, py::object path, uint64_t key) {
         if (!analysis) throw std::invalid_argument("analysis must be a ParticleAnalysis");
         const std::string p = path_arg(path);
-        py::gil_scoped_release release;
-        texsynth::save_particle_analysis(*analysis, p, key);
+        without_gil([&] { texsynth::save_particle_analysis(*analysis, p, key); });
       },
       py::arg("analysis"), py::arg("path"), py::arg("key"),
       "Writes a ParticleAnalysis to path (atomically) under key (an unsigned 64-bit fingerprint of the sample and "
@@ -111,11 +100,7 @@ void bind_particles_decals(py::module_& m) {
       "load_particle_analysis",
       [](py::object path, uint64_t key) -> py::object {
         const std::string p = path_arg(path);
-        std::optional<texsynth::ParticleAnalysis> a;
-        {
-          py::gil_scoped_release release;
-          a = texsynth::load_particle_analysis(p, key);
-        }
+        std::optional<texsynth::ParticleAnalysis> a = without_gil([&] { return texsynth::load_particle_analysis(p, key); });
         if (!a) return py::none();
         return py::cast(std::make_shared<texsynth::ParticleAnalysis>(std::move(*a)));
       },

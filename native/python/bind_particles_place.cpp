@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "array_args.hpp"
+#include "call_helpers.hpp"
 #include "cancel_arg.hpp"
 #include "texsynth/particles/placement.hpp"
 
@@ -24,34 +25,15 @@ std::vector<float> optional_floats(py::handle obj, py::ssize_t n, const char* na
   return std::vector<float>(a.data(), a.data() + a.size());
 }
 
-py::dict stats_dict(const texsynth::PlacementStats& s) {
+py::dict placement_stats(const texsynth::PlacementStats& s) {
   py::list classes;
-  for (const auto& c : s.classes) {
-    py::dict d;
-    d["class"] = c.class_id;
-    d["placed"] = c.placed;
-    d["hidden"] = c.hidden;
-    d["thinned"] = c.thinned;
-    d["filled"] = c.filled;
-    d["expected"] = c.expected;
-    d["rejected_overlap"] = c.rejected_overlap;
-    d["walls"] = c.walls;
-    d["excluded"] = c.excluded;
-    d["seeds"] = c.seeds;
-    d["reseeded"] = c.reseeded;
-    d["reseed_rounds"] = c.reseed_rounds;
-    d["cap"] = c.cap;
-    d["capped"] = c.capped;
-    d["random"] = c.random;
-    classes.append(d);
-  }
-  py::dict out;
-  out["classes"] = classes;
-  out["components"] = s.components;
-  out["walks"] = s.walks;
-  out["capped"] = s.capped;
-  out["seconds"] = s.seconds;
-  return out;
+  for (const auto& c : s.classes)
+    classes.append(stats_dict("class", c.class_id, "placed", c.placed, "hidden", c.hidden, "thinned", c.thinned,
+                              "filled", c.filled, "expected", c.expected, "rejected_overlap", c.rejected_overlap,
+                              "walls", c.walls, "excluded", c.excluded, "seeds", c.seeds, "reseeded", c.reseeded,
+                              "reseed_rounds", c.reseed_rounds, "cap", c.cap, "capped", c.capped, "random", c.random));
+  return stats_dict("classes", classes, "components", s.components, "walks", s.walks, "capped", s.capped, "seconds",
+                    s.seconds);
 }
 
 }  // namespace
@@ -105,11 +87,8 @@ void bind_particles_place(py::module_& m) {
         p.cancel = cancel_flag(cancel);
         if (!progress.is_none()) cancel_flag(progress);  // a CancelToken or a ValueError
         p.progress = progress_slot(progress.is_none() ? cancel : progress);
-        texsynth::PlacedParticles r;
-        {
-          py::gil_scoped_release release;
-          r = texsynth::place_particles(analysis, mesh, p);
-        }
+        // Two tokens (cancel, progress), so not cancellable(): the flags are set above.
+        texsynth::PlacedParticles r = without_gil([&] { return texsynth::place_particles(analysis, mesh, p); });
         const py::ssize_t n = py::ssize_t(r.size());
         py::dict out;
         out["class"] = to_numpy(std::move(r.class_id), {n});
@@ -123,7 +102,7 @@ void bind_particles_place(py::module_& m) {
         out["pixel_size"] = to_numpy(std::move(r.pixel_size), {n});
         out["angle"] = to_numpy(std::move(r.angle), {n});
         out["origin"] = to_numpy(std::move(r.origin), {n});
-        out["stats"] = stats_dict(r.stats);
+        out["stats"] = placement_stats(r.stats);
         return out;
       },
       py::arg("analysis"), py::arg("walk_mesh"), py::arg("directions"), py::kw_only(), py::arg("sample_world_width"),

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "array_args.hpp"
+#include "call_helpers.hpp"
 #include "cancel_arg.hpp"
 #include "surface_args.hpp"
 #include "texsynth/particles/surface_walk.hpp"
@@ -50,12 +51,10 @@ void bind_particles_walk(py::module_& m) {
         in.num_vertices = checked_count(pos.shape(0), "positions");
         in.triangles = tris.data();
         in.num_triangles = checked_count(tris.shape(0), "triangles");
-        const std::atomic<bool>* flag = cancel_flag(cancel);
         auto out = std::make_shared<texsynth::SurfaceWalkMesh>();
-        {
-          py::gil_scoped_release release;
-          *out = texsynth::build_surface_walk_mesh(in, flag);
-        }
+        *out = cancellable(cancel, [&](const CallControl& control) {
+          return texsynth::build_surface_walk_mesh(in, control.cancel);
+        }, false);
         return out;
       },
       py::arg("positions"), py::arg("triangles"), py::kw_only(), py::arg("cancel") = py::none(),
@@ -77,13 +76,10 @@ void bind_particles_walk(py::module_& m) {
           const double* d = dirs.data() + 3 * i;
           req[i] = {starts[i], {d[0], d[1], d[2]}, lens.data()[i]};
         }
-        const std::atomic<bool>* flag = cancel_flag(cancel);
-        std::vector<texsynth::SectionWalkResult> r;
-        {
-          py::gil_scoped_release release;
-          r = texsynth::walk_normal_sections(mesh.walk, mesh.input(), req.data(), int64_t(req.size()),
-                                             options(max_faces, 3.0), flag);
-        }
+        const std::vector<texsynth::SectionWalkResult> r = cancellable(cancel, [&](const CallControl& control) {
+          return texsynth::walk_normal_sections(mesh.walk, mesh.input(), req.data(), int64_t(req.size()),
+                                                options(max_faces, 3.0), control.cancel);
+        }, false);
         std::vector<int32_t> tri(r.size()), faces(r.size());
         std::vector<double> bary(2 * r.size()), pos(3 * r.size()), dir(3 * r.size()), len(r.size());
         std::vector<uint8_t> status(r.size());
@@ -119,13 +115,10 @@ void bind_particles_walk(py::module_& m) {
         std::vector<texsynth::SurfacePoint> a = surface_points(triangles1, barycentrics1, "triangles1", "barycentrics1", -1);
         std::vector<texsynth::SurfacePoint> b =
             surface_points(triangles2, barycentrics2, "triangles2", "barycentrics2", py::ssize_t(a.size()));
-        const std::atomic<bool>* flag = cancel_flag(cancel);
-        std::vector<texsynth::PseudoGeodesic> r;
-        {
-          py::gil_scoped_release release;
-          r = texsynth::pseudo_geodesic_distances(mesh.walk, mesh.input(), a.data(), b.data(), int64_t(a.size()),
-                                                  options(max_faces, max_length_factor), flag);
-        }
+        const std::vector<texsynth::PseudoGeodesic> r = cancellable(cancel, [&](const CallControl& control) {
+          return texsynth::pseudo_geodesic_distances(mesh.walk, mesh.input(), a.data(), b.data(), int64_t(a.size()),
+                                                     options(max_faces, max_length_factor), control.cancel);
+        }, false);
         std::vector<double> dist(r.size());
         std::vector<uint8_t> kind(r.size());
         for (size_t i = 0; i < r.size(); ++i) dist[i] = r[i].distance, kind[i] = uint8_t(r[i].kind);

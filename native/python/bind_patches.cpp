@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "array_args.hpp"
+#include "call_helpers.hpp"
 #include "cancel_arg.hpp"
 #include "texsynth/patches/exemplar_cache.hpp"
 #include "texsynth/patches/grid_patch.hpp"
@@ -62,12 +63,11 @@ void bind_patches(py::module_& m) {
         params.max_crossings = max_crossings;
         params.singular_threshold = singular_threshold;
         if (!reuse.is_none()) params.reuse_mesh = &reuse.cast<const texsynth::PatchField&>();
-        params.cancel = cancel_flag(cancel);
         auto field = std::make_shared<texsynth::PatchField>();
-        {
-          py::gil_scoped_release release;
-          *field = texsynth::build_patch_field(in, params);
-        }
+        *field = cancellable(cancel, [&](const CallControl& control) {
+          params.cancel = control.cancel;
+          return texsynth::build_patch_field(in, params);
+        }, false);
         return field;
       },
       py::arg("positions"), py::arg("triangles"), py::arg("directions"), py::kw_only(), py::arg("spacing"),
@@ -91,11 +91,10 @@ void bind_patches(py::module_& m) {
         const int32_t count = checked_count(ct.shape(0), "centre_triangles");
         std::vector<texsynth::FacePoint> centres(static_cast<size_t>(count));
         for (int32_t i = 0; i < count; ++i) centres[i] = {ct.data()[i], cb.data()[2 * i], cb.data()[2 * i + 1]};
-        texsynth::GridPatches g;
-        {
-          py::gil_scoped_release release;
-          g = texsynth::trace_grid_patches(field, centres.data(), count, size, cancel_flag(cancel));
-        }
+        // The token is checked before the GIL is released (it used to be read without the GIL).
+        texsynth::GridPatches g = cancellable(cancel, [&](const CallControl& control) {
+          return texsynth::trace_grid_patches(field, centres.data(), count, size, control.cancel);
+        }, false);
         const py::ssize_t n = count, s = size;
         std::vector<int32_t> tri(g.points.size());
         std::vector<float> bary(2 * g.points.size());
@@ -131,17 +130,12 @@ void bind_patches(py::module_& m) {
       .def_property_readonly("channels", [](const texsynth::ExemplarIndex& e) { return e.channels; })
       .def_property_readonly("tileable", [](const texsynth::ExemplarIndex& e) { return e.tileable; })
       .def_property_readonly("stats", [](const texsynth::ExemplarIndex& e) {
-        py::dict d;
-        d["seconds_appearance"] = e.stats.seconds_appearance;
-        d["seconds_features"] = e.stats.seconds_features;
-        d["seconds_hnsw"] = e.stats.seconds_hnsw;
-        d["seconds_total"] = e.stats.seconds_total;
-        d["index_bytes"] = e.stats.index_bytes;
-        return d;
+        const texsynth::ExemplarStats& s = e.stats;
+        return stats_dict("seconds_appearance", s.seconds_appearance, "seconds_features", s.seconds_features,
+                          "seconds_hnsw", s.seconds_hnsw, "seconds_total", s.seconds_total, "index_bytes", s.index_bytes);
       })
       .def("save", [](const texsynth::ExemplarIndex& e, const std::string& path) {
-        py::gil_scoped_release release;
-        texsynth::save_exemplar_index(e, path);
+        without_gil([&] { texsynth::save_exemplar_index(e, path); });
       });
 
   m.def(
@@ -156,12 +150,11 @@ void bind_patches(py::module_& m) {
         params.seed = seed;
         params.full_index = true;
         params.max_megabytes = max_megabytes;
-        params.cancel = cancel_flag(cancel);
         auto index = std::make_shared<texsynth::ExemplarIndex>();
-        {
-          py::gil_scoped_release release;
-          *index = texsynth::build_exemplar_index(sample, params);
-        }
+        *index = cancellable(cancel, [&](const CallControl& control) {
+          params.cancel = control.cancel;
+          return texsynth::build_exemplar_index(sample, params);
+        }, false);
         return index;
       },
       py::arg("sample"), py::kw_only(), py::arg("patch_size") = 32, py::arg("tileable") = false, py::arg("seed") = 0,
@@ -221,10 +214,7 @@ void bind_patches(py::module_& m) {
         std::optional<uint64_t> expected;
         if (!key.is_none()) expected = key.cast<uint64_t>();
         auto index = std::make_shared<texsynth::ExemplarIndex>();
-        {
-          py::gil_scoped_release release;
-          *index = texsynth::load_exemplar_index(path, expected);
-        }
+        *index = without_gil([&] { return texsynth::load_exemplar_index(path, expected); });
         return index;
       },
       py::arg("path"), py::arg("key") = py::none(),
@@ -280,31 +270,20 @@ void bind_patches(py::module_& m) {
           params.synth.vote = texsynth::PatchVote::kBestPatch;
         else
           throw std::invalid_argument("vote must be 'mean' or 'patch', got '" + vote + "'");
-        params.synth.cancel = cancel_flag(cancel);
-        params.synth.progress = progress_slot(cancel);
-        texsynth::SurfacePatchResult r;
-        {
-          py::gil_scoped_release release;
-          r = texsynth::synthesize_patches_on_surface(field, samples, exemplar, sample, params);
-        }
+        texsynth::SurfacePatchResult r = cancellable(cancel, [&](const CallControl& control) {
+          params.synth.cancel = control.cancel;
+          params.synth.progress = control.progress;
+          return texsynth::synthesize_patches_on_surface(field, samples, exemplar, sample, params);
+        });
         const py::ssize_t n = samples.count, C = r.synth.channels, np = r.patches;
-        py::dict stats;
-        stats["patches"] = r.patches;
-        stats["extra_patches"] = r.extra_patches;
-        stats["random_patches"] = r.synth.stats.random_patches;
-        stats["uncovered_samples"] = r.synth.stats.uncovered_samples;
-        stats["invalid_grid_points"] = r.invalid_grid_points;
-        stats["coverage_entries"] = r.coverage_entries;
-        stats["extrapolated_samples"] = r.extrapolated_samples;
-        stats["seconds_centres"] = r.seconds_centres;
-        stats["seconds_trace"] = r.seconds_trace;
-        stats["seconds_locate"] = r.seconds_locate;
-        stats["seconds_sampling"] = r.synth.stats.seconds_sampling;
-        stats["seconds_optimisation"] = r.synth.stats.seconds_optimisation;
-        stats["seconds_coarse"] = r.seconds_coarse;
-        stats["levels"] = r.levels;
-        stats["energy"] = r.synth.stats.energy;
-        stats["changed"] = r.synth.stats.changed;
+        const auto& st = r.synth.stats;
+        py::dict stats = stats_dict(
+            "patches", r.patches, "extra_patches", r.extra_patches, "random_patches", st.random_patches,
+            "uncovered_samples", st.uncovered_samples, "invalid_grid_points", r.invalid_grid_points,
+            "coverage_entries", r.coverage_entries, "extrapolated_samples", r.extrapolated_samples,
+            "seconds_centres", r.seconds_centres, "seconds_trace", r.seconds_trace, "seconds_locate", r.seconds_locate,
+            "seconds_sampling", st.seconds_sampling, "seconds_optimisation", st.seconds_optimisation,
+            "seconds_coarse", r.seconds_coarse, "levels", r.levels, "energy", st.energy, "changed", st.changed);
         py::dict out;
         out["colour"] = to_numpy(std::move(r.synth.colour), {n, C});
         out["source"] = to_numpy(std::move(r.synth.source), {n, 2});

@@ -9,6 +9,7 @@
 #include <memory>
 #include <optional>
 
+#include "call_helpers.hpp"
 #include "cancel_arg.hpp"
 #include "image_arg.hpp"
 #include "texsynth/image/image.hpp"
@@ -149,11 +150,10 @@ void bind_preprocess(py::module_& m) {
         texsynth::Image image = texsynth_python::image_from_python(image_arg, color_space);
         std::optional<std::string> dir;
         if (!cache_dir.is_none()) dir = cache_dir_string(cache_dir);
-        const std::atomic<bool>* flag = texsynth_py::cancel_flag(cancel);
-        py::gil_scoped_release release;
-        auto result = std::make_shared<Preprocessed>(dir ? texsynth::preprocess_cached(image, params, *dir, flag)
-                                                         : texsynth::preprocess(image, params, flag));
-        return result;
+        return texsynth_py::cancellable(cancel, [&](const texsynth_py::CallControl& control) {
+          return std::make_shared<Preprocessed>(dir ? texsynth::preprocess_cached(image, params, *dir, control.cancel)
+                                                    : texsynth::preprocess(image, params, control.cancel));
+        }, false);
       },
       py::arg("image"), TEXSYNTH_PARAM_ARGS, py::arg("cache_dir") = py::none(), py::arg("cancel") = py::none(),
       "Preprocesses a sample (path or numpy array). With cache_dir, a valid cache is loaded instead "

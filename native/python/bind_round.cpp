@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "array_args.hpp"
+#include "call_helpers.hpp"
 #include "cancel_arg.hpp"
 #include "texsynth/synth/round_synth.hpp"
 
@@ -29,20 +30,13 @@ std::string shape_of(const py::array& a) {
 }
 
 py::dict context_stats(const Context& c) {
-  py::dict d;
-  d["seconds_points"] = c.stats.seconds_points;
-  d["seconds_rings"] = c.stats.seconds_rings;
-  d["seconds_order"] = c.stats.seconds_order;
-  d["seconds_total"] = c.stats.seconds_total;
-  d["estimated_bytes"] = c.stats.estimated_bytes;
-  d["context_bytes"] = c.context_bytes;
-  d["invalid_ring_fraction"] = c.stats.invalid_ring_fraction;
-  d["overlapping_texels"] = c.stats.overlapping_texels;
   std::vector<int32_t> points, rings;
   for (const texsynth::RoundLevel& L : c.levels) points.push_back(L.num_points), rings.push_back(L.rings);
-  d["level_points"] = points;
-  d["level_rings"] = rings;
-  return d;
+  const auto& s = c.stats;
+  return stats_dict("seconds_points", s.seconds_points, "seconds_rings", s.seconds_rings, "seconds_order",
+                    s.seconds_order, "seconds_total", s.seconds_total, "estimated_bytes", s.estimated_bytes,
+                    "context_bytes", c.context_bytes, "invalid_ring_fraction", s.invalid_ring_fraction,
+                    "overlapping_texels", s.overlapping_texels, "level_points", points, "level_rings", rings);
 }
 
 std::unique_ptr<Context> make_context(py::object positions, py::object triangles, py::object corner_uvs,
@@ -83,13 +77,12 @@ std::unique_ptr<Context> make_context(py::object positions, py::object triangles
   p.facing_limit_degrees = facing_limit_degrees;
   p.max_megabytes = max_megabytes;
   p.max_overlap_fraction = max_overlap_fraction;
-  p.cancel = cancel_flag(cancel);
-  p.progress = progress_slot(cancel);
   auto ctx = std::make_unique<Context>();
-  {
-    py::gil_scoped_release release;
-    *ctx = texsynth::build_round_context(mesh, p);
-  }
+  *ctx = cancellable(cancel, [&](const CallControl& control) {
+    p.cancel = control.cancel;
+    p.progress = control.progress;
+    return texsynth::build_round_context(mesh, p);
+  });
   return ctx;
 }
 
@@ -114,13 +107,11 @@ py::dict synthesize(const Context& ctx, py::object sample, py::object directions
   p.min_top_size = min_top_size;
   p.fixed_top_size = fixed_top_size;
   p.max_megabytes = max_megabytes;
-  p.cancel = cancel_flag(cancel);
-  p.progress = progress_slot(cancel);
-  texsynth::RoundSynthResult r;
-  {
-    py::gil_scoped_release release;
-    r = texsynth::synthesize_round(ctx, s, dirs.data(), p);
-  }
+  texsynth::RoundSynthResult r = cancellable(cancel, [&](const CallControl& control) {
+    p.cancel = control.cancel;
+    p.progress = control.progress;
+    return texsynth::synthesize_round(ctx, s, dirs.data(), p);
+  });
   const py::ssize_t n = r.num_points, C = r.channels;
   py::dict out;
   if (ctx.target == texsynth::RoundTarget::kVertices) {
@@ -135,29 +126,17 @@ py::dict synthesize(const Context& ctx, py::object sample, py::object directions
   out["colour"] = to_numpy(std::move(r.colour), {n, C});
   out["source"] = to_numpy(std::move(r.source), {n, py::ssize_t(2)});
   out["point_id"] = to_numpy(std::move(r.point_id), {n});
-  py::dict st;
-  st["seconds_prepare"] = r.stats.seconds_prepare;
-  st["seconds_output"] = r.stats.seconds_output;
-  st["seconds_total"] = r.stats.seconds_total;
-  st["ring_builds"] = r.stats.ring_builds;
-  st["undefined_directions"] = r.stats.undefined_directions;
-  st["sample_width"] = r.stats.sample_width;
-  st["sample_height"] = r.stats.sample_height;
-  st["estimated_bytes"] = r.stats.estimated_bytes;
   py::list levels;
-  for (const texsynth::RoundLevelStats& l : r.stats.levels) {
-    py::dict d;
-    d["points"] = l.points;
-    d["seconds"] = l.seconds;
-    d["candidates_per_point"] = l.candidates_per_point;
-    d["invalid_ring_fraction"] = l.invalid_ring_fraction;
-    d["uncoloured_template_fraction"] = l.uncoloured_template_fraction;
-    d["top_size_histogram"] = l.top_size_histogram;
-    d["reseeds"] = l.reseeds;
-    levels.append(d);
-  }
-  st["levels"] = levels;
-  out["stats"] = st;
+  for (const texsynth::RoundLevelStats& l : r.stats.levels)
+    levels.append(stats_dict("points", l.points, "seconds", l.seconds, "candidates_per_point", l.candidates_per_point,
+                             "invalid_ring_fraction", l.invalid_ring_fraction, "uncoloured_template_fraction",
+                             l.uncoloured_template_fraction, "top_size_histogram", l.top_size_histogram, "reseeds",
+                             l.reseeds));
+  const auto& st = r.stats;
+  out["stats"] = stats_dict("seconds_prepare", st.seconds_prepare, "seconds_output", st.seconds_output,
+                            "seconds_total", st.seconds_total, "ring_builds", st.ring_builds, "undefined_directions",
+                            st.undefined_directions, "sample_width", st.sample_width, "sample_height", st.sample_height,
+                            "estimated_bytes", st.estimated_bytes, "levels", levels);
   return out;
 }
 

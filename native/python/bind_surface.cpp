@@ -6,6 +6,7 @@
 #include <string>
 
 #include "array_args.hpp"
+#include "call_helpers.hpp"
 #include "cancel_arg.hpp"
 #include "texsynth/surface/dilate.hpp"
 #include "texsynth/surface/texel_samples.hpp"
@@ -64,12 +65,9 @@ void bind_surface(py::module_& m) {
         in.width = width;
         in.height = height;
         in.margin = margin;
-        const std::atomic<bool>* flag = cancel_flag(cancel);
-        texsynth::TexelSamples s;
-        {
-          py::gil_scoped_release release;
-          s = texsynth::sample_texels(in, flag);
-        }
+        texsynth::TexelSamples s = cancellable(cancel, [&](const CallControl& control) {
+          return texsynth::sample_texels(in, control.cancel);
+        }, false);
         const py::ssize_t n = py::ssize_t(s.size()), g = py::ssize_t(s.gutter_texel.size());
         py::dict d;
         d["texel"] = owned_array(std::move(s.texel), {n});
@@ -119,13 +117,10 @@ void bind_surface(py::module_& m) {
         const int32_t c = checked_count(img.shape(2), "image");
         auto covered = mask_array(mask, "mask");
         require_shape(covered, {h, w}, "mask");
-        const std::atomic<bool>* flag = cancel_flag(cancel);
-        std::vector<float> out;
-        {
-          py::gil_scoped_release release;
-          out = texsynth::dilate_margin(img.data(), reinterpret_cast<const uint8_t*>(covered.data()), w, h, c, margin,
-                                        flag);
-        }
+        std::vector<float> out = cancellable(cancel, [&](const CallControl& control) {
+          return texsynth::dilate_margin(img.data(), reinterpret_cast<const uint8_t*>(covered.data()), w, h, c, margin,
+                                         control.cancel);
+        }, false);
         return to_numpy(std::move(out), {py::ssize_t(h), py::ssize_t(w), py::ssize_t(c)});
       },
       py::arg("image"), py::arg("mask"), py::arg("margin"), py::kw_only(), py::arg("cancel") = py::none(),

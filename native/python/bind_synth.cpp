@@ -4,6 +4,7 @@
 
 #include <chrono>
 
+#include "call_helpers.hpp"
 #include "cancel_arg.hpp"
 #include "corner_map_arrays.hpp"
 #include "field_args.hpp"
@@ -46,21 +47,14 @@ void bind_synth(py::module_& m) {
           mesh_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
           r = texsynth::synthesize_jumpmap(pre, built.mesh, built.up.data(), params, maps.view);
         }
-        py::dict stats;
-        stats["faces"] = r.stats.faces;
-        stats["vertices"] = r.stats.vertices;
-        stats["corners"] = r.stats.corners;
-        stats["components"] = r.stats.components;
-        stats["jumps"] = r.stats.jumps;
-        stats["fallback_vertices"] = r.stats.fallback_vertices;
-        stats["fallback_faces"] = r.stats.fallback_faces;
-        stats["oversized_faces"] = r.stats.oversized_faces;
-        stats["max_oversize_ratio"] = r.stats.max_oversize_ratio;
-        stats["seconds"] = r.stats.seconds;
-        stats["seconds_mesh"] = mesh_seconds;  // build_mesh + orientation field, before `seconds`
-        stats["seconds_faces"] = r.stats.seconds_faces;
-        stats["seconds_walk"] = r.stats.seconds_walk;
-        stats["seconds_corners"] = r.stats.seconds_corners;
+        const auto& s = r.stats;
+        // seconds_mesh: build_mesh + orientation field, before `seconds`.
+        py::dict stats = stats_dict(
+            "faces", s.faces, "vertices", s.vertices, "corners", s.corners, "components", s.components, "jumps", s.jumps,
+            "fallback_vertices", s.fallback_vertices, "fallback_faces", s.fallback_faces, "oversized_faces",
+            s.oversized_faces, "max_oversize_ratio", s.max_oversize_ratio, "seconds", s.seconds, "seconds_mesh",
+            mesh_seconds, "seconds_faces", s.seconds_faces, "seconds_walk", s.seconds_walk, "seconds_corners",
+            s.seconds_corners);
         py::dict out;
         maps.put(out);
         out["stats"] = stats;

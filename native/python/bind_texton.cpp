@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "call_helpers.hpp"
 #include "cancel_arg.hpp"
 #include "corner_map_arrays.hpp"
 #include "field_args.hpp"
@@ -114,27 +115,16 @@ void bind_texton(py::module_& m) {
           });
         }
         const py::ssize_t E = r.edges.num_edges();
-        py::dict stats;
-        stats["faces"] = r.stats.faces;
-        stats["vertices"] = r.stats.vertices;
-        stats["corners"] = r.stats.corners;
-        stats["components"] = r.stats.components;
-        stats["searched_faces"] = r.stats.searched_faces;
-        stats["fallback_faces"] = r.stats.fallback_faces;
-        stats["oversized_faces"] = r.stats.oversized_faces;
-        stats["max_oversize_ratio"] = r.stats.max_oversize_ratio;
-        stats["coherent_faces"] = r.stats.coherent_faces;
-        stats["regions"] = r.stats.regions;
-        stats["border_faces"] = r.stats.border_faces;
-        stats["blended_edges"] = r.stats.blended_edges;
-        stats["clipped_blend_sets"] = r.stats.clipped_blend_sets;
-        stats["seconds"] = r.stats.seconds;
-        stats["seconds_mesh"] = mesh_seconds;  // build_mesh + orientation field, before `seconds`
-        stats["seconds_edges"] = r.stats.seconds_edges;
-        stats["seconds_faces"] = r.stats.seconds_faces;
-        stats["seconds_grow"] = r.stats.seconds_grow;
-        stats["seconds_error"] = r.stats.seconds_error;
-        stats["seconds_blend"] = r.stats.seconds_blend;
+        const auto& s = r.stats;
+        // seconds_mesh: build_mesh + orientation field, before `seconds`.
+        py::dict stats = stats_dict(
+            "faces", s.faces, "vertices", s.vertices, "corners", s.corners, "components", s.components,
+            "searched_faces", s.searched_faces, "fallback_faces", s.fallback_faces, "oversized_faces", s.oversized_faces,
+            "max_oversize_ratio", s.max_oversize_ratio, "coherent_faces", s.coherent_faces, "regions", s.regions,
+            "border_faces", s.border_faces, "blended_edges", s.blended_edges, "clipped_blend_sets", s.clipped_blend_sets,
+            "seconds", s.seconds, "seconds_mesh", mesh_seconds, "seconds_edges", s.seconds_edges, "seconds_faces",
+            s.seconds_faces, "seconds_grow", s.seconds_grow, "seconds_error", s.seconds_error, "seconds_blend",
+            s.seconds_blend);
         py::dict out;
         maps.put(out);
         out["stats"] = stats;
