@@ -83,6 +83,28 @@ TEST(KMeans, ClusteringBeatsRandomLabelsByFar) {
             0.25 * texsynth::within_cluster_sse(points, random_labels, 50));
 }
 
+// The two centre-update rules (textons, particle classes): the same means up to the division, and
+// an empty cluster reseeded at one of the points or left where it was.
+TEST(KMeans, CentreUpdateRules) {
+  const std::vector<float> points = {0.f, 0.f, 1.f, 0.f, 0.f, 3.f, 10.f, 10.f};  // 4 points, 2 dims
+  const std::vector<int32_t> labels = {0, 0, 0, 1};
+  const std::vector<float> before = {5.f, 5.f, 6.f, 6.f, 7.f, 7.f};  // 3 clusters; cluster 2 is empty
+  std::vector<float> texton = before, particle = before;
+  texsynth::update_centres(points.data(), 4, 2, labels.data(), 3, 9, 0, texsynth::MeanRule{}, texton);
+  texsynth::update_centres(points.data(), 4, 2, labels.data(), 3, 9, 0, texsynth::MeanRule{false, false}, particle);
+  for (const auto* c : {&texton, &particle}) {
+    EXPECT_FLOAT_EQ((*c)[0], 1.f / 3.f);
+    EXPECT_FLOAT_EQ((*c)[1], 1.f);
+    EXPECT_EQ((*c)[2], 10.f);
+    EXPECT_EQ((*c)[3], 10.f);
+  }
+  EXPECT_EQ(particle[4], 7.f);
+  EXPECT_EQ(particle[5], 7.f);
+  bool at_a_point = false;
+  for (int i = 0; i < 4; ++i) at_a_point |= texton[4] == points[2 * i] && texton[5] == points[2 * i + 1];
+  EXPECT_TRUE(at_a_point);
+}
+
 TEST(KMeans, RejectsMoreClustersThanPoints) {
   const texsynth::Features points = random_points(10, 3, 1);
   texsynth::KMeansParams params;

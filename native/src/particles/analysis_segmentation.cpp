@@ -49,10 +49,13 @@ std::vector<float> gaussian_blur(const ParticleSample& s, double sigma, bool til
   return out;
 }
 
+// Centre updates as the particle classes always had them (sum / count, an empty class keeps its centre).
+constexpr MeanRule kClassMeans{false, false};
+
 // k-means++ fitted on a seeded subsample, every pixel then assigned; classes by decreasing pixel count.
-// Seeding and centre updates are its own (double distances, means kept for empty clusters), not
-// preprocess/kmeans.cpp's: they set the classes, so the cached analyses and outputs depend on them.
-// The nearest-centre assignment is the shared brute force (kmeans.hpp).
+// The assignment and the centre update are preprocess/kmeans.cpp's; the seeding is its own (subsample
+// drawn with replacement, double distances, Rng streams 1 and 2): it sets the classes, so the cached
+// analyses and every output depend on it.
 void kmeans_classes(const std::vector<float>& colours, int32_t n, int C, int k, uint64_t seed,
                     const std::atomic<bool>* cancel, std::vector<int32_t>& labels, std::vector<float>& centres) {
   std::vector<float> sub;
@@ -105,15 +108,7 @@ void kmeans_classes(const std::vector<float>& colours, int32_t n, int C, int k, 
     assign_brute_force(sub.data(), m, C, centres, k, nearest.data(), cancel);
     if (nearest == sub_labels) break;
     sub_labels.swap(nearest);
-    std::vector<double> sums(size_t(k) * C, 0.0);
-    std::vector<int64_t> counts(size_t(k), 0);
-    for (int32_t i = 0; i < m; ++i) {
-      counts[size_t(sub_labels[size_t(i)])]++;
-      for (int c = 0; c < C; ++c) sums[size_t(sub_labels[size_t(i)]) * C + c] += sub[size_t(i) * C + c];
-    }
-    for (int j = 0; j < k; ++j)
-      if (counts[size_t(j)] > 0)
-        for (int c = 0; c < C; ++c) centres[size_t(j) * C + c] = float(sums[size_t(j) * C + c] / double(counts[size_t(j)]));
+    update_centres(sub.data(), m, C, sub_labels.data(), k, seed, it, kClassMeans, centres);
   }
   labels.resize(size_t(n));
   assign_brute_force(colours.data(), n, C, centres, k, labels.data(), cancel);

@@ -183,25 +183,33 @@ class ClusterSums {
  public:
   ClusterSums(int k, int dims) : k_(k), dims_(dims), sums_(size_t(k) * dims, 0.0), counts_(size_t(k), 0) {}
 
-  void add_all(const Features& points, const std::vector<int32_t>& labels) {
-    for (int64_t i = 0; i < points.count; ++i) move(points.row(i), -1, labels[size_t(i)]);
+  void add_all(const float* points, int64_t count, const int32_t* labels) {
+    for (int64_t i = 0; i < count; ++i) move(points + size_t(i) * size_t(dims_), -1, labels[i]);
   }
   void apply_changes(const Features& points, const std::vector<int32_t>& before, const std::vector<int32_t>& after) {
     for (int64_t i = 0; i < points.count; ++i)
       if (before[size_t(i)] != after[size_t(i)]) move(points.row(i), before[size_t(i)], after[size_t(i)]);
   }
-  // Centres = means; an empty cluster is reseeded at a pseudo-random point from (seed, iteration, cluster).
-  void write_centres(const Features& points, uint64_t seed, int iteration, std::vector<float>& centres) const {
+  // Centres = means (see MeanRule); a reseeded empty cluster takes a pseudo-random point from
+  // (seed, iteration, cluster).
+  void write_centres(const float* points, int64_t count, uint64_t seed, int iteration, const MeanRule& rule,
+                     std::vector<float>& centres) const {
     for (int c = 0; c < k_; ++c) {
       float* centre = centres.data() + size_t(c) * dims_;
       if (counts_[size_t(c)] == 0) {
+        if (!rule.reseed_empty) continue;
         Rng rng(seed, splitmix64(uint64_t(iteration) * 0x10001ull + uint64_t(c)));
-        const float* p = points.row(int64_t(rng.below(uint32_t(points.count))));
+        const float* p = points + size_t(rng.below(uint32_t(count))) * size_t(dims_);
         std::copy(p, p + dims_, centre);
         continue;
       }
-      const double inv = 1.0 / double(counts_[size_t(c)]);
-      for (int d = 0; d < dims_; ++d) centre[d] = float(sums_[size_t(c) * dims_ + d] * inv);
+      if (rule.reciprocal) {
+        const double inv = 1.0 / double(counts_[size_t(c)]);
+        for (int d = 0; d < dims_; ++d) centre[d] = float(sums_[size_t(c) * dims_ + d] * inv);
+      } else {
+        const double n = double(counts_[size_t(c)]);
+        for (int d = 0; d < dims_; ++d) centre[d] = float(sums_[size_t(c) * dims_ + d] / n);
+      }
     }
   }
 
@@ -219,13 +227,6 @@ class ClusterSums {
   std::vector<int64_t> counts_;
 };
 
-// Centres = means of the labelled points (one-off, from scratch).
-void update_centres(const Features& points, const std::vector<int32_t>& labels, int k, uint64_t seed, int iteration,
-                    std::vector<float>& centres) {
-  ClusterSums sums(k, points.dims);
-  sums.add_all(points, labels);
-  sums.write_centres(points, seed, iteration, centres);
-}
 
 // k-means++ seeding (Arthur & Vassilvitskii) on the given points.
 std::vector<float> seed_centres(const Features& points, int k, uint64_t seed, const std::atomic<bool>* cancel) {
@@ -304,11 +305,11 @@ int lloyd(const Features& points, int k, uint64_t seed, double change_fraction, 
     if ((!first && last_change <= change_fraction) || iteration >= max_iterations) break;
     previous_centres = centres;
     if (first) {
-      sums.add_all(points, labels);
+      sums.add_all(points.values.data(), points.count, labels.data());
     } else {
       sums.apply_changes(points, previous_labels, labels);
     }
-    sums.write_centres(points, seed, iteration, centres);
+    sums.write_centres(points.values.data(), points.count, seed, iteration, MeanRule{}, centres);
     // Other centres moved at most the largest drift, or the second largest for the points of the centre
     // that moved most (Hamerly's refinement: fewer points lose their bound).
     float max_drift = 0.0f, second_drift = 0.0f;
@@ -438,7 +439,8 @@ KMeansResult kmeans(const Features& points, const KMeansParams& params, const st
     result.subsample_iterations = lloyd(sub, k, params.seed, params.change_fraction, params.max_iterations,
                                         result.centres, sub_labels, change, cancel);
     // Means of the converged subsample clusters seed the full-data phase.
-    update_centres(sub, sub_labels, k, params.seed, 1 << 20, result.centres);
+    update_centres(sub.values.data(), sub.count, dims, sub_labels.data(), k, params.seed, 1 << 20, MeanRule{},
+                   result.centres);
   }
   sub = Features();
 
@@ -454,6 +456,13 @@ KMeansResult kmeans(const Features& points, const KMeansParams& params, const st
   // After the single pass, convergence is the subsample's (every label "changed" from none).
   result.last_change_fraction = full_iterations > 0 ? change : subsample_change;
   return result;
+}
+
+void update_centres(const float* points, int64_t count, int dims, const int32_t* labels, int k, uint64_t seed,
+                    int iteration, const MeanRule& rule, std::vector<float>& centres) {
+  ClusterSums sums(k, dims);
+  sums.add_all(points, count, labels);
+  sums.write_centres(points, count, seed, iteration, rule, centres);
 }
 
 void assign_brute_force(const float* points, int64_t count, int dims, const std::vector<float>& centres, int k,

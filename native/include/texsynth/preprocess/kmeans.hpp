@@ -43,6 +43,17 @@ struct KMeansResult {
 KMeansResult kmeans(const Features& points, const KMeansParams& params,
                     const std::atomic<bool>* cancel = nullptr);
 
+// The centre update of a Lloyd step where the texton and the particle k-means differ; each choice
+// changes the centres (and so the textons or classes), so both stay.
+struct MeanRule {
+  bool reciprocal = true;    // mean = sum * (1 / count) (textons); false: sum / count (particle classes)
+  bool reseed_empty = true;  // an empty cluster moves to a seeded random point (textons); false: it keeps its centre
+};
+// Centres = means of the labelled rows (`count` rows of `dims` floats): double sums per cluster over
+// the rows in index order, then `rule`. seed and iteration pick the reseeded rows.
+void update_centres(const float* points, int64_t count, int dims, const int32_t* labels, int k, uint64_t seed,
+                    int iteration, const MeanRule& rule, std::vector<float>& centres);
+
 // Exact nearest centre for every point (for tests and the baseline): brute force.
 std::vector<int32_t> assign_brute_force(const Features& points, const std::vector<float>& centres, int k);
 // The same over `count` rows of `dims` floats into labels[count]: squared_distance, ties to the lower
