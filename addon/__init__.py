@@ -23,9 +23,10 @@ from . import compat  # noqa: E402
 # gets one sentence in the sidebar and the console, never a traceback at enable time.
 UNSUPPORTED = compat.unsupported_version_message(bpy.app.version) or compat.missing_requirement_message()
 if not UNSUPPORTED:
-    from .fields import overlay, tools  # noqa: E402
-    from .ui import operators, panels, particle_operators, properties  # noqa: E402
-    classes = properties.classes + operators.classes + particle_operators.classes + tools.classes + panels.classes
+    from .fields import overlay  # noqa: E402
+    from .ui import field_operators, operators, panels, particle_operators, properties  # noqa: E402
+    classes = (properties.classes + operators.classes + particle_operators.classes + field_operators.classes
+               + panels.classes)
 else:
     class TEXSYNTH_PT_unavailable(bpy.types.Panel):
         bl_label = "TexSynth"
@@ -68,7 +69,7 @@ def register():
         bpy.utils.register_class(cls)
     bpy.types.Scene.texsynth = bpy.props.PointerProperty(type=properties.TexSynthSettings)
     overlay.register()
-    tools.register_tool()
+    field_operators.register_tool()
     particle_operators.register_header()
 
 
@@ -78,7 +79,7 @@ def unregister():
             bpy.utils.unregister_class(classes[0])
         return
     particle_operators.unregister_header()
-    tools.unregister_tool()
+    field_operators.unregister_tool()
     overlay.unregister()
     if hasattr(bpy.types.Scene, "texsynth"):
         del bpy.types.Scene.texsynth

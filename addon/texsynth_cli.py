@@ -229,13 +229,12 @@ def parse_axis(text):
 
 
 def apply_field_preset(args, objects):
-    """--field-preset: the Field Preset operator's work (fields/tools.py) on every object, written to the
-    direction attribute the synthesis then follows."""
-    from texsynth.bridge import mesh_io
-    from texsynth.fields import tools
+    """--field-preset: the Field Preset operator's work (fields/mesh_state.py preset_field) on every object,
+    written to the direction attribute the synthesis then follows."""
+    from texsynth.fields import mesh_state
     for obj in objects:
         try:
-            mesh_io.write_field_state(obj, tools.preset_field(obj, args.field_preset.upper(), args.axis))
+            mesh_state.write_field_state(obj, mesh_state.preset_field(obj, args.field_preset.upper(), args.axis))
         except (ValueError, RuntimeError) as error:
             raise CliError("--field-preset %s on %s: %s" % (args.field_preset, obj.name, error))
 
@@ -288,9 +287,8 @@ def particle_settings(args):
 
 def run_particles(args, objects, sample, settings):
     """--method particles: the label image read bottom row first (then removed), the example collection."""
-    from texsynth.bridge import mesh_io
+    from texsynth.bridge import mesh_io, sources
     from texsynth.particles import synthesis as particle_synthesis
-    from texsynth.uv_methods import synthesis
     labels = None
     if args.labels:
         if not os.path.isfile(args.labels):
@@ -307,7 +305,7 @@ def run_particles(args, objects, sample, settings):
         except ImportError:
             raise CliError("--instances example needs blend_samples/particle_instances.py (run from the repository)")
         settings.particle_collection = particle_instances.make_collection().name
-    return particle_synthesis.synthesize(objects, sample, settings, args.cache_dir or synthesis.default_cache_dir(),
+    return particle_synthesis.synthesize(objects, sample, settings, args.cache_dir or sources.default_cache_dir(),
                                          labels, material_mode=args.material.upper(), scene_=bpy.context.scene)
 
 
@@ -338,10 +336,10 @@ def check_bake_args(args):
 
 
 def _bake_options():
-    """bake/options.py (bpy-free) loaded on its own, before the add-on."""
+    """core/bake_options.py (bpy-free) loaded on its own, before the add-on."""
     name = "texsynth_cli_bake_options"
     if name not in sys.modules:
-        path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "bake", "options.py")
+        path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "core", "bake_options.py")
         spec = importlib.util.spec_from_file_location(name, path)
         module = importlib.util.module_from_spec(spec)
         sys.modules[name] = module
@@ -493,8 +491,9 @@ def main(argv, command_line=False):
     if addon.UNSUPPORTED:
         raise CliError(addon.UNSUPPORTED)
     from texsynth import compat, native  # noqa: F401  (registered by load_addon)
-    from texsynth.core.settings import SURFACE_METHODS, Settings  # (registered by load_addon)
-    from texsynth.uv_methods import synthesis  # noqa: F401  (registered by load_addon)
+    from texsynth.bridge import sources
+    from texsynth.core.settings import SURFACE_METHODS, Settings
+    from texsynth.uv_methods import synthesis
     if native.get() is None:
         raise CliError(native.reason())
     if not os.path.isfile(args.sample):
@@ -520,7 +519,7 @@ def main(argv, command_line=False):
                         patch_mode=args.mode.upper(), patch_size=args.patch_size,
                         patch_boundary=args.boundary_width, patch_tolerance=args.tolerance,
                         patch_iterations=args.iterations, interface="CLI", **particle_settings(args))
-    sample = synthesis.Sample(path=os.path.abspath(args.sample))
+    sample = sources.Sample(path=os.path.abspath(args.sample))
     surface = settings.method in SURFACE_METHODS
     try:
         settings.validate()
@@ -529,11 +528,11 @@ def main(argv, command_line=False):
         if settings.method == "PARTICLES":
             report = run_particles(args, objects, sample, settings)
         elif surface:
-            from texsynth.bake import options
+            from texsynth.core import bake_options as options
             from texsynth.surface_colour import synthesis as surface_synthesis
             request = bake_request(args, options) if args.bake else options.BakeRequest(create_uv=True)
             report = surface_synthesis.synthesize(objects, sample, settings, request, args.material.upper(),
-                                                  cache_dir=args.cache_dir or synthesis.default_cache_dir())
+                                                  cache_dir=args.cache_dir or sources.default_cache_dir())
         else:
             report = synthesis.synthesize(objects, sample, settings, args.cache_dir or None, args.material.upper())
     except (ValueError, RuntimeError) as error:

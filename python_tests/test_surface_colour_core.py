@@ -10,6 +10,7 @@ import addon_package
 core_layers = addon_package.load("core.layers")
 core_settings = addon_package.load("core.settings")
 core = addon_package.load("surface_colour.core")
+sample_image = addon_package.load("core.sample_image")
 
 
 def test_output_values_convert_between_encodings_and_keep_alpha():
@@ -24,14 +25,14 @@ def test_output_values_convert_between_encodings_and_keep_alpha():
 
 def test_synthesis_sample_is_bottom_row_first_and_always_colour():
     grey = np.arange(12, dtype=np.float32).reshape(4, 3, 1)
-    out = core.synthesis_sample(grey)
+    out = sample_image.synthesis_sample(grey)
     assert out.shape == (4, 3, 3) and np.array_equal(out[0, :, 0], grey[3, :, 0])  # top row last
     grey_alpha = np.concatenate([grey, np.ones_like(grey)], axis=2)
-    assert core.synthesis_sample(grey_alpha).shape == (4, 3, 4)
+    assert sample_image.synthesis_sample(grey_alpha).shape == (4, 3, 4)
     with pytest.raises(core_settings.SettingsError, match="NaN"):
-        core.synthesis_sample(np.full((4, 4, 3), np.nan, np.float32))
+        sample_image.synthesis_sample(np.full((4, 4, 3), np.nan, np.float32))
     with pytest.raises(core_settings.SettingsError, match="at least 2 x 2"):
-        core.synthesis_sample(np.zeros((1, 5, 3), np.float32))
+        sample_image.synthesis_sample(np.zeros((1, 5, 3), np.float32))
 
 
 def square(side=2.0):

@@ -10,28 +10,25 @@ Everything temporary (nodes, active node and output, render engine and sampling,
 made by Smart UV Project) is restored in a finally block, also when the bake fails or is cancelled; a
 failed bake leaves no image or material behind.
 
-Surface-colour methods (round neighbourhoods) write their texels directly: write_surface_colour().
+Surface-colour methods (round neighbourhoods, patches) write their texels directly: bridge/images.py
+write_surface_colour().
 
 Texture particles: the background bakes as above, then each class's decals are composited over it in
 texture space (particles/baking.py; Cycles' selected-to-active bake would keep one decal per ray).
 """
 import dataclasses
-import math
 import time
 
 import bpy
-import numpy as np
 
-from .. import native
 from ..bridge import mesh_io
-from ..core.layers import MAX_UV_LAYERS, is_texsynth_uv_name
+from ..bridge.images import TEMP_PREFIX, keep_unused, new_image, store_image, take_name
+from ..bridge.uv_maps import choose_uv_map, remove_uv_map, smart_project
+from ..core import bake_options as options
 from ..core.names import fit_name
 from ..particles import baking as particle_baking
 from ..shading import blend_groups, surface_material
-from . import options
-from .options import BakeError, BakeRequest  # noqa: F401  (re-exported for the operator and the CLI)
-
-TEMP_PREFIX = "TexSynth Bake Temp "
+from ..core.bake_options import BakeError, BakeRequest  # noqa: F401  (re-exported for the operator and the CLI)
 
 
 @dataclasses.dataclass
@@ -99,29 +96,6 @@ def _group_images(group_nodes):
     return images
 
 
-def choose_uv_map(mesh, request):
-    """(name of an existing UV map, or None when one must be created); BakeError if there is none to use."""
-    names = [layer.name for layer in mesh.uv_layers]
-    if request.uv_map == options.BASE_UV_NAME:
-        raise BakeError(options.uv_refusal())
-    if not request.auto_uv:
-        if request.uv_map not in names:
-            others = [n for n in names if not is_texsynth_uv_name(n)]
-            raise BakeError("mesh %r has no UV map %r (its UV maps: %s)"
-                            % (mesh.name, request.uv_map, ", ".join(others) or "none besides TexSynth's"))
-        return request.uv_map
-    others = [n for n in names if not is_texsynth_uv_name(n)]
-    if others:
-        active = mesh.uv_layers.active.name if mesh.uv_layers.active is not None else ""
-        return active if active in others else others[0]
-    if not request.create_uv:
-        raise BakeError("mesh %r has no UV map besides TexSynth's (whose islands overlap): choose to create one "
-                        "with Smart UV Project (operator option, CLI --bake-uv auto)" % mesh.name)
-    if len(names) >= MAX_UV_LAYERS:
-        raise BakeError("mesh %r already has Blender's maximum of %d UV maps" % (mesh.name, MAX_UV_LAYERS))
-    return None
-
-
 def check(obj, request, blend_path=""):
     """Validates everything that can be checked before changing anything; returns (target, uv map or
     None, [(material, group node)])."""
@@ -146,119 +120,6 @@ def check(obj, request, blend_path=""):
 
 # ---------------------------------------------------------------------------------------------
 # Smart UV Project on a new UV map (restorable)
-
-
-def _read_flags(collection, name):
-    values = np.empty(len(collection), dtype=bool)
-    collection.foreach_get(name, values)
-    return values
-
-
-def _mesh_flags(mesh):
-    return {(kind, flag): _read_flags(getattr(mesh, kind), flag)
-            for kind in ("vertices", "edges", "polygons") for flag in ("select", "hide")}
-
-
-def _set_flags(mesh, flags):
-    for (kind, flag), values in flags.items():
-        getattr(mesh, kind).foreach_set(flag, values)
-
-
-def pack_islands(size):
-    """Packs the selected faces' islands options.PACK_GAP_TEXELS apart in a size² image. Blender 3.6+
-    packs by shape when asked, 30-80 s on a 75k-face mesh: bounding boxes are packed (under a second)."""
-    extra = {}
-    properties = bpy.ops.uv.pack_islands.get_rna_type().properties.keys()
-    if "shape_method" in properties:
-        extra["shape_method"] = "AABB"
-    if "margin_method" in properties:
-        extra["margin_method"] = "FRACTION"
-    bpy.ops.uv.select_all(action="SELECT")
-    bpy.ops.uv.pack_islands(rotate=True, margin=options.pack_margin(size), **extra)
-
-
-def smart_project(obj, request, context):
-    """Adds a UV map (Smart UV Project over all faces, hidden ones too) without changing the others, the
-    active UV map or the mesh's selection and hide state; returns its name. A mesh that had no active UV
-    map (no UV map at all) gets the new one as its active map: an active index of -1 next to an existing
-    map stays -1 on Blender 3.4 (4.x clamps it to 0), and Cycles' bake refuses such a mesh ("No active
-    UV layer found")."""
-    mesh = obj.data
-    flags = _mesh_flags(mesh)
-    # Blender 4+ stores these flags as internal attributes, created when first written: remove the
-    # ones this function created (their values were all False before) so the mesh is as it was.
-    attributes_before = set(mesh.attributes.keys())
-    active_index = mesh.uv_layers.active_index
-    render_active = [layer.active_render for layer in mesh.uv_layers]
-    layer = mesh.uv_layers.new(name=options.SMART_UV_NAME, do_init=False)
-    if layer is None:
-        raise BakeError("could not add a UV map to mesh %r" % mesh.name)
-    name = layer.name
-    mesh.uv_layers.active = layer
-    try:
-        for kind in ("vertices", "edges", "polygons"):
-            count = len(getattr(mesh, kind))
-            if flags[(kind, "hide")].any():
-                getattr(mesh, kind).foreach_set("hide", np.zeros(count, bool))
-            getattr(mesh, kind).foreach_set("select", np.ones(count, bool))
-        with _edit_mode(obj, context):
-            bpy.ops.uv.smart_project(angle_limit=math.radians(options.SMART_UV_ANGLE_DEGREES), island_margin=0.0)
-            pack_islands(request.size)
-    except Exception:
-        remove_uv_map(mesh, name)
-        raise
-    finally:
-        _set_flags(mesh, flags)
-        for kind in ("vert", "edge", "poly"):
-            for flag in ("hide", "select"):
-                created = mesh.attributes.get(".%s_%s" % (flag, kind))
-                if created is not None and created.name not in attributes_before:
-                    mesh.attributes.remove(created)
-        if active_index >= 0 or mesh.uv_layers.get(name) is None:
-            mesh.uv_layers.active_index = active_index
-        else:
-            mesh.uv_layers.active = mesh.uv_layers[name]
-        for layer, flag in zip(mesh.uv_layers, render_active):
-            layer.active_render = flag
-        mesh.update()
-    return name
-
-
-def remove_uv_map(mesh, name):
-    layer = mesh.uv_layers.get(name)
-    if layer is not None:
-        mesh.uv_layers.remove(layer)
-
-
-class _edit_mode:
-    """Edit mode on obj, made the only selected, active object for one operator call: Edit Mode takes
-    every selected mesh along, and Smart UV Project would re-project their UV maps too. The selection
-    and the active object are restored afterwards."""
-
-    def __init__(self, obj, context):
-        self.obj, self.context = obj, context
-
-    def __enter__(self):
-        objects = self.context.view_layer.objects
-        self.active = objects.active
-        self.selected = [o for o in objects if o is not None and o.select_get()]
-        for other in self.selected:
-            if other is not self.obj:
-                other.select_set(False)
-        self.obj.select_set(True)
-        objects.active = self.obj
-        bpy.ops.object.mode_set(mode="EDIT")
-        return self
-
-    def __exit__(self, *exc):
-        bpy.ops.object.mode_set(mode="OBJECT")
-        objects = self.context.view_layer.objects
-        if self.obj not in self.selected:
-            self.obj.select_set(False)
-        for other in self.selected:
-            other.select_set(True)
-        objects.active = self.active
-        return False
 
 
 # ---------------------------------------------------------------------------------------------
@@ -358,48 +219,6 @@ class _MaterialState:
 # The bake
 
 
-def new_image(name, size, float_buffer):
-    image = bpy.data.images.new(name, size, size, alpha=True, float_buffer=float_buffer)
-    image.generated_color = (0.0, 0.0, 0.0, 0.0)
-    if float_buffer:
-        image.colorspace_settings.name = "Linear" if bpy.app.version < (4, 0, 0) else "Linear Rec.709"
-    return image
-
-
-def store_image(image, target):
-    """Saves the image to target.path, or packs it into the .blend."""
-    if target.path:
-        image.filepath_raw = target.path
-        image.file_format = target.file_format
-        try:
-            image.save()
-        except RuntimeError as error:
-            raise BakeError("could not save the baked image to %s: %s" % (target.path, str(error).strip()))
-        image.filepath = target.path
-        image.source = "FILE"
-        image.reload()
-    else:
-        image.pack()
-
-
-def take_name(image, name):
-    """Gives image the name `name`, replacing (remapping users of) an existing image of that name."""
-    old = bpy.data.images.get(name)
-    if old is not None and old != image:
-        old.user_remap(image)
-        bpy.data.images.remove(old)
-    image.name = name
-
-
-def keep_unused(datablock):
-    """Gives an output nothing uses yet (a baked image with no material, a baked material not assigned, a
-    surface-colour image with material mode Layers Only) a fake user, so saving the .blend keeps it: a
-    datablock with no user is dropped by the save, whatever the report said. Returns it."""
-    if datablock is not None and datablock.users == 0:
-        datablock.use_fake_user = True
-    return datablock
-
-
 def baked_material(obj, image, uv_map, assign):
     """Material "TexSynth Baked: <object>": UV Map -> Image Texture -> Principled Base Color."""
     material = surface_material.new_material(fit_name(options.MATERIAL_PREFIX, obj.name), image=image, uv_map=uv_map)
@@ -482,25 +301,3 @@ def bake(obj, request, context=None, progress=None):
 # Surface-colour methods: texels computed by TexSynth itself
 
 
-def write_surface_colour(image, rgba, coverage, margin=options.DEFAULT_MARGIN):
-    """Hook for methods that compute surface colour per texel (round neighbourhoods): writes `rgba`
-    (float (H, W, 4), row 0 = top, linear values for float images) into the bpy image of the same size,
-    after extending the covered texels (`coverage`, bool (H, W)) by `margin` pixels with
-    texsynth_native.dilate_margin. Texels neither covered nor within the margin keep rgba's values."""
-    rgba = np.ascontiguousarray(rgba, dtype=np.float32)
-    coverage = np.ascontiguousarray(coverage, dtype=bool)
-    width, height = int(image.size[0]), int(image.size[1])
-    if rgba.shape != (height, width, 4) or coverage.shape != (height, width):
-        raise BakeError("surface colour is %s with coverage %s; image %r is %dx%d RGBA"
-                        % (rgba.shape, coverage.shape, image.name, width, height))
-    if image.channels != 4:
-        raise BakeError("image %r has %d channels, expected RGBA" % (image.name, image.channels))
-    options.check_margin(int(margin), max(width, height))
-    if margin > 0:
-        module = native.require()
-        if not hasattr(module, "dilate_margin"):
-            raise BakeError("this texsynth_native has no dilate_margin (an older build): rebuild it")
-        rgba = module.dilate_margin(rgba, coverage, int(margin))
-    image.pixels.foreach_set(np.ascontiguousarray(rgba[::-1]).ravel())
-    image.update()
-    return image

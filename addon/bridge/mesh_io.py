@@ -15,12 +15,10 @@ import os
 import bpy
 import numpy as np
 
-from ..core.finite import FiniteScan, all_finite
-from ..core.layers import (ATTRIBUTE_NAMES, BASE_UV_NAME, GROUPS_NAME, MeshArrays, SET_ATTRIBUTE_NAMES, WEIGHTS_NAME,
-    check_uv_capacity, is_texsynth_uv_name)
+from ..core.finite import all_finite
+from ..core.layers import MeshArrays
 from ..core.sample_image import blender_pixels_to_image
 from ..core.settings import SettingsError
-from ..uv_methods.encoding import blend_set_rgba, check_result, corner_attributes, weights_rgba
 
 # Test hook: TEXSYNTH_TEST_FAIL_AT=<point> makes the write fail at that point (uv_layer, sets,
 # weights, extras, material) so the tests can prove a failure mid-write leaves the mesh byte-identical.
@@ -53,6 +51,30 @@ def read_indices(collection, name, count):
     values = np.empty(count, dtype=INDEX_READ_DTYPE)
     collection.foreach_get(name, values)
     return values.view(np.int32)
+
+
+def _buffer(size, reuse):
+    """A float32 buffer of `size` values: `reuse` when it fits (a live update reads the layers it
+    replaces into the previous update's snapshot buffers: no fresh pages, no page faults), else new."""
+    if reuse is not None and reuse.dtype == np.float32 and reuse.size == size and reuse.flags.c_contiguous:
+        return reuse
+    return np.empty(size, dtype=np.float32)
+
+
+def read_uv(layer, num_corners, reuse=None):
+    """A UV map's (u, v) per corner, flat float32 (into `reuse` when it fits)."""
+    values = _buffer(num_corners * 2, reuse)
+    layer.data.foreach_get("uv", values)
+    return values
+
+
+def snapshot_attribute(attribute, reuse=None):
+    """(data type, domain, foreach key, flat float32 values) of an attribute, to put it back exactly."""
+    is_color = attribute.data_type in ("FLOAT_COLOR", "BYTE_COLOR")
+    values = _buffer(len(attribute.data) * (4 if is_color else 1), reuse)
+    key = "color" if is_color else "value"
+    attribute.data.foreach_get(key, values)
+    return (attribute.data_type, attribute.domain, key, values)
 
 
 def read_mesh(obj, direction_attribute=""):
@@ -106,218 +128,6 @@ def read_direction(obj, name, matrix=None):
     return vectors_to_world(vectors, matrix)
 
 
-def texsynth_uv_names(mesh):
-    return [layer.name for layer in mesh.uv_layers if is_texsynth_uv_name(layer.name)]
-
-
-def check_capacity(mesh):
-    check_uv_capacity([layer.name for layer in mesh.uv_layers])
-
-
-def _buffer(size, reuse):
-    """A float32 buffer of `size` values: `reuse` when it fits (a live update reads the layers it
-    replaces into the previous update's snapshot buffers: no fresh pages, no page faults), else new."""
-    if reuse is not None and reuse.dtype == np.float32 and reuse.size == size and reuse.flags.c_contiguous:
-        return reuse
-    return np.empty(size, dtype=np.float32)
-
-
-def _uv_data(layer, num_corners, reuse=None):
-    values = _buffer(num_corners * 2, reuse)
-    layer.data.foreach_get("uv", values)
-    return values
-
-
-def _attribute_snapshot(attribute, reuse=None):
-    is_color = attribute.data_type in ("FLOAT_COLOR", "BYTE_COLOR")
-    values = _buffer(len(attribute.data) * (4 if is_color else 1), reuse)
-    key = "color" if is_color else "value"
-    attribute.data.foreach_get(key, values)
-    return (attribute.data_type, attribute.domain, key, values)
-
-
-def snapshot(mesh, reuse=None):
-    """Everything write_result/clear may change, to restore it exactly. A live update takes it on
-    the main thread while the synthesizer runs in a worker (mesh reads overlap the native work).
-    reuse: an older snapshot no longer needed, whose buffers are filled again where sizes match
-    (it is invalid afterwards)."""
-    num_corners = len(mesh.loops)
-    old_attributes = reuse["attributes"] if reuse is not None else {}
-    old_uv = reuse["uv"] if reuse is not None else {}
-    attributes = {}
-    for name in ATTRIBUTE_NAMES:
-        attribute = mesh.attributes.get(name)
-        old = old_attributes.get(name)
-        attributes[name] = (_attribute_snapshot(attribute, old[3] if old is not None else None)
-                            if attribute is not None else None)
-    active_color = getattr(mesh.attributes, "active_color", None)
-    return {
-        "uv_order": [layer.name for layer in mesh.uv_layers],
-        "uv": {layer.name: _uv_data(layer, num_corners, old_uv.get(layer.name)) for layer in mesh.uv_layers
-               if is_texsynth_uv_name(layer.name)},
-        "active_uv": mesh.uv_layers.active_index,
-        "render_uv": next((i for i, layer in enumerate(mesh.uv_layers) if layer.active_render), -1),
-        "attributes": attributes,
-        "active_color": active_color.name if active_color is not None else None,
-    }
-
-
-def _restore(mesh, snapshot):
-    """Puts back TexSynth's layers exactly as in snapshot (foreign layers are never touched)."""
-    # By name, looked up each time: removing a layer invalidates references to the other layers.
-    for name in [name for name in texsynth_uv_names(mesh) if name not in snapshot["uv"]]:
-        mesh.uv_layers.remove(mesh.uv_layers[name])
-    for name, values in snapshot["uv"].items():
-        layer = mesh.uv_layers.get(name) or mesh.uv_layers.new(name=name, do_init=False)
-        layer.data.foreach_set("uv", values)
-    _restore_uv_order_flags(mesh, snapshot)
-    for name, saved in snapshot["attributes"].items():
-        attribute = mesh.attributes.get(name)
-        if attribute is not None and saved is None:
-            mesh.attributes.remove(attribute)
-        elif saved is not None:
-            data_type, domain, key, values = saved
-            if attribute is None or attribute.data_type != data_type or attribute.domain != domain:
-                if attribute is not None:
-                    mesh.attributes.remove(attribute)
-                attribute = mesh.attributes.new(name, data_type, domain)
-            attribute.data.foreach_set(key, values)
-    if snapshot["active_color"] is not None and hasattr(mesh.attributes, "active_color"):
-        attribute = mesh.attributes.get(snapshot["active_color"])
-        if attribute is not None:
-            mesh.attributes.active_color = attribute
-    mesh.update()
-
-
-def _restore_uv_order_flags(mesh, snapshot):
-    """Active and render UV maps as in snapshot, by name (indices shift when older TexSynth maps go);
-    a flag on a removed map falls back to the first map."""
-    names = [layer.name for layer in mesh.uv_layers]
-    # Set only when different: each assignment is an RNA update (a few ms per live update).
-    for key, apply in (("active_uv", lambda i: mesh.uv_layers.active_index != i
-                        and setattr(mesh.uv_layers, "active_index", i)),
-                       ("render_uv", lambda i: not mesh.uv_layers[i].active_render
-                        and setattr(mesh.uv_layers[i], "active_render", True))):
-        index = snapshot[key]
-        if 0 <= index < len(snapshot["uv_order"]) and names:
-            name = snapshot["uv_order"][index]
-            apply(names.index(name) if name in names else 0)
-
-
-def write_result(mesh, result, taken_snapshot=None):
-    """Writes the base UV map and the corner attributes (blend sets, weights, the method's extras);
-    replaces TexSynth's previous layers, including the blend-set UV maps of older versions.
-
-    Foreign UV maps keep their data and flags; the active/render UV map is not changed unless the
-    mesh had none. Raises SettingsError (no room for the UV map) or MeshWriteError (restored) and
-    then leaves the mesh as it was. Returns the snapshot taken before writing, for restore().
-    Consumes result["blend_weights"] (converted to RGBA in place, to save a corner-sized copy).
-    taken_snapshot: snapshot(mesh) taken since the mesh last changed (else it is taken here).
-
-    Shapes and dtypes are checked first; the scan for NaN/inf (hundreds of MB on a million faces)
-    runs in a worker thread while the layers are written and is awaited before the write completes:
-    a non-finite result restores the mesh like any failed write (TEXSYNTH_WRITE_CHECK=before: scan
-    first, as before).
-    """
-    num_corners = len(mesh.loops)
-    scan_during_write = os.environ.get(WRITE_CHECK_ENV) != "before"
-    base = np.ascontiguousarray(check_result(result, num_corners, finite=not scan_during_write),
-                                dtype=np.float32).ravel()
-    extras = corner_attributes(result, num_corners, finite=not scan_during_write)
-    sets = int(result["num_blend_sets"])
-    check_capacity(mesh)
-    colors = {}  # FLOAT_COLOR corner attributes to write
-    if sets:
-        colors.update(zip(SET_ATTRIBUTE_NAMES, blend_set_rgba(result, num_corners)))
-        colors[WEIGHTS_NAME] = weights_rgba(result, num_corners, consume=True)
-        if result.get("mapping_groups") is not None:
-            groups = result["mapping_groups"]
-            if groups.shape != (num_corners * 4,) or groups.dtype != np.float32 or \
-                    (not scan_during_write and not all_finite(groups)):
-                raise SettingsError("mapping groups must be finite float32 of shape (%d,)" % (num_corners * 4))
-            colors[GROUPS_NAME] = groups
-
-    saved = taken_snapshot if taken_snapshot is not None else snapshot(mesh)
-    had_uv = len(mesh.uv_layers) > 0
-    # Every value written is scanned (the weights after their in-place RGBA conversion: 1 - w is
-    # finite exactly when w is); nothing below changes these arrays.
-    scan = FiniteScan([("base_uv", base)] + list(colors.items()) + list(extras.items())) \
-        if scan_during_write else None
-    try:
-        layer = mesh.uv_layers.get(BASE_UV_NAME) or mesh.uv_layers.new(name=BASE_UV_NAME,
-                                                                                 do_init=False)
-        if layer is None:
-            raise MeshWriteError("Blender refused to create UV map %r" % BASE_UV_NAME)
-        layer.data.foreach_set("uv", base)
-        fail_point("uv_layer")
-        wanted = dict((name, ("FLOAT_COLOR", "color", values)) for name, values in colors.items())
-        wanted.update((name, ("FLOAT", "value", values)) for name, values in extras.items())
-        # Every TexSynth corner attribute is rewritten or removed (stale ones of another run/method go).
-        for name in ATTRIBUTE_NAMES:
-            attribute = mesh.attributes.get(name)
-            data_type, key, values = wanted.get(name, (None, None, None))
-            if attribute is not None and (data_type is None or attribute.data_type != data_type
-                                          or attribute.domain != "CORNER"):
-                mesh.attributes.remove(attribute)
-                attribute = None
-            if data_type is not None:
-                if attribute is None:
-                    attribute = mesh.attributes.new(name, data_type, "CORNER")
-                attribute.data.foreach_set(key, values)
-                fail_point({WEIGHTS_NAME: "weights", GROUPS_NAME: "weights"}.get(
-                    name, "sets" if name in SET_ATTRIBUTE_NAMES else "extras"))
-        if scan is not None:
-            bad, scan = scan.wait(), None
-            if bad is not None:
-                raise SettingsError("native result %s contains NaN or infinite values (mesh restored)" % bad)
-        # Last: removed layers would come back in another order if a later step failed.
-        _remove_uv_layers(mesh, [n for n in texsynth_uv_names(mesh) if n != BASE_UV_NAME])
-        if had_uv:
-            _restore_uv_order_flags(mesh, saved)
-        else:
-            mesh.uv_layers.active_index = 0
-            mesh.uv_layers[0].active_render = True
-        mesh.update()
-    except Exception as error:
-        if scan is not None:
-            scan.wait()  # no thread left reading the arrays
-        _restore(mesh, saved)
-        if isinstance(error, (SettingsError, MeshWriteError)):
-            raise
-        raise MeshWriteError("writing TexSynth layers failed (mesh restored): %s" % error) from error
-    return saved
-
-
-def restore(mesh, snapshot):
-    """Undoes a successful write_result (its returned snapshot): the mesh is as before it."""
-    _restore(mesh, snapshot)
-
-
-def _remove_uv_layers(mesh, names):
-    for name in names:
-        layer = mesh.uv_layers.get(name)
-        if layer is not None:
-            mesh.uv_layers.remove(layer)
-
-
-def clear(mesh):
-    """Removes every TexSynth UV layer and the weight attribute (and nothing else); returns the count."""
-    names = texsynth_uv_names(mesh)
-    active_name = mesh.uv_layers.active.name if mesh.uv_layers.active else None
-    _remove_uv_layers(mesh, names)
-    removed = len(names)
-    for name in ATTRIBUTE_NAMES:
-        attribute = mesh.attributes.get(name)
-        if attribute is not None:
-            mesh.attributes.remove(attribute)
-            removed += 1
-    if active_name is not None and mesh.uv_layers.get(active_name) is not None:
-        mesh.uv_layers.active_index = list(mesh.uv_layers.keys()).index(active_name)
-    if removed:
-        mesh.update()
-    return removed
-
-
 def read_image_pixels(image):
     """A bpy image (file, generated or packed) as float32 H x W x C, row 0 = top."""
     width, height = int(image.size[0]), int(image.size[1])  # reading the size loads file/packed buffers
@@ -368,56 +178,6 @@ def write_point_attribute(mesh, name, data_type, values):
     attribute.data.foreach_set(key, values)
 
 
-def _linear(obj):
-    return np.array(obj.matrix_world, dtype=np.float64)[:3, :3]
-
-
-def read_field_state(obj, axis=(0.0, 0.0, 1.0)):
-    """authoring.FieldState of obj (world space). A mesh without field attributes gets an empty guide,
-    no singularities and a direction relaxed from them (the axis)."""
-    from ..fields import authoring
-    mesh = obj.data
-    arrays = read_mesh(obj)
-    n = arrays.num_vertices
-    linear = _linear(obj)
-    guide = read_point_attribute(mesh, authoring.GUIDE_NAME, "FLOAT_VECTOR")
-    guide = np.zeros((n, 3), np.float32) if guide is None else (guide @ linear.T).astype(np.float32)
-    singularity = read_point_attribute(mesh, authoring.SINGULARITY_NAME, "INT")
-    singularity = np.zeros(n, np.int32) if singularity is None else np.clip(singularity, -1, 1).astype(np.int32)
-    direction = read_point_attribute(mesh, authoring.DIRECTION_NAME, "FLOAT_VECTOR")
-    state = authoring.FieldState(arrays, guide, singularity,
-                              None if direction is None else (direction @ linear.T).astype(np.float32), tuple(axis))
-    if state.direction is None:
-        authoring.relax(state)
-    return state
-
-
-def field_attributes(obj, state):
-    """{name: (data_type, values)} of the field attributes as write_field_state stores them (object
-    space, the stored dtypes): computed before writing, so a live update can start synthesizing from
-    exactly the stored direction while the main thread writes."""
-    from ..fields import authoring
-    if state.arrays.num_vertices != len(obj.data.vertices):
-        raise SettingsError("mesh %r changed while its field was edited" % obj.data.name)
-    inverse = np.linalg.inv(_linear(obj)) if abs(np.linalg.det(_linear(obj))) > 1e-30 else np.eye(3)
-    return {authoring.GUIDE_NAME: ("FLOAT_VECTOR", (state.guide @ inverse.T).astype(np.float32)),
-            authoring.SINGULARITY_NAME: ("INT", np.ascontiguousarray(state.singularity, dtype=np.int32)),
-            authoring.DIRECTION_NAME: ("FLOAT_VECTOR", (state.direction @ inverse.T).astype(np.float32))}
-
-
-def write_field_attributes(obj, attributes):
-    """Writes field_attributes(obj, state)."""
-    mesh = obj.data
-    for name, (data_type, values) in attributes.items():
-        write_point_attribute(mesh, name, data_type, values)
-    mesh.update()
-
-
-def write_field_state(obj, state):
-    """Stores guide, singularities and direction on obj's mesh (object space)."""
-    write_field_attributes(obj, field_attributes(obj, state))
-
-
 def read_vertex_group(obj, name):
     """Per-vertex weights of vertex group `name` (0 where a vertex is not in it).
     Blender has no bulk accessor for group weights: one pass over the vertices' group lists."""
@@ -432,24 +192,6 @@ def read_vertex_group(obj, name):
                 weights[vertex.index] = element.weight
                 break
     return weights
-
-
-def read_scale_multiplier(obj, settings):
-    """Per-vertex density multiplier from settings.scale_source, or None."""
-    from ..fields import authoring
-    source = getattr(settings, "scale_source", "NONE")
-    if source == "ATTRIBUTE":
-        values = read_point_attribute(obj.data, settings.scale_attribute, "FLOAT")
-        if values is None:
-            raise SettingsError("mesh %r has no scale attribute %r" % (obj.data.name, settings.scale_attribute))
-        try:
-            return authoring.check_scale_multiplier(values, "attribute %r" % settings.scale_attribute)
-        except ValueError as error:
-            raise SettingsError(str(error))
-    if source == "VERTEX_GROUP":
-        weights = read_vertex_group(obj, settings.scale_group)
-        return authoring.scale_from_weights(weights, settings.scale_min, settings.scale_max)
-    return None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -469,7 +211,7 @@ def read_loop_triangles(obj, uv_map=""):
     if layer is None:
         raise SettingsError("mesh %r has no UV map %r" % (mesh.name, uv_map))
     loops = read_indices(mesh.loop_triangles, "loops", count * 3)
-    corner_uv = _uv_data(layer, len(mesh.loops)).reshape(-1, 2)
+    corner_uv = read_uv(layer, len(mesh.loops)).reshape(-1, 2)
     uvs = corner_uv[loops].reshape(count, 3, 2)
     if not all_finite(uvs):
         raise SettingsError("UV map %r of mesh %r contains NaN or infinite coordinates" % (uv_map, mesh.name))
@@ -484,7 +226,7 @@ def write_colour_attribute(mesh, name, rgba):
         raise SettingsError("colour attribute %r needs %d finite values, got %d"
                                      % (name, len(mesh.vertices) * 4, rgba.size))
     old = mesh.attributes.get(name)
-    saved = _attribute_snapshot(old) if old is not None else None
+    saved = snapshot_attribute(old) if old is not None else None
     active = getattr(mesh.attributes, "active_color", None)
     active_name = active.name if active is not None else None
 
@@ -636,7 +378,7 @@ def read_corner_attribute(mesh, name, data_type):
     attribute = mesh.attributes.get(name)
     if attribute is None or attribute.domain != "CORNER" or attribute.data_type != data_type:
         layer = mesh.uv_layers.get(name) if data_type == "FLOAT2" else None
-        return None if layer is None else _uv_data(layer, len(mesh.loops)).reshape(-1, 2)
+        return None if layer is None else read_uv(layer, len(mesh.loops)).reshape(-1, 2)
     values = np.empty(len(mesh.loops) * width, dtype=np.float32)
     attribute.data.foreach_get("vector", values)
     return values.reshape(-1, width)

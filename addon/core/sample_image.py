@@ -7,6 +7,7 @@ import os
 import numpy as np
 
 from .. import native
+from .finite import all_finite
 from .settings import SettingsError
 
 
@@ -129,3 +130,19 @@ def correlation_length(pixels, max_lag=64, max_side=512):
             row = total[0, lag - 1:lag + 1] if total[0, lag] < threshold else total[lag - 1:lag + 1, 0]
             return float(lag - 1 + (row[0] - threshold) / max(row[0] - row[1], 1e-12))
     return float(max_lag)
+
+
+def synthesis_sample(pixels_top_first):
+    """H x W x C (row 0 = top) -> float32 H x W x 3|4 with row 0 = bottom (Blender's pixel order, which
+    round_synthesize expects: rows grow along the texture's up). Grey samples become RGB."""
+    pixels = np.asarray(pixels_top_first, dtype=np.float32)
+    if pixels.ndim != 3 or pixels.shape[0] < 2 or pixels.shape[1] < 2:
+        raise SettingsError("sample must be an image of at least 2 x 2 pixels, got shape %s" % (pixels.shape,))
+    channels = pixels.shape[2]
+    if channels == 1:
+        pixels = np.repeat(pixels, 3, axis=2)
+    elif channels == 2:  # grey + alpha
+        pixels = np.concatenate([np.repeat(pixels[:, :, :1], 3, axis=2), pixels[:, :, 1:]], axis=2)
+    if not all_finite(pixels):
+        raise SettingsError("sample contains NaN or infinite pixel values")
+    return np.ascontiguousarray(pixels[::-1])

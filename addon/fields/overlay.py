@@ -67,7 +67,7 @@ def _batch_for(obj, props):
     from gpu_extras.batch import batch_for_shader
     from .. import compat
     from ..bridge import mesh_io
-    from . import authoring, tools
+    from . import authoring, mesh_state
     key = (props.field_arrow_density, props.field_arrow_length, len(obj.data.vertices),
            tuple(map(tuple, obj.matrix_world)))
     cached = _cache.get(obj.name)
@@ -81,7 +81,7 @@ def _batch_for(obj, props):
     linear = np.array(obj.matrix_world, dtype=np.float64)[:3, :3]
     world_direction = direction @ linear.T
     length = mean_edge_length(arrays) * props.field_arrow_length
-    normals = tools.field_mesh_for(obj, arrays).normals  # cached per mesh, shared with the tools
+    normals = mesh_state.field_mesh_for(obj, arrays).normals  # cached per mesh, shared with the tools
     lines = arrow_lines(arrays.positions, normals, world_direction, props.field_arrow_density, length)
     batch = batch_for_shader(compat.uniform_color_shader(), "LINES", {"pos": lines}) if len(lines) else None
     _cache[obj.name] = (key, batch)
@@ -98,8 +98,7 @@ def _draw():
     if scene is None or obj is None or obj.type != "MESH" or not hasattr(scene, "texsynth"):
         return
     props = scene.texsynth
-    from . import tools
-    if not (props.show_field or obj.name in active_editors or tools.comb_tool_active(context)):
+    if not (props.show_field or obj.name in active_editors or comb_tool_active(context)):
         return
     if brush_cursor is not None and obj.name in active_editors:
         _draw_brush_cursor(*brush_cursor)
@@ -160,3 +159,17 @@ def unregister():
     active_editors.clear()
     global brush_cursor
     brush_cursor = None
+
+
+COMB_TOOL_ID = "texsynth.comb_tool"
+
+
+def comb_tool_active(context):
+    workspace = getattr(context, "workspace", None)
+    if workspace is None:
+        return False
+    try:
+        tool = workspace.tools.from_space_view3d_mode("OBJECT", create=False)
+    except (AttributeError, TypeError, RuntimeError):
+        return False
+    return tool is not None and tool.idname == COMB_TOOL_ID

@@ -8,8 +8,8 @@ import bpy
 import numpy as np
 
 from .. import native
-from ..bake.options import BakeError
-from ..bridge import mesh_io
+from ..bridge import images, mesh_io
+from ..core.bake_options import BakeError
 from ..core.names import fit_name
 from . import compositing, scene
 
@@ -79,7 +79,6 @@ def _is_srgb(image):
 def apply(bake, image, uv_map, margin):
     """Composites the layers onto `image` (the baked background) through `uv_map`, then the margin as
     write_surface_colour makes it. Raises BakeError; the caller removes the image on failure."""
-    from ..bake import baking
     started = time.perf_counter()
     module = native.require()
     triangles, corner_uvs = mesh_io.read_loop_triangles(bake.target, uv_map)
@@ -96,7 +95,7 @@ def apply(bake, image, uv_map, margin):
         raise BakeError("compositing the particles of %r: %s" % (bake.target.name, error)) from None
     if touched.any():
         mesh_io.fail_point("particle_bake")  # tests: a failure here must leave no image
-        baking.write_surface_colour(image, out[::-1], covered.reshape(height, width)[::-1],
+        images.write_surface_colour(image, out[::-1], covered.reshape(height, width)[::-1],
                                     margin if covered.any() else 0)
     bake.seconds = time.perf_counter() - started
     return bake

@@ -13,8 +13,9 @@ import os
 import numpy as np
 
 from .. import native
+from ..core.jobs import BoundedCache
+from ..core.sample_image import synthesis_sample
 from ..core.settings import PARTICLE_CLASS_RANGE, SettingsError
-from ..surface_colour import core as surface_core
 
 ATLAS_MAX_SIDE = 4096
 ATLAS_PADDING = 2            # transparent pixels around every sprite (no bleeding under mipmaps or Linear)
@@ -29,7 +30,7 @@ ANALYSIS_CACHE_PREFIX = "particles-"
 def sample_for_analysis(pixels_top_first):
     """The add-on's H x W x C (row 0 = top) pixels as the analysis wants them: float32 RGB(A), row 0 = bottom
     (the surface-colour methods' convention)."""
-    return surface_core.synthesis_sample(pixels_top_first)
+    return synthesis_sample(pixels_top_first)
 
 
 def digest(*arrays):
@@ -96,7 +97,7 @@ def merge_labels(labels, merges):
     return np.ascontiguousarray(mapping[labels]), mapping
 
 
-class AnalysisCache(surface_core.ContextCache):
+class AnalysisCache(BoundedCache):
     """The last few analyses in memory (most recent last), keyed by analysis_key; the disk copy goes
     through the native save/load_particle_analysis when the module has them (see analyse)."""
 

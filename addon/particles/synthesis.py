@@ -21,13 +21,13 @@ import bpy
 import numpy as np
 
 from .. import native
-from ..bridge import mesh_io
+from ..bridge import mesh_io, mesh_layers, sources
+from ..fields import mesh_state
+from ..core.jobs import Cancelled
+from ..core import orientation
 from ..core.reporting import Report, Timings
 from ..core.settings import Settings, SettingsError, object_seed
-from ..surface_colour import core as surface_core
-from ..surface_colour.synthesis import sample_pixels
 from ..uv_methods import synthesis as uv_synthesis
-from ..uv_methods.synthesis import Cancelled, mesh_objects
 from . import core, scene
 
 PLACEMENT_KEYS = ("class", "sprite", "triangle", "barycentric", "position", "normal", "sprite_axis", "pixel_size")
@@ -52,7 +52,7 @@ class Job:
     def __init__(self, objects, sample, settings, cache_dir="", label_pixels=None, only_class=None,
                  material_mode="NEW", scene_=None):
         self.objects, self.sample, self.settings = objects, sample, settings
-        self.cache_dir = cache_dir or uv_synthesis.default_cache_dir()
+        self.cache_dir = cache_dir or sources.default_cache_dir()
         self.label_pixels = label_pixels   # (H, W, 4) bottom row first, or None
         self.only_class = only_class
         self.material_mode, self.scene = material_mode, scene_
@@ -70,7 +70,7 @@ class Job:
         if settings.method != "PARTICLES":
             raise SettingsError("method %r is not Texture Particles" % settings.method)
         module = native.require()
-        meshes, self.report.failures = mesh_objects(self.objects)
+        meshes, self.report.failures = sources.mesh_objects(self.objects)
         if not meshes:
             raise SettingsError("no mesh object selected")
         self.collection = None
@@ -83,7 +83,7 @@ class Job:
                                              % self.collection.name)
         self.token = module.CancelToken()
         with self.timings.phase("read"):
-            pixels, self.sample_srgb = sample_pixels(self.sample)
+            pixels, self.sample_srgb = sources.read_sample_pixels(self.sample)
             self.sample_array = core.sample_for_analysis(pixels)
             height, width = self.sample_array.shape[:2]
             labels = None
@@ -118,7 +118,7 @@ class Job:
     def _read(self, obj):
         settings = self.settings
         arrays = mesh_io.read_mesh(obj, settings.direction_attribute if settings.orientation != "AXIS" else "")
-        arrays.scale_multiplier = mesh_io.read_scale_multiplier(obj, settings)
+        arrays.scale_multiplier = mesh_state.read_scale_multiplier(obj, settings)
         triangles, _ = mesh_io.read_loop_triangles(obj)
         if triangles.shape[0] == 0 or core.triangle_areas(arrays.positions, triangles).sum() <= 0.0:
             raise SettingsError("mesh %r has no area: particles need faces to sit on" % obj.data.name)
@@ -141,7 +141,7 @@ class Job:
         if not os.path.isfile(path):
             scene.save_background(self.analysis.background, path)
         uv_settings = Settings(**{**self.settings.__dict__, "method": self.settings.particle_background})
-        self.background_job = uv_synthesis.Job(objects, uv_synthesis.Sample(path=path), uv_settings,
+        self.background_job = uv_synthesis.Job(objects, sources.Sample(path=path), uv_settings,
                                                self.cache_dir, self.material_mode, self.scene).prepare()
 
     def discard(self):
@@ -186,7 +186,7 @@ class Job:
         settings = self.settings
         arrays = item.arrays
         walk_mesh = module.surface_walk_mesh(arrays.positions, item.triangles)
-        directions = np.ascontiguousarray(surface_core.directions(arrays, settings), dtype=np.float32)
+        directions = np.ascontiguousarray(orientation.directions(arrays, settings), dtype=np.float32)
         kwargs = dict(sample_world_width=float(settings.sample_world_size), classes=list(self.order),
                       size_jitter=float(settings.particle_size_jitter),
                       seed=int(object_seed(settings.seed, item.obj.name)), cancel=self.token)
@@ -334,21 +334,21 @@ def synthesize(objects, sample, settings, cache_dir="", label_pixels=None, only_
 def analyse(sample, settings, cache_dir="", label_pixels=None):
     """(analysis, source, notes) for the analysis view (main thread; cached like Synthesize's)."""
     settings.validate()
-    pixels, _ = sample_pixels(sample)
+    pixels, _ = sources.read_sample_pixels(sample)
     array = core.sample_for_analysis(pixels)
     labels = None
     if label_pixels is not None:
         labels = core.labels_from_image(label_pixels, array.shape[1], array.shape[0])
-    analysis, source = core.analyse(array, settings, labels, cache_dir or uv_synthesis.default_cache_dir())
+    analysis, source = core.analyse(array, settings, labels, cache_dir or sources.default_cache_dir())
     return analysis, source, core.check_usable(analysis)
 
 
 def clear(objects):
     """Removes every object's particle outputs and TexSynth layers; returns (objects changed, items removed)."""
-    meshes, _ = mesh_objects([obj for obj in objects if scene.TAG not in obj])  # outputs go with their target
+    meshes, _ = sources.mesh_objects([obj for obj in objects if scene.TAG not in obj])  # outputs go with their target
     changed = removed = 0
     for obj in meshes:
-        count = scene.clear(obj.name) + mesh_io.clear(obj.data)
+        count = scene.clear(obj.name) + mesh_layers.clear(obj.data)
         changed += bool(count)
         removed += count
     return changed, removed

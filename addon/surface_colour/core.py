@@ -14,7 +14,8 @@ import threading
 import numpy as np
 
 from .. import native
-from ..core.finite import all_finite
+from ..core.jobs import BoundedCache
+from ..core.orientation import directions
 from ..core.sample_image import srgb_to_linear
 from ..core.settings import SettingsError, check_patch_boundary
 
@@ -47,22 +48,6 @@ def output_values(colour, sample_srgb, output_linear):
     channels = min(3, colour.shape[-1])
     out[..., :channels] = convert(colour[..., :channels]).astype(np.float32)
     return out
-
-
-def synthesis_sample(pixels_top_first):
-    """H x W x C (row 0 = top) -> float32 H x W x 3|4 with row 0 = bottom (Blender's pixel order, which
-    round_synthesize expects: rows grow along the texture's up). Grey samples become RGB."""
-    pixels = np.asarray(pixels_top_first, dtype=np.float32)
-    if pixels.ndim != 3 or pixels.shape[0] < 2 or pixels.shape[1] < 2:
-        raise SettingsError("sample must be an image of at least 2 x 2 pixels, got shape %s" % (pixels.shape,))
-    channels = pixels.shape[2]
-    if channels == 1:
-        pixels = np.repeat(pixels, 3, axis=2)
-    elif channels == 2:  # grey + alpha
-        pixels = np.concatenate([np.repeat(pixels[:, :, :1], 3, axis=2), pixels[:, :, 1:]], axis=2)
-    if not all_finite(pixels):
-        raise SettingsError("sample contains NaN or infinite pixel values")
-    return np.ascontiguousarray(pixels[::-1])
 
 
 def target_density(positions, triangles, corner_uvs, target):
@@ -129,23 +114,6 @@ def working_sample(sample, texels_per_unit, density, resolution="AUTO", minimum=
     return np.ascontiguousarray(reduced), texels_per_unit * new_width / float(width)
 
 
-def directions(mesh_arrays, settings):
-    """Per-vertex unit 'up' of the texture (V, 3), from the same orientation settings as the UV methods."""
-    module = native.require()
-    mesh = (mesh_arrays.positions, mesh_arrays.corner_verts, mesh_arrays.poly_starts, mesh_arrays.poly_sizes)
-    if settings.orientation == "AXIS":
-        return module.compute_field(*mesh, orientation="axis", axis=tuple(float(c) for c in settings.axis))
-    if mesh_arrays.direction is None:
-        raise SettingsError("mesh has no vector attribute %r for the orientation" % settings.direction_attribute)
-    if settings.orientation == "FIELD":
-        return module.compute_field(*mesh, orientation="field", direction=mesh_arrays.direction)
-    anchors = np.flatnonzero(np.linalg.norm(mesh_arrays.direction, axis=1) > 1e-12).astype(np.int32)
-    if anchors.size == 0:
-        raise SettingsError("attribute %r has no non-zero vectors: no anchors" % settings.direction_attribute)
-    return module.compute_field(*mesh, orientation="anchors", anchor_vertices=anchors,
-                                anchor_directions=np.ascontiguousarray(mesh_arrays.direction[anchors]))
-
-
 @dataclasses.dataclass
 class SurfaceTarget:
     """Where the colours go: IMAGE (width x height texels through corner_uvs, margin texels of bake
@@ -156,15 +124,10 @@ class SurfaceTarget:
     margin: int = 0
 
 
-class ContextCache:
+class ContextCache(BoundedCache):
     """The last few direction-invariant contexts (points, rings, order): a new field, seed or sample on
     the same mesh, UV map, target and scale re-synthesizes without rebuilding them (the paper's point:
     neighbourhoods do not depend on the field). Bounded, since a 1024² context holds ~0.3 GB."""
-
-    def __init__(self, capacity=1):
-        self.capacity = capacity
-        self.entries = []  # [(key, context)], most recent last
-        self.lock = threading.Lock()
 
     @staticmethod
     def key(mesh_arrays, triangles, corner_uvs, target, texels_per_unit, settings):
@@ -180,24 +143,6 @@ class ContextCache:
                             settings.round_levels, settings.round_coarse_rings,
                             settings.round_fine_rings)).encode())
         return digest.hexdigest()
-
-    def get(self, key):
-        with self.lock:
-            for index, (k, context) in enumerate(self.entries):
-                if k == key:
-                    self.entries.append(self.entries.pop(index))
-                    return context
-        return None
-
-    def put(self, key, context):
-        with self.lock:
-            self.entries = [(k, c) for k, c in self.entries if k != key][-(self.capacity - 1):] \
-                if self.capacity > 1 else []
-            self.entries.append((key, context))
-
-    def clear(self):
-        with self.lock:
-            self.entries = []
 
 
 contexts = ContextCache()

@@ -15,29 +15,20 @@ import bpy
 import numpy as np
 
 from .. import native
-from ..bake import baking, options
-from ..bridge import mesh_io
+from ..bridge import images, mesh_io, sources, uv_maps
+from ..fields import mesh_state
+from ..core import bake_options as options
+from ..core.jobs import Cancelled
 from ..core.reporting import Report, Timings
+from ..core.sample_image import synthesis_sample
 from ..core.settings import SURFACE_METHODS, SettingsError, object_seed, texels_per_unit
 from ..core.names import fit_name
 from ..shading import surface_material
-from ..uv_methods.synthesis import Cancelled, mesh_objects
 from . import core
 
 MATERIAL_PREFIX = "TexSynth Surface: "
 # Share of the progress bar per stage when the context is built (the synthesis measures ~60% of the time).
 STAGES = {"context": (0.0, 0.4), "synthesis": (0.4, 0.6)}
-
-
-def sample_pixels(sample):
-    """(H x W x C float32 pixels, row 0 = top, values as stored; True if they are sRGB-encoded)."""
-    if sample.image is not None:
-        image = sample.image
-        return mesh_io.read_image_pixels(image), (not image.is_float and image.colorspace_settings.name == "sRGB")
-    path = sample.native_input()
-    module = native.require()
-    info = module.image_info(path)
-    return module.load_image(path), str(info.get("data_type", "uint8")) in ("uint8", "uint16")
 
 
 class _Item:
@@ -69,7 +60,7 @@ class Job:
         settings = self.settings.validate()
         if settings.method not in SURFACE_METHODS:
             raise SettingsError("method %r is not a surface-colour method" % settings.method)
-        meshes, self.report.failures = mesh_objects(self.objects)
+        meshes, self.report.failures = sources.mesh_objects(self.objects)
         if not meshes:
             raise SettingsError("no mesh object selected")
         image_target = settings.surface_target == "IMAGE"
@@ -82,15 +73,15 @@ class Job:
         module = native.require()
         self.token = module.CancelToken()
         with self.timings.phase("read"):
-            pixels, self.sample_srgb = sample_pixels(self.sample)
-            self.sample_array = core.synthesis_sample(pixels)
+            pixels, self.sample_srgb = sources.read_sample_pixels(self.sample)
+            self.sample_array = synthesis_sample(pixels)
         self.texels_per_unit = texels_per_unit(int(pixels.shape[1]), settings.sample_world_size)
         for obj in meshes:
             item = None
             try:
                 with self.timings.phase("read"):
                     arrays = mesh_io.read_mesh(obj, settings.direction_attribute if settings.orientation != "AXIS" else "")
-                    arrays.scale_multiplier = mesh_io.read_scale_multiplier(obj, settings)
+                    arrays.scale_multiplier = mesh_state.read_scale_multiplier(obj, settings)
                     if arrays.num_faces == 0:
                         raise SettingsError("mesh %r has no faces" % obj.data.name)
                     item = _Item(obj, arrays)
@@ -101,7 +92,7 @@ class Job:
                 self.items.append(item)
             except (ValueError, RuntimeError) as error:
                 if item is not None and item.created_uv:
-                    baking.remove_uv_map(obj.data, item.created_uv)
+                    uv_maps.remove_uv_map(obj.data, item.created_uv)
                 self.report.failures.append((obj.name, str(error)))
         return self
 
@@ -109,14 +100,14 @@ class Job:
         obj, request = item.obj, self.request
         name = request.target or fit_name(core.IMAGE_PREFIXES[self.settings.method], obj.name)
         item.target = options.resolve_target(name, obj.name, request.save_mode, bpy.data.filepath)
-        item.uv_map = baking.choose_uv_map(obj.data, request)
+        item.uv_map = uv_maps.choose_uv_map(obj.data, request)
         if item.uv_map is None:
             if obj.data.library is not None:
                 raise SettingsError("mesh %r is linked from a library: cannot add a UV map" % obj.data.name)
             if obj.name not in self.context.view_layer.objects:
                 raise SettingsError("object %r is not in the active view layer (Smart UV Project "
                                              "needs it)" % obj.name)
-            item.uv_map = item.created_uv = baking.smart_project(obj, request, self.context)
+            item.uv_map = item.created_uv = uv_maps.smart_project(obj, request, self.context)
             self.report.notes.append("%s: created UV map %r with Smart UV Project (it had none besides "
                                      "TexSynth's)" % (obj.name, item.created_uv))
         item.triangles, item.corner_uvs = mesh_io.read_loop_triangles(obj, item.uv_map)
@@ -126,7 +117,7 @@ class Job:
         for item in self.items:
             if item.created_uv:
                 try:
-                    baking.remove_uv_map(item.obj.data, item.created_uv)
+                    uv_maps.remove_uv_map(item.obj.data, item.created_uv)
                 except ReferenceError:
                     pass
                 item.created_uv = ""
@@ -200,7 +191,7 @@ class Job:
         for item in self.items:
             if item.result is None:
                 if item.created_uv:
-                    baking.remove_uv_map(item.obj.data, item.created_uv)
+                    uv_maps.remove_uv_map(item.obj.data, item.created_uv)
                     item.created_uv = ""
                 continue
             try:
@@ -232,7 +223,7 @@ class Job:
                         "singularities): they continue the nearest patch" % (name, stats["unreached_samples"]))
             except (ValueError, RuntimeError, ReferenceError) as error:
                 if item.created_uv:
-                    baking.remove_uv_map(item.obj.data, item.created_uv)
+                    uv_maps.remove_uv_map(item.obj.data, item.created_uv)
                 self.report.failures.append((getattr(item.obj, "name", "?"), str(error)))
             item.created_uv = ""  # kept from now on: the image is painted through it
         progress(1.0, "TexSynth: done")
@@ -247,19 +238,19 @@ class Job:
             rgba = np.concatenate([rgba, np.ones(rgba.shape[:2] + (1,), np.float32)], axis=2)
         coverage = result["mask"] > 0
         rgba[~coverage] = 0.0
-        image = baking.new_image(baking.TEMP_PREFIX + target.image_name, self.request.size, output_linear)
+        image = images.new_image(images.TEMP_PREFIX + target.image_name, self.request.size, output_linear)
         material = None
         try:
             mesh_io.fail_point("surface_image")
             # The native image's row 0 is v = 0, the bottom row; the margin is already filled.
-            baking.write_surface_colour(image, np.ascontiguousarray(rgba[::-1]), coverage[::-1], margin=0)
-            baking.store_image(image, target)
-            baking.take_name(image, target.image_name)
+            images.write_surface_colour(image, np.ascontiguousarray(rgba[::-1]), coverage[::-1], margin=0)
+            images.store_image(image, target)
+            images.take_name(image, target.image_name)
             material = surface_material.apply(item.obj, self.material_mode, fit_name(MATERIAL_PREFIX, item.obj.name),
                                               image=image, uv_map=item.uv_map)
-            baking.keep_unused(image)  # Layers Only: the image is the output, and nothing uses it yet
+            images.keep_unused(image)  # Layers Only: the image is the output, and nothing uses it yet
         except Exception:
-            if image.name.startswith(baking.TEMP_PREFIX):  # not yet in place of an older image
+            if image.name.startswith(images.TEMP_PREFIX):  # not yet in place of an older image
                 bpy.data.images.remove(image)
             raise
         where = ("saved to %s" % target.path) if target.path else "packed"

@@ -5,7 +5,7 @@ import bpy
 from .. import native
 from ..core.layers import BASE_UV_NAME
 from ..core.settings import SURFACE_METHODS, UV_METHODS
-from . import operators
+from . import modal_jobs
 
 
 class _SubPanel:
@@ -57,7 +57,7 @@ class TEXSYNTH_PT_sample(_SubPanel, bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("texsynth.preprocess")
         row.operator("texsynth.check_cache", text="", icon="FILE_REFRESH")
-        layout.label(text="Cache: %s" % operators.cache_status_by_sample.get(key, "unknown"))
+        layout.label(text="Cache: %s" % modal_jobs.cache_status_by_sample.get(key, "unknown"))
 
 
 class TEXSYNTH_PT_method(_SubPanel, bpy.types.Panel):
@@ -194,7 +194,7 @@ class TEXSYNTH_PT_field(bpy.types.Panel):
     bl_category = "TexSynth"
 
     def draw(self, context):
-        from ..fields import tools
+        from . import field_edits
         layout = self.layout
         props = context.scene.texsynth
         column = layout.column()
@@ -219,9 +219,9 @@ class TEXSYNTH_PT_field(bpy.types.Panel):
         arrows.prop(props, "field_arrow_density")
         arrows.prop(props, "field_arrow_length")
         column.prop(props, "field_live_update")
-        if "live_native" in tools.last_timings:
+        if "live_native" in field_edits.last_timings:
             column.label(text="Last live update: %.0f ms (native %.0f ms)" % (
-                1000 * tools.last_timings["live_update"], 1000 * tools.last_timings["live_native"]))
+                1000 * field_edits.last_timings["live_update"], 1000 * field_edits.last_timings["live_native"]))
 
 
 class TEXSYNTH_PT_particles(_SubPanel, bpy.types.Panel):

@@ -7,7 +7,7 @@ import bpy
 
 from ..bridge import mesh_io
 from ..core.settings import Settings, SettingsError
-from . import operators, properties
+from . import modal_jobs, properties
 
 
 def label_pixels(props):
@@ -27,7 +27,7 @@ def analyse(context):
     if settings.method != "PARTICLES":
         settings = Settings(**{**settings.__dict__, "method": "PARTICLES",
                                         **properties.TexSynthSettings.particle_settings(_AsParticles(props))})
-    sample = operators.sample_from_settings(props)
+    sample = modal_jobs.sample_from_settings(props)
     analysis, source, notes = synthesis.analyse(sample, settings, properties.cache_dir(context), label_pixels(props))
     rows = core.class_rows(analysis)
     props.particle_rows.clear()
@@ -184,12 +184,12 @@ def particle_job(context, objects, only_class=None):
     """The Texture Particles Job for the panel's settings (Synthesize, Re-synthesize Class)."""
     from ..particles import synthesis
     props = context.scene.texsynth
-    return synthesis.Job(objects, operators.sample_from_settings(props), props.to_settings(),
+    return synthesis.Job(objects, modal_jobs.sample_from_settings(props), props.to_settings(),
                          properties.cache_dir(context), label_pixels(props), only_class, props.material_mode,
                          context.scene)
 
 
-class TEXSYNTH_OT_particle_resynthesize(operators.JobOperator, bpy.types.Operator):
+class TEXSYNTH_OT_particle_resynthesize(modal_jobs.JobOperator, bpy.types.Operator):
     """Place the picked class again on the selected objects, replacing only its decals / instances (Esc cancels)"""
     bl_idname = "texsynth.particle_resynthesize"
     bl_label = "Re-synthesize Class"

@@ -2,7 +2,8 @@
 """Scene settings (persist in the .blend) and add-on preferences."""
 import bpy
 
-from ..bake import options as bake_options
+from ..bridge import sources
+from ..core import bake_options
 from ..core.settings import (PARTICLE_CLASS_RANGE, PARTICLE_MAX_BLUR, PARTICLE_MAX_JITTER, PATCH_BOUNDARY_RANGE,
     PATCH_ITERATION_RANGE, PATCH_SIZE_RANGE, PATCH_TOLERANCE_RANGE, ROUND_CANDIDATE_RANGE, ROUND_LEVEL_RANGE,
     ROUND_RING_RANGE, Settings, WORKING_SIZE_RANGE)
@@ -310,9 +311,8 @@ class TexSynthPreferences(bpy.types.AddonPreferences):
 
     def draw(self, context):
         from .. import native
-        from ..uv_methods import synthesis
         self.layout.prop(self, "cache_dir")
-        self.layout.label(text="Default: " + synthesis.default_cache_dir())
+        self.layout.label(text="Default: " + sources.default_cache_dir())
         if native.reason():
             self.layout.label(text=native.reason(), icon="ERROR")
 

@@ -205,7 +205,7 @@ def synthesize(preprocessed, mesh_arrays, settings, seed, scale, pixels=None, vi
     if not settings.blend:
         # Without blending the native single set is the base mapping with weight 1: write the base only.
         result.update(num_blend_sets=0, blend_uv=None, blend_set_pairs=None, blend_weights=None)
-    return result  # validated by mesh_io.write_result before anything is written
+    return result  # validated by mesh_write.write_result before anything is written
 
 
 def _require_direction(mesh_arrays, settings):

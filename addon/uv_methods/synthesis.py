@@ -2,67 +2,30 @@
 """One Synthesize / Preprocess / Clear run over Blender objects, shared by the operators and the CLI.
 
 Data flows one way: mesh_io.read_mesh (every object) -> native preprocess (cached) -> native
-synthesis (every object; may run in a worker thread, cancellable) -> mesh_io.write_result (atomic)
+synthesis (every object; may run in a worker thread, cancellable) -> mesh_write.write_result (atomic)
 -> material. Per-object failures are reported and do not stop the other objects; nothing is written
 until every native call has finished, so cancelling leaves every mesh untouched.
 """
-import os
 import threading
 import time
 
 import bpy
 
 from .. import native
-from ..bridge import mesh_io
+from ..bridge import mesh_io, mesh_layers, sources
+from ..fields import mesh_state
+from ..core.jobs import Cancelled
 from ..core.reporting import Report, Timings
 from ..core.sample_image import sample_pixels
 from ..core.settings import Settings, SettingsError, object_seed, texels_per_unit
 from .core import BlendShading, View, blend_shading
 from . import core as uv_core
+from . import mesh_write
 from ..shading import blend_groups
 
 
-class Sample:
-    """The sample image: a file path or an image already in the .blend (packed ones too)."""
-
-    def __init__(self, path="", image=None):
-        self.path = path
-        self.image = image
-
-    def describe(self):
-        return self.image.name if self.image is not None else (self.path or "<none>")
-
-    def native_input(self):
-        """What texsynth_native.preprocess accepts: a path, or the image's pixels as numpy."""
-        if self.image is not None:
-            return mesh_io.read_image_pixels(self.image)
-        if not self.path:
-            raise SettingsError("no sample image: choose an image file or an image in the .blend")
-        path = bpy.path.abspath(self.path)
-        if not os.path.isfile(path):
-            raise SettingsError("sample image not found: %s" % path)
-        return path
-
-    def shader_image(self):
-        """The bpy image the node group samples (loaded once for file samples)."""
-        if self.image is not None:
-            return self.image
-        return bpy.data.images.load(bpy.path.abspath(self.path), check_existing=True)
-
-
-def default_cache_dir():
-    for resource in ("CACHE", "SCRIPTS"):
-        try:
-            base = bpy.utils.user_resource(resource)
-        except (TypeError, ValueError):
-            continue
-        if base:
-            return uv_core.default_cache_dir(base)
-    return uv_core.default_cache_dir(bpy.app.tempdir or "/tmp")
-
-
 def cache_status(sample, settings, cache_dir):
-    return uv_core.cache_status(sample.native_input(), settings, cache_dir or default_cache_dir())
+    return uv_core.cache_status(sample.native_input(), settings, cache_dir or sources.default_cache_dir())
 
 
 def preprocess(sample, settings, cache_dir, timings=None):
@@ -70,23 +33,7 @@ def preprocess(sample, settings, cache_dir, timings=None):
     timings = timings or Timings()
     with timings.phase("preprocess"):
         native_input = sample.native_input()
-        return uv_core.preprocess(native_input, settings, cache_dir or default_cache_dir())
-
-
-def mesh_objects(objects):
-    """(mesh objects with distinct mesh data, skipped (name, reason)) in a stable order."""
-    seen, meshes, skipped = set(), [], []
-    for obj in objects:
-        if obj.type != "MESH":
-            skipped.append((obj.name, "not a mesh object (%s)" % obj.type.lower()))
-        elif obj.data.name in seen:
-            skipped.append((obj.name, "shares mesh %r with an object already processed" % obj.data.name))
-        elif obj.data.library is not None:
-            skipped.append((obj.name, "mesh %r is linked from a library and cannot be edited" % obj.data.name))
-        else:
-            seen.add(obj.data.name)
-            meshes.append(obj)
-    return meshes, skipped
+        return uv_core.preprocess(native_input, settings, cache_dir or sources.default_cache_dir())
 
 
 def camera_view(scene):
@@ -99,10 +46,6 @@ def camera_view(scene):
     if not (angle > 0.0) or width <= 0:
         return None
     return View(position=tuple(camera.matrix_world.translation), pixels_per_radian=width / angle)
-
-
-class Cancelled(RuntimeError):
-    """The user cancelled the run before anything was written."""
 
 
 class Job:
@@ -129,14 +72,14 @@ class Job:
     def prepare(self):
         """Raises SettingsError / NativeUnavailable / ValueError for problems of the whole run."""
         self.settings.validate()
-        meshes, self.report.failures = mesh_objects(self.objects)
+        meshes, self.report.failures = sources.mesh_objects(self.objects)
         if not meshes:
             raise SettingsError("no mesh object selected")
         module = native.require()
         self.token = module.CancelToken() if hasattr(module, "CancelToken") else None
         with self.timings.phase("preprocess"):
             self.native_input = self.sample.native_input()
-        self.cache_dir = self.cache_dir or default_cache_dir()
+        self.cache_dir = self.cache_dir or sources.default_cache_dir()
         if self.settings.method == "TEXTON":
             self.pixels = sample_pixels(self.native_input)
             self.view = camera_view(self.scene or bpy.context.scene)
@@ -148,10 +91,10 @@ class Job:
                 with self.timings.phase("read"):
                     arrays = mesh_io.read_mesh(obj, self.settings.direction_attribute
                                               if self.settings.orientation != "AXIS" else "")
-                    arrays.scale_multiplier = mesh_io.read_scale_multiplier(obj, self.settings)
+                    arrays.scale_multiplier = mesh_state.read_scale_multiplier(obj, self.settings)
                 if arrays.num_faces == 0:
                     raise SettingsError("mesh %r has no faces" % obj.data.name)
-                mesh_io.check_capacity(obj.data)
+                mesh_layers.check_capacity(obj.data)
                 self.items.append([obj, arrays, None])
             except (ValueError, RuntimeError) as error:
                 self.report.failures.append((obj.name, str(error)))
@@ -230,13 +173,13 @@ class Job:
             try:
                 name = obj.name  # ReferenceError if the object was deleted meanwhile
                 with self.timings.phase("write"):
-                    snapshot = mesh_io.write_result(obj.data, result)
+                    snapshot = mesh_write.write_result(obj.data, result)
                 with self.timings.phase("material"):
                     try:
                         mesh_io.fail_point("material")
                         blend_groups.apply_material(obj, image, self.material_mode, inputs)
                     except Exception as error:
-                        mesh_io.restore(obj.data, snapshot)
+                        mesh_layers.restore(obj.data, snapshot)
                         raise mesh_io.MeshWriteError("material setup failed (mesh restored): %s" % error) from error
                 self.report.add_object(name, arrays, result.get("stats"))
             except (ValueError, RuntimeError, ReferenceError) as error:
@@ -251,7 +194,7 @@ def blend_inputs(image, mode="HISTOGRAM", cache_dir=None, method="JUMPMAP"):
     the same mapping): Gaussianizes it for HISTOGRAM (cached), falling back to VARIANCE as Synthesize does."""
     settings = Settings(blend_mode=mode, method=method).validate()
     srgb = image.colorspace_settings.name == "sRGB"
-    blend = blend_shading(Sample(image=image).native_input(), settings, cache_dir or default_cache_dir(), srgb)
+    blend = blend_shading(sources.Sample(image=image).native_input(), settings, cache_dir or sources.default_cache_dir(), srgb)
     return blend_groups.blend_inputs(blend, image, method)
 
 
@@ -275,14 +218,14 @@ def synthesize_from_memory(obj, arrays, settings, preprocessed, main_thread_work
     call), write, total). Raises SettingsError / ValueError / RuntimeError; main_thread_work's
     exceptions propagate after the worker has finished. overlap=False: the same steps one after
     the other on the calling thread (main_thread_work, snapshot, native, write). reuse_snapshot:
-    the snapshot of the object's previous live update (its buffers are reused, see mesh_io.snapshot);
+    the snapshot of the object's previous live update (its buffers are reused, see mesh_layers.snapshot);
     the new one is in report.snapshot."""
     if settings.method != "JUMPMAP":
         raise SettingsError("synthesize_from_memory supports the jump-map method only")
     start = time.perf_counter()
     report = Report()
     seconds = {}
-    arrays.scale_multiplier = mesh_io.read_scale_multiplier(obj, settings)
+    arrays.scale_multiplier = mesh_state.read_scale_multiplier(obj, settings)
     if arrays.num_faces == 0:
         raise SettingsError("mesh %r has no faces" % obj.data.name)
     seed = object_seed(settings.seed, obj.name)
@@ -305,8 +248,8 @@ def synthesize_from_memory(obj, arrays, settings, preprocessed, main_thread_work
     try:
         if main_thread_work is not None:
             main_thread_work()
-        mesh_io.check_capacity(obj.data)
-        taken = mesh_io.snapshot(obj.data, reuse_snapshot)
+        mesh_layers.check_capacity(obj.data)
+        taken = mesh_layers.snapshot(obj.data, reuse_snapshot)
         seconds["overlap"] = time.perf_counter() - native_start
     finally:
         if overlap:
@@ -319,7 +262,7 @@ def synthesize_from_memory(obj, arrays, settings, preprocessed, main_thread_work
         raise outcome["error"]
     result = outcome["result"]
     write_start = time.perf_counter()
-    report.snapshot = mesh_io.write_result(obj.data, result, taken)
+    report.snapshot = mesh_write.write_result(obj.data, result, taken)
     seconds["write"] = time.perf_counter() - write_start
     report.add_object(obj.name, arrays, result.get("stats"))
     seconds["total"] = time.perf_counter() - start
@@ -329,10 +272,10 @@ def synthesize_from_memory(obj, arrays, settings, preprocessed, main_thread_work
 
 def clear(objects):
     """Removes TexSynth's layers from every mesh object; returns (objects changed, layers removed)."""
-    meshes, _ = mesh_objects(objects)
+    meshes, _ = sources.mesh_objects(objects)
     changed = removed = 0
     for obj in meshes:
-        count = mesh_io.clear(obj.data)
+        count = mesh_layers.clear(obj.data)
         changed += bool(count)
         removed += count
     return changed, removed

@@ -152,6 +152,7 @@ def main():
     texsynth = harness.load_addon()
     texsynth.register()
     from texsynth.uv_methods import synthesis
+    from texsynth.bridge import sources
 
     source = build_mesh(args.mesh, args.stanford_path)
     print("mesh: %s, %d faces, %d vertices, %d corners" % (args.mesh, len(source.data.polygons),
@@ -165,7 +166,7 @@ def main():
     props.sample_source, props.sample_path = "FILE", os.path.join(harness.SAMPLES_DIR, "bricks.png")
     props.scale, props.seed, props.material_mode = size / 4.0, 1, args.material  # the sample spans a quarter of the mesh
     settings = props.to_settings()
-    synthesis.preprocess(synthesis.Sample(path=props.sample_path), settings, cache_dir)
+    synthesis.preprocess(sources.Sample(path=props.sample_path), settings, cache_dir)
     texsynth.ui.properties.cache_dir = lambda context: cache_dir  # the operator uses the warm bench cache
 
     # The operator's own breakdown (core.reporting.Timings of its Job), captured as the job finishes.

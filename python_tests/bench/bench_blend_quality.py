@@ -150,6 +150,7 @@ def projected_material(name, image, world_size, projection="FLAT", shift=(0.0, 0
 def texsynth_material(image, blend_mode, cache_dir, method):
     from texsynth.shading import blend_groups
     from texsynth.uv_methods import synthesis
+    from texsynth.bridge import sources
     inputs = synthesis.blend_inputs(image, blend_mode, cache_dir, method)
 
     def color(nodes, links):
@@ -175,7 +176,7 @@ def synthesize(obj, sample_path, mode, world_size, seed, cache_dir, axis):
     method = "TEXTON" if mode.startswith("texton") else "JUMPMAP"
     settings = core_settings.Settings(method=method, sample_world_size=world_size, seed=seed, axis=axis,
                                  blend=not mode.endswith("_noblend"))
-    report = synthesis.synthesize([obj], synthesis.Sample(path=sample_path), settings, cache_dir=cache_dir,
+    report = synthesis.synthesize([obj], sources.Sample(path=sample_path), settings, cache_dir=cache_dir,
                                   material_mode="NONE")
     if report.failures:
         raise SystemExit("bench_blend_quality: %s: %s" % (mode, report.summary()))

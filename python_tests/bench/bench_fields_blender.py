@@ -6,7 +6,7 @@
 
 JUMP (default): a comb stroke as the Comb operator runs it: the FieldState stays in memory for the
 edit session, a stroke paints anchors (authoring.paint, a brush of --radius mean edge lengths), then
-the timed part: relax (native compute_field) + tools.commit_edit (field attributes written + live
+the timed part: relax (native compute_field) + field_edits.commit_edit (field attributes written + live
 re-synthesis). The live-update paths run in the same process, in rotating order:
   old  TEXSYNTH_LIVE_PATH=full: write the field, then a Synthesize that re-reads mesh and field,
        synthesizes, snapshots the layers it replaces and writes them (before this branch);
@@ -91,7 +91,9 @@ def main():
     args = parser.parse_args(harness.script_args())
     texsynth = harness.load_addon()
     texsynth.register()
-    from texsynth.fields import authoring, tools
+    from texsynth.fields import authoring
+    from texsynth.ui import field_edits
+    from texsynth.fields import mesh_state
     harness.reset_scene()
     texsynth.register()
     obj = bench_addon.bumpy_torus(args.segments, args.rings)
@@ -107,18 +109,18 @@ def main():
                                                        len(obj.data.loops)))
     from texsynth.fields import overlay
     overlay.active_editors.add(obj.name)  # inside a Comb session (its snapshot buffers are kept)
-    os.environ[tools.LIVE_PATH_ENV] = "full"
-    state = tools.field_state(bpy.context, obj)
-    tools.commit_edit(bpy.context, obj, state)  # warm: preprocess (disk cache) into memory, layers exist
-    os.environ.pop(tools.LIVE_PATH_ENV)
-    tools.commit_edit(bpy.context, obj, state)
-    read = timed(lambda: tools.field_state(bpy.context, obj))
+    os.environ[field_edits.LIVE_PATH_ENV] = "full"
+    state = mesh_state.field_state(bpy.context, obj)
+    field_edits.commit_edit(bpy.context, obj, state)  # warm: preprocess (disk cache) into memory, layers exist
+    os.environ.pop(field_edits.LIVE_PATH_ENV)
+    field_edits.commit_edit(bpy.context, obj, state)
+    read = timed(lambda: mesh_state.field_state(bpy.context, obj))
     print("field_state (mesh + field read, once per Comb session, not per stroke): %s" % ms(read))
 
     positions = state.arrays.positions
     edge = np.linalg.norm(positions[state.arrays.corner_verts[1::4]] - positions[state.arrays.corner_verts[0::4]],
                           axis=1).mean()
-    caster = tools.caster_for(obj, state.arrays)
+    caster = mesh_state.caster_for(obj, state.arrays)
     rng = np.random.default_rng(7)
     paths = ("old", "sequential", "new")
     environment = {"old": "full", "sequential": "sequential", "new": None}
@@ -129,9 +131,9 @@ def main():
     for k in range(args.repeat):
         for path in paths[k % 3:] + paths[:k % 3]:  # rotating order
             if environment[path]:
-                os.environ[tools.LIVE_PATH_ENV] = environment[path]
+                os.environ[field_edits.LIVE_PATH_ENV] = environment[path]
             else:
-                os.environ.pop(tools.LIVE_PATH_ENV, None)
+                os.environ.pop(field_edits.LIVE_PATH_ENV, None)
             # One stroke: a dab of anchors around a random vertex, along a random tangent direction.
             centre = positions[rng.integers(len(positions))]
             ids, distances = caster.vertices_within(centre, args.radius * edge)
@@ -140,7 +142,7 @@ def main():
             start = time.perf_counter()
             authoring.relax(state)
             relaxed = time.perf_counter()
-            warning = tools.commit_edit(bpy.context, obj, state)
+            warning = field_edits.commit_edit(bpy.context, obj, state)
             end = time.perf_counter()
             if warning:
                 raise SystemExit(warning)
@@ -148,7 +150,7 @@ def main():
             figures[path]["end_to_end"].append(end - start)
             figures[path]["relax"].append(relaxed - start)
             figures[path]["commit"].append(end - relaxed)
-            for name, value in tools.last_timings.items():
+            for name, value in field_edits.last_timings.items():
                 if name.startswith("live_") and isinstance(value, float):
                     breakdown[path].setdefault(name, []).append(value)
     print("comb stroke of %d anchors (radius %.0f edges); vertices whose direction changed per stroke: median %d of %d"

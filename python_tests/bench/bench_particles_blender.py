@@ -134,7 +134,7 @@ def real(args, obj, texsynth):
 
 def bake_compositing(args, obj):
     """Times particles/baking.py's prepare + apply (the compositing) on an N x N image of a flat background."""
-    from texsynth.bake import baking
+    from texsynth.bridge import images
     from texsynth.particles import baking as particle_baking
     harness.select_only([obj])
     bpy.context.view_layer.objects.active = obj
@@ -145,7 +145,7 @@ def bake_compositing(args, obj):
     bpy.ops.object.mode_set(mode="OBJECT")
     seconds = []
     for _ in range(args.repeat):
-        image = baking.new_image("bench bake", args.bake, False)
+        image = images.new_image("bench bake", args.bake, False)
         image.pixels.foreach_set(np.tile(np.float32([0.3, 0.3, 0.25, 1.0]), args.bake * args.bake))
         start = time.perf_counter()
         layers = particle_baking.prepare(obj)

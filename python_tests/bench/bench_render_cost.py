@@ -70,6 +70,7 @@ def main():
     from texsynth.core import settings as core_settings
     from texsynth.shading import blend_groups
     from texsynth.uv_methods import synthesis
+    from texsynth.bridge import sources
     scene = bpy.context.scene
     cache_dir = tempfile.mkdtemp(prefix="texsynth_render_cost_")
     scene.render.filepath = os.path.join(cache_dir, "frame.png")
@@ -78,7 +79,7 @@ def main():
         for obj_name, sample, world_size, seed in JOBS:
             settings = core_settings.Settings(method=method, sample_world_size=world_size, seed=seed)
             path = os.path.join(harness.SAMPLES_DIR, sample)
-            report = synthesis.synthesize([bpy.data.objects[obj_name]], synthesis.Sample(path=path), settings,
+            report = synthesis.synthesize([bpy.data.objects[obj_name]], sources.Sample(path=path), settings,
                                           cache_dir=cache_dir)
             if report.failures:
                 raise SystemExit(report.summary())

@@ -25,10 +25,10 @@ import harness  # noqa: E402
 
 texsynth = harness.load_addon()
 texsynth.register()
-from texsynth.bake import options  # noqa: E402
+from texsynth.core import bake_options as options  # noqa: E402
 from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.surface_colour import synthesis as surface  # noqa: E402
-from texsynth.uv_methods import synthesis  # noqa: E402
+from texsynth.bridge import sources  # noqa: E402
 
 
 def peak_mb():
@@ -89,7 +89,7 @@ def main():
     smart_uv = time.perf_counter() - started
     print("mesh: Stanford bunny %d vertices, %d triangles; Smart UV Project %.2f s" % (
         len(positions), count, smart_uv), flush=True)
-    sample = synthesis.Sample(path=os.path.abspath(args.sample))
+    sample = sources.Sample(path=os.path.abspath(args.sample))
     request = options.BakeRequest(size=args.size, margin=2, create_uv=False)
     base = dict(method="ROUND", sample_world_size=0.25, seed=1, axis=(0.0, 0.0, 1.0))
     runs = (("first run (context + synthesis)", dict(base)),

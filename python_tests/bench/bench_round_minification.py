@@ -22,6 +22,7 @@ import addon_package  # noqa: E402
 from uv_meshes import plane  # noqa: E402
 
 core = addon_package.load("surface_colour.core")
+sample_image = addon_package.load("core.sample_image")
 
 
 def patches(image, k, step=1):
@@ -41,7 +42,7 @@ def main():
     size = 128
     print("sample  coarser  full     auto")
     for name in ("bricks", "moss"):
-        sample = core.synthesis_sample(ts.load_image(os.path.join(ROOT, "blend_samples", name + ".png")))
+        sample = sample_image.synthesis_sample(ts.load_image(os.path.join(ROOT, "blend_samples", name + ".png")))
         for factor in (2, 3, 4):
             texels_per_unit = float(size * factor)
             mipmap = patches(core.working_sample(sample, texels_per_unit, float(size), "AUTO", 8)[0], 5)

@@ -18,4 +18,4 @@ if "texsynth" not in sys.modules:
     module = importlib.util.module_from_spec(spec)
     sys.modules["texsynth"] = module
     spec.loader.exec_module(module)
-sys.modules.setdefault("texsynth_cli_bake_options", importlib.import_module("texsynth.bake.options"))
+sys.modules.setdefault("texsynth_cli_bake_options", importlib.import_module("texsynth.core.bake_options"))

@@ -33,17 +33,18 @@ def render(name, out_path):
     texsynth = harness.load_addon()
     from texsynth.core import settings as core_settings
     from texsynth.uv_methods import synthesis
+    from texsynth.bridge import sources
     for obj_name, sample, world_size, seed, *method in frame["jobs"]:
         method = method[0] if method else "JUMPMAP"
         settings = core_settings.Settings(method=method, sample_world_size=world_size, seed=seed, blend=frame["blend"])
         path = os.path.join(harness.SAMPLES_DIR, sample)
         if method in core_settings.SURFACE_METHODS:
-            from texsynth.bake import options
+            from texsynth.core import bake_options as options
             from texsynth.surface_colour import synthesis as surface
-            report = surface.synthesize([bpy.data.objects[obj_name]], synthesis.Sample(path=path), settings,
+            report = surface.synthesize([bpy.data.objects[obj_name]], sources.Sample(path=path), settings,
                                         options.BakeRequest(size=256, margin=4, create_uv=True))
         else:
-            report = synthesis.synthesize([bpy.data.objects[obj_name]], synthesis.Sample(path=path), settings,
+            report = synthesis.synthesize([bpy.data.objects[obj_name]], sources.Sample(path=path), settings,
                                           cache_dir=os.environ.get("TEXSYNTH_CACHE_DIR") or None)
         if report.failures:
             raise RuntimeError(report.summary())

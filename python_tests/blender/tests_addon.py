@@ -16,10 +16,12 @@ import harness  # noqa: E402
 
 texsynth = harness.load_addon()
 from texsynth import native  # noqa: E402
-from texsynth.bridge import mesh_io  # noqa: E402
+from texsynth.bridge import mesh_io, mesh_layers  # noqa: E402
+from texsynth.uv_methods import mesh_write  # noqa: E402
 from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.shading import blend_groups  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
+from texsynth.bridge import sources  # noqa: E402
 
 _real = native.get()
 USE_FAKE = os.environ.get("TEXSYNTH_FAKE_NATIVE") == "1" or _real is None or not hasattr(_real, "synthesize_jumpmap")
@@ -75,7 +77,7 @@ def uv_values(mesh, name):
 def expected_result(obj, props):
     """What the native module returns for obj (same arrays and options), computed outside the add-on."""
     settings = props.to_settings()
-    pre = native.get().preprocess(BRICKS, cache_dir=synthesis.default_cache_dir(), **settings.preprocess_params())
+    pre = native.get().preprocess(BRICKS, cache_dir=sources.default_cache_dir(), **settings.preprocess_params())
     arrays = mesh_io.read_mesh(obj)
     return native.get().synthesize_jumpmap(
         pre, arrays.positions, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes,
@@ -145,9 +147,9 @@ def test_register_unregister_twice():
 def test_unregister_after_the_toolbar_lost_the_comb_tool():
     """read_factory_settings rebuilds the toolbar and then disables add-ons: the tool is already gone."""
     from bl_ui.space_toolsystem_common import ToolSelectPanelHelper
-    from texsynth.fields import tools
+    from texsynth.ui import field_operators
     texsynth.register()
-    tool = tools.TexSynthCombTool
+    tool = field_operators.TexSynthCombTool
     toolbar = ToolSelectPanelHelper._tool_class_from_space_type(tool.bl_space_type)._tools[tool.bl_context_mode]
     assert tool._bl_tool in toolbar, "the comb tool is not in the toolbar"
     toolbar.remove(tool._bl_tool)  # what the rebuilt toolbar looks like: the class still thinks it is there
@@ -248,7 +250,7 @@ def test_several_objects_in_one_go():
     camera = bpy.context.active_object
     props = configure()
     harness.select_only(objects + [camera])
-    report = synthesis.synthesize(bpy.context.selected_objects, synthesis.Sample(path=BRICKS), props.to_settings())
+    report = synthesis.synthesize(bpy.context.selected_objects, sources.Sample(path=BRICKS), props.to_settings())
     assert sorted(report.objects) == ["A", "B", "C"], report.objects
     assert report.faces == sum(len(o.data.polygons) for o in objects)
     assert report.corners == sum(len(o.data.loops) for o in objects)
@@ -333,7 +335,7 @@ def test_empty_mesh_is_reported_others_still_done():
     cube = harness.add_primitive("cube", "Cube")
     props = configure()
     harness.select_only([empty, cube])
-    report = synthesis.synthesize([empty, cube], synthesis.Sample(path=BRICKS), props.to_settings())
+    report = synthesis.synthesize([empty, cube], sources.Sample(path=BRICKS), props.to_settings())
     assert report.objects == ["Cube"] and report.failures[0][0] == "Empty"
     assert len(empty.data.uv_layers) == 0 and len(empty.data.attributes) == 0
     check_written(cube, props)
@@ -386,17 +388,17 @@ def test_failed_write_restores_mesh_byte_identical():
     obj = harness.add_primitive("uv_sphere", "Atomic", segments=16, ring_count=8)
     synthesize_one(obj, blend=True)
     before = harness.mesh_hash(obj.data)
-    original = mesh_io._remove_uv_layers
+    original = mesh_layers._remove_uv_layers
 
     def failing(mesh, names):
         raise RuntimeError("injected failure after all layers were written")
-    mesh_io._remove_uv_layers = failing
+    mesh_layers._remove_uv_layers = failing
     try:
         configure(seed=99, blend=False)  # changes every value and needs removing B0..B3: fails at the end
         harness.select_only([obj])
         message = expect_error(run_operator, "restored", "injected")
     finally:
-        mesh_io._remove_uv_layers = original
+        mesh_layers._remove_uv_layers = original
     assert harness.mesh_hash(obj.data) == before, message
 
 
@@ -417,7 +419,7 @@ def test_non_finite_result_found_during_the_write_restores_mesh_byte_identical()
             result[key][index] = np.nan if key != "blend_weights" else np.inf
             os.environ[mesh_io.WRITE_CHECK_ENV] = order
             try:
-                mesh_io.write_result(obj.data, result)
+                mesh_write.write_result(obj.data, result)
                 raise AssertionError("expected an error for %s" % key)
             except core_settings.SettingsError as error:
                 assert "NaN or infinite" in str(error), error
@@ -425,7 +427,7 @@ def test_non_finite_result_found_during_the_write_restores_mesh_byte_identical()
                 os.environ.pop(mesh_io.WRITE_CHECK_ENV)
             assert harness.mesh_hash(obj.data) == before, (order, key)
     # A finite result goes through (the scan passes) and changes the layers.
-    mesh_io.write_result(obj.data, {"base_uv": np.zeros((corners, 2), np.float32), "num_blend_sets": 4,
+    mesh_write.write_result(obj.data, {"base_uv": np.zeros((corners, 2), np.float32), "num_blend_sets": 4,
                                     "blend_set_pairs": np.zeros((2, corners, 4), np.float32),
                                     "blend_weights": np.full((corners, 4), 0.25, np.float32)})
     assert harness.mesh_hash(obj.data) != before

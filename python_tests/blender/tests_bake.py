@@ -18,9 +18,12 @@ import harness  # noqa: E402
 
 texsynth = harness.load_addon()
 texsynth.register()
-from texsynth.bake import baking, options  # noqa: E402
+from texsynth.bake import baking  # noqa: E402
+from texsynth.bridge import images, uv_maps  # noqa: E402
+from texsynth.core import bake_options as options  # noqa: E402
 from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
+from texsynth.bridge import sources  # noqa: E402
 
 CACHE = tempfile.mkdtemp(prefix="texsynth_bake_tests_")
 MOSS = os.path.join(harness.SAMPLES_DIR, "moss.png")      # 160 x 160
@@ -29,7 +32,7 @@ BRICKS = os.path.join(harness.SAMPLES_DIR, "bricks.png")  # 192 x 192
 
 def synthesize(obj, method="JUMPMAP", sample=MOSS, scale=1.25, material_mode="NEW"):
     settings = core_settings.Settings(method=method, sample_world_size=scale, seed=3, axis=(0.0, 1.0, 0.0))
-    report = synthesis.synthesize([obj], synthesis.Sample(path=sample), settings, cache_dir=CACHE,
+    report = synthesis.synthesize([obj], sources.Sample(path=sample), settings, cache_dir=CACHE,
                                   material_mode=material_mode)
     assert not report.failures and report.objects, report.summary()
 
@@ -242,7 +245,7 @@ def test_a_new_uv_map_uses_the_image_and_keeps_islands_two_texels_apart():
     while obj.data.uv_layers:
         obj.data.uv_layers.remove(obj.data.uv_layers[0])
     size = 1024
-    name = baking.smart_project(obj, options.BakeRequest(size=size, margin=16, create_uv=True), bpy.context)
+    name = uv_maps.smart_project(obj, options.BakeRequest(size=size, margin=16, create_uv=True), bpy.context)
     triangles = uv_triangles(obj.data, name)
     used = 0.5 * np.abs((triangles[:, 1, 0] - triangles[:, 0, 0]) * (triangles[:, 2, 1] - triangles[:, 0, 1])
                         - (triangles[:, 2, 0] - triangles[:, 0, 0]) * (triangles[:, 1, 1] - triangles[:, 0, 1])).sum()
@@ -413,14 +416,14 @@ def test_surface_colour_hook_dilates_the_margin():
     coverage = np.zeros((8, 16), bool)
     coverage[0:2, 0:3] = True  # top-left block
     rgba[coverage] = (0.25, 0.5, 0.75, 1.0)
-    baking.write_surface_colour(image, rgba, coverage, margin=2)
+    images.write_surface_colour(image, rgba, coverage, margin=2)
     written = pixels_of(image)[::-1]  # top row first
     assert np.allclose(written[0, 0], (0.25, 0.5, 0.75, 1.0))
     assert np.allclose(written[3, 2], (0.25, 0.5, 0.75, 1.0))  # 2 px below the block: margin
     assert np.allclose(written[0, 4], (0.25, 0.5, 0.75, 1.0))  # 2 px right of it
     assert np.allclose(written[7, 15], 0.0)                    # far away: background
     try:
-        baking.write_surface_colour(image, rgba[:4], coverage[:4], margin=2)
+        images.write_surface_colour(image, rgba[:4], coverage[:4], margin=2)
     except options.BakeError:
         pass
     else:

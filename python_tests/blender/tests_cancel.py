@@ -18,8 +18,10 @@ import numpy as np  # noqa: E402
 import harness  # noqa: E402
 
 texsynth = harness.load_addon()
-from texsynth.ui import operators  # noqa: E402
+from texsynth.ui import modal_jobs, operators  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
+from texsynth.bridge import sources  # noqa: E402
+from texsynth.core import jobs  # noqa: E402
 
 texsynth.register()
 BRICKS = os.path.join(harness.SAMPLES_DIR, "bricks.png")
@@ -51,7 +53,7 @@ def settings():
 def new_job(obj, method="JUMPMAP"):
     props = settings()
     props.method = method
-    return synthesis.Job([obj], synthesis.Sample(path=BRICKS), props.to_settings(), None, "NEW").prepare()
+    return synthesis.Job([obj], sources.Sample(path=BRICKS), props.to_settings(), None, "NEW").prepare()
 
 
 def test_cancelled_job_stops_fast_and_writes_nothing():
@@ -70,7 +72,7 @@ def check_cancelled_job(method, delay, side=700):
     before = harness.mesh_hash(obj.data)
     new_job(obj).compute()  # warms the preprocessing cache (jump map: quick): the run below is pure synthesis
     job = new_job(obj, method)
-    state = operators.ModalSynthesis(job).start()
+    state = modal_jobs.ModalSynthesis(job).start()
     deadline = time.perf_counter() + 30
     while state.fraction < 0.1 and state.running() and time.perf_counter() < deadline:
         time.sleep(0.001)  # until preprocessing (a cache hit) is done and the synthesis has started
@@ -81,7 +83,7 @@ def check_cancelled_job(method, delay, side=700):
     try:
         state.finish(timeout=30)
         raise AssertionError("a cancelled job must raise")
-    except synthesis.Cancelled:
+    except jobs.Cancelled:
         pass
     latency = time.perf_counter() - cancelled_at
     print("CANCEL %s latency_ms=%.1f faces=%d" % (method, 1e3 * latency, len(obj.data.polygons)), flush=True)
@@ -92,7 +94,7 @@ def check_cancelled_job(method, delay, side=700):
     try:
         job.apply()
         raise AssertionError("apply() after cancel must raise")
-    except synthesis.Cancelled:
+    except jobs.Cancelled:
         pass
     assert harness.mesh_hash(obj.data) == before
     assert len(obj.material_slots) == 0
@@ -109,7 +111,7 @@ class FakeWindowManager:
 def drive_modal(job, events):
     """Calls the operator's modal() as Blender would, with a stand-in operator and context."""
     reports = []
-    fake_self = types.SimpleNamespace(_job_state=operators.ModalSynthesis(job).start(), _timer=None,
+    fake_self = types.SimpleNamespace(_job_state=modal_jobs.ModalSynthesis(job).start(), _timer=None,
                                       report=lambda kind, text: reports.append((kind, text)))
     fake_self._finish = lambda job_: operators.TEXSYNTH_OT_synthesize._finish(fake_self, job_)
     context = types.SimpleNamespace(window_manager=FakeWindowManager(), workspace=None)
@@ -118,7 +120,7 @@ def drive_modal(job, events):
         result = operators.TEXSYNTH_OT_synthesize.modal(fake_self, context, types.SimpleNamespace(
             type=event_type, value="PRESS"))
     while result == {"RUNNING_MODAL"}:
-        time.sleep(operators.ModalSynthesis.POLL_SECONDS)
+        time.sleep(modal_jobs.ModalSynthesis.POLL_SECONDS)
         result = operators.TEXSYNTH_OT_synthesize.modal(fake_self, context, types.SimpleNamespace(
             type="TIMER", value="NOTHING"))
     return result, reports
@@ -148,7 +150,7 @@ def test_modal_run_to_completion_writes_and_one_undo_restores():
 def round_job(side, size):
     """Round neighbourhoods on a side x side grid (0.01 units per quad) with a planar UV map, into a
     size² image; the sample at its own density is reduced to the target's."""
-    from texsynth.bake import options
+    from texsynth.core import bake_options as options
     from texsynth.surface_colour import core, synthesis as surface
     obj = big_grid(side)
     mesh = obj.data
@@ -162,13 +164,13 @@ def round_job(side, size):
     props.method, props.scale = "ROUND", 0.01 * side * 192 / size
     core.contexts.clear()
     request = options.BakeRequest(size=size, margin=2, create_uv=False)
-    return obj, surface.Job([obj], synthesis.Sample(path=BRICKS), props.to_settings(), request, "NEW")
+    return obj, surface.Job([obj], sources.Sample(path=BRICKS), props.to_settings(), request, "NEW")
 
 
 def test_round_modal_progress_advances_and_escape_cancels_leaving_nothing():
     obj, job = round_job(200, 512)
     before = (harness.mesh_hash(obj.data), sorted(i.name for i in bpy.data.images), len(bpy.data.materials))
-    state = operators.ModalSynthesis(job.prepare()).start()
+    state = modal_jobs.ModalSynthesis(job.prepare()).start()
     seen = []
     deadline = time.perf_counter() + 60
     while state.running() and time.perf_counter() < deadline and len(set(seen)) < 4:
@@ -180,7 +182,7 @@ def test_round_modal_progress_advances_and_escape_cancels_leaving_nothing():
     try:
         state.finish(timeout=30)
         raise AssertionError("a cancelled round job must raise")
-    except synthesis.Cancelled:
+    except jobs.Cancelled:
         pass
     job.discard()
     assert job.items[0].result is None

@@ -18,8 +18,11 @@ texsynth = harness.load_addon()
 from texsynth import native  # noqa: E402
 from texsynth.bridge import mesh_io  # noqa: E402
 from texsynth.core import layers as core_layers  # noqa: E402
+from texsynth.fields import mesh_state  # noqa: E402
 from texsynth.uv_methods import core as uv_core  # noqa: E402
-from texsynth.fields import authoring, tools  # noqa: E402
+from texsynth.fields import authoring  # noqa: E402
+from texsynth.ui import field_edits  # noqa: E402
+from texsynth.ui import field_operators  # noqa: E402
 
 assert native.get() is not None and hasattr(native.get(), "RayCaster"), native.reason()
 BRICKS = os.path.join(harness.SAMPLES_DIR, "bricks.png")
@@ -78,13 +81,13 @@ def face_frames(obj, uv_name="TexSynth"):
 def test_comb_stroke_on_a_rotated_plane_writes_object_space_attributes():
     fresh_scene()
     obj = grid_object(rotation=(0.0, 0.0, math.radians(30)), location=(1.0, 2.0, 0.5))
-    state = tools.field_state(bpy.context, obj)
-    brush = authoring.CombBrush(state, tools.caster_for(obj, state.arrays), 0.25)
+    state = mesh_state.field_state(bpy.context, obj)
+    brush = authoring.CombBrush(state, mesh_state.caster_for(obj, state.arrays), 0.25)
     start, end = np.array([0.2, 2.0, 0.5]), np.array([1.8, 2.0, 0.5])  # world +X stroke through the plane
     for s in np.linspace(0, 1, 25):
         brush.dab(start + s * (end - start) + (0, 0, 3), (0, 0, -1))
     assert brush.end_stroke()
-    tools.commit_edit(bpy.context, obj, state)
+    field_edits.commit_edit(bpy.context, obj, state)
     world = world_direction(obj)
     positions = state.arrays.positions
     core = (np.abs(positions[:, 1] - 2.0) < 0.1) & (positions[:, 0] > 0.4) & (positions[:, 0] < 1.6)
@@ -190,7 +193,7 @@ def test_field_from_annotation_strokes():
     points = np.column_stack([-0.6 + 1.2 * t, 0.3 * np.sin(2 * t), np.full_like(t, 0.001)])
     kind = draw_guide_stroke(points)
     print("guide stroke drawn as", kind)
-    assert len(tools.guide_strokes(bpy.context)) == 1
+    assert len(field_operators.guide_strokes(bpy.context)) == 1
     assert bpy.ops.texsynth.field_from_strokes() == {"FINISHED"}
     d = world_direction(obj)
     positions = mesh_io.read_mesh(obj).positions
@@ -203,11 +206,11 @@ def test_field_from_annotation_strokes():
 def test_fields_survive_save_and_reload():
     fresh_scene()
     obj = grid_object()
-    state = tools.field_state(bpy.context, obj)
+    state = mesh_state.field_state(bpy.context, obj)
     authoring.set_singularity(state, 5, authoring.SINK)
     state.guide[100] = (0.0, 1.0, 0.0)
     authoring.relax(state)
-    tools.commit_edit(bpy.context, obj, state)
+    field_edits.commit_edit(bpy.context, obj, state)
     scale = np.linspace(0.5, 2.0, len(obj.data.vertices)).astype(np.float32)
     mesh_io.write_point_attribute(obj.data, authoring.SCALE_NAME, "FLOAT", scale)
     saved = {name: mesh_io.read_point_attribute(obj.data, name, kind) for name, kind in (
@@ -314,10 +317,10 @@ def test_live_update_resynthesizes_after_an_edit():
     second = np.empty_like(first)
     obj.data.uv_layers["TexSynth"].data.foreach_get("uv", second)
     assert not np.array_equal(first, second)
-    assert tools.last_timings["live_native"] > 0
+    assert field_edits.last_timings["live_native"] > 0
     # A failing live update (no sample) keeps the field edit and only warns.
     props.sample_path = "/no/such/sample.png"
-    tools._live_samples.clear()
+    field_edits._live_samples.clear()
     assert bpy.ops.texsynth.singularity(mode="SINK", vertex=1) == {"FINISHED"}
     assert mesh_io.read_point_attribute(obj.data, authoring.SINGULARITY_NAME, "INT")[1] == -1
     third = np.empty_like(first)
@@ -358,7 +361,7 @@ def live_scene():
 
 def comb(state, obj, direction, centre_vertex=100):
     """A stroke of anchors around one vertex along `direction`, then the relaxation (as Comb does)."""
-    caster = tools.caster_for(obj, state.arrays)
+    caster = mesh_state.caster_for(obj, state.arrays)
     ids, distances = caster.vertices_within(state.arrays.positions[centre_vertex], 0.4)
     authoring.paint(state, ids, authoring.falloff(distances, 0.4), direction)
     authoring.relax(state)
@@ -366,44 +369,44 @@ def comb(state, obj, direction, centre_vertex=100):
 
 def test_live_update_from_memory_equals_the_old_path_and_a_fresh_synthesize():
     props, obj = live_scene()
-    state = tools.field_state(bpy.context, obj)
+    state = mesh_state.field_state(bpy.context, obj)
     results = {}
     try:
         for k, path in enumerate(("full", "sequential", "")):
-            os.environ[tools.LIVE_PATH_ENV] = path
+            os.environ[field_edits.LIVE_PATH_ENV] = path
             comb(state, obj, (1.0, 0.5 * k, 0.0), centre_vertex=100 + 40 * k)
-            assert tools.commit_edit(bpy.context, obj, state) is None
-            assert tools.last_timings["live_from_memory"] == (path != "full")
+            assert field_edits.commit_edit(bpy.context, obj, state) is None
+            assert field_edits.last_timings["live_from_memory"] == (path != "full")
             results[path] = texsynth_layers(obj)
             assert "TexSynth_Sets01" in results[path] and "uv:TexSynth" in results[path]
             # The field attributes hold the edit, and a fresh Synthesize (re-reading mesh and field)
             # gives exactly the live update's layers.
             stored = mesh_io.read_point_attribute(obj.data, authoring.DIRECTION_NAME, "FLOAT_VECTOR")
-            np.testing.assert_array_equal(stored, mesh_io.field_attributes(obj, state)[authoring.DIRECTION_NAME][1])
+            np.testing.assert_array_equal(stored, mesh_state.field_attributes(obj, state)[authoring.DIRECTION_NAME][1])
             harness.select_only([obj])
             assert bpy.ops.texsynth.synthesize() == {"FINISHED"}
             assert_same_layers(texsynth_layers(obj), results[path])
     finally:
-        os.environ.pop(tools.LIVE_PATH_ENV, None)
+        os.environ.pop(field_edits.LIVE_PATH_ENV, None)
     # Each stroke changed the result (the live update did re-synthesize).
     assert not np.array_equal(results["full"]["uv:TexSynth"], results[""]["uv:TexSynth"])
     # Same state -> same layers on every path, and repeatable (deterministic for the seed).
     for path in ("full", "sequential", "", ""):
-        os.environ[tools.LIVE_PATH_ENV] = path
+        os.environ[field_edits.LIVE_PATH_ENV] = path
         try:
-            assert tools.commit_edit(bpy.context, obj, state) is None
+            assert field_edits.commit_edit(bpy.context, obj, state) is None
         finally:
-            os.environ.pop(tools.LIVE_PATH_ENV, None)
+            os.environ.pop(field_edits.LIVE_PATH_ENV, None)
         assert_same_layers(texsynth_layers(obj), results[""])
 
 
 def test_live_update_from_memory_falls_back_when_the_mesh_changed():
     props, obj = live_scene()
-    state = tools.field_state(bpy.context, obj)
+    state = mesh_state.field_state(bpy.context, obj)
     comb(state, obj, (1.0, 0.0, 0.0))
     obj.data.vertices[5].co.z += 0.01  # e.g. an edit behind the session's back: the state is stale
-    assert tools.commit_edit(bpy.context, obj, state) is None
-    assert tools.last_timings["live_from_memory"] is False
+    assert field_edits.commit_edit(bpy.context, obj, state) is None
+    assert field_edits.last_timings["live_from_memory"] is False
     live = texsynth_layers(obj)
     harness.select_only([obj])
     assert bpy.ops.texsynth.synthesize() == {"FINISHED"}
@@ -412,29 +415,29 @@ def test_live_update_from_memory_falls_back_when_the_mesh_changed():
     props.direction_attribute = "Other"
     mesh_io.write_point_attribute(obj.data, "Other", "FLOAT_VECTOR",
                                   np.tile([1.0, 0.0, 0.0], (len(obj.data.vertices), 1)))
-    state = tools.field_state(bpy.context, obj)
-    assert tools.commit_edit(bpy.context, obj, state) is None
-    assert tools.last_timings["live_from_memory"] is False
+    state = mesh_state.field_state(bpy.context, obj)
+    assert field_edits.commit_edit(bpy.context, obj, state) is None
+    assert field_edits.last_timings["live_from_memory"] is False
 
 
 def test_live_update_from_memory_failing_write_keeps_the_field_and_restores_the_layers():
     props, obj = live_scene()
-    state = tools.field_state(bpy.context, obj)
+    state = mesh_state.field_state(bpy.context, obj)
     comb(state, obj, (1.0, 0.0, 0.0))
-    assert tools.commit_edit(bpy.context, obj, state) is None
+    assert field_edits.commit_edit(bpy.context, obj, state) is None
     before = texsynth_layers(obj)
     comb(state, obj, (0.0, 1.0, 0.0), centre_vertex=300)
     for point in ("uv_layer", "sets", "weights"):
         os.environ[mesh_io.FAIL_AT_ENV] = point
         try:
-            warning = tools.commit_edit(bpy.context, obj, state)
+            warning = field_edits.commit_edit(bpy.context, obj, state)
         finally:
             os.environ.pop(mesh_io.FAIL_AT_ENV)
         assert warning is not None and "injected failure" in warning, warning
-        assert tools.last_timings["live_from_memory"] is True
+        assert field_edits.last_timings["live_from_memory"] is True
         assert_same_layers(texsynth_layers(obj), before)  # the layers as before the failed update
         stored = mesh_io.read_point_attribute(obj.data, authoring.GUIDE_NAME, "FLOAT_VECTOR")
-        np.testing.assert_array_equal(stored, mesh_io.field_attributes(obj, state)[authoring.GUIDE_NAME][1])
+        np.testing.assert_array_equal(stored, mesh_state.field_attributes(obj, state)[authoring.GUIDE_NAME][1])
     # An error in the worker thread reaches the caller as a warning after the field was written.
     original = uv_core.synthesize
 
@@ -443,34 +446,34 @@ def test_live_update_from_memory_failing_write_keeps_the_field_and_restores_the_
     uv_core.synthesize = failing
     try:
         comb(state, obj, (1.0, 1.0, 0.0), centre_vertex=200)
-        warning = tools.commit_edit(bpy.context, obj, state)
+        warning = field_edits.commit_edit(bpy.context, obj, state)
     finally:
         uv_core.synthesize = original
     assert warning is not None and "native failure in the worker" in warning, warning
     assert_same_layers(texsynth_layers(obj), before)
     stored = mesh_io.read_point_attribute(obj.data, authoring.DIRECTION_NAME, "FLOAT_VECTOR")
-    np.testing.assert_array_equal(stored, mesh_io.field_attributes(obj, state)[authoring.DIRECTION_NAME][1])
+    np.testing.assert_array_equal(stored, mesh_state.field_attributes(obj, state)[authoring.DIRECTION_NAME][1])
     # A bad scale attribute is refused before the worker starts; the field edit is kept as well.
     props.scale_source, props.scale_attribute = "ATTRIBUTE", "Bad"
     mesh_io.write_point_attribute(obj.data, "Bad", "FLOAT", np.zeros(len(obj.data.vertices)))
     comb(state, obj, (1.0, -1.0, 0.0), centre_vertex=250)
-    warning = tools.commit_edit(bpy.context, obj, state)
+    warning = field_edits.commit_edit(bpy.context, obj, state)
     assert warning is not None and "Bad" in warning, warning
     assert_same_layers(texsynth_layers(obj), before)
     stored = mesh_io.read_point_attribute(obj.data, authoring.DIRECTION_NAME, "FLOAT_VECTOR")
-    np.testing.assert_array_equal(stored, mesh_io.field_attributes(obj, state)[authoring.DIRECTION_NAME][1])
+    np.testing.assert_array_equal(stored, mesh_state.field_attributes(obj, state)[authoring.DIRECTION_NAME][1])
 
 
 def test_live_update_from_memory_is_undone_with_the_edit():
     props, obj = live_scene()
-    state = tools.field_state(bpy.context, obj)
+    state = mesh_state.field_state(bpy.context, obj)
     comb(state, obj, (1.0, 0.0, 0.0))
-    assert tools.commit_edit(bpy.context, obj, state) is None
+    assert field_edits.commit_edit(bpy.context, obj, state) is None
     bpy.ops.ed.undo_push(message="first stroke")
     before = harness.mesh_hash(obj.data)
     comb(state, obj, (0.0, 1.0, 0.0), centre_vertex=300)
-    assert tools.commit_edit(bpy.context, obj, state) is None
-    assert tools.last_timings["live_from_memory"] is True
+    assert field_edits.commit_edit(bpy.context, obj, state) is None
+    assert field_edits.last_timings["live_from_memory"] is True
     assert harness.mesh_hash(obj.data) != before
     bpy.ops.ed.undo_push(message="second stroke")  # what Blender does after the undoable operator
     bpy.ops.ed.undo()
@@ -513,15 +516,15 @@ def test_panel_and_overlay_geometry():
 def test_register_adds_and_removes_the_comb_workspace_tool():
     from bl_ui.space_toolsystem_common import ToolSelectPanelHelper
     registered = ToolSelectPanelHelper._tool_class_from_space_type("VIEW_3D")._tools
-    assert tools.COMB_TOOL_ID in repr(registered["OBJECT"])
+    assert overlay.COMB_TOOL_ID in repr(registered["OBJECT"])
     texsynth.unregister()
     try:
-        assert tools.COMB_TOOL_ID not in repr(registered["OBJECT"])
+        assert overlay.COMB_TOOL_ID not in repr(registered["OBJECT"])
         assert not hasattr(bpy.types, "TEXSYNTH_OT_comb")
     finally:
         texsynth.register()
-    assert tools.COMB_TOOL_ID in repr(registered["OBJECT"])
-    assert not tools.comb_tool_active(bpy.context)
+    assert overlay.COMB_TOOL_ID in repr(registered["OBJECT"])
+    assert not overlay.comb_tool_active(bpy.context)
 
 
 if __name__ == "__main__":

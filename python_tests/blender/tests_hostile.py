@@ -23,11 +23,11 @@ import harness  # noqa: E402
 texsynth = harness.load_addon()
 from texsynth import native  # noqa: E402
 from texsynth.bridge import mesh_io  # noqa: E402
-from texsynth.uv_methods import synthesis  # noqa: E402
+from texsynth.bridge import sources  # noqa: E402
 
 texsynth.register()
 CACHE_DIR = tempfile.mkdtemp(prefix="texsynth_hostile_blender_cache_")
-synthesis.default_cache_dir = lambda: CACHE_DIR  # isolated cache, removed at the end
+sources.default_cache_dir = lambda: CACHE_DIR  # isolated cache, removed at the end
 
 
 def full_hash(mesh):

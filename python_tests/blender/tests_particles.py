@@ -167,7 +167,7 @@ def test_live_field_update_is_refused_for_particles():
     configure()
     obj = plane()
     try:
-        texsynth.fields.tools.live_update(bpy.context, obj)
+        texsynth.ui.field_edits.live_update(bpy.context, obj)
         raise AssertionError("live update ran the UV path for Texture Particles")
     except core_settings.SettingsError as error:
         assert "not available for Texture Particles" in str(error), error
@@ -694,7 +694,7 @@ def test_the_worker_thread_runs_the_job_as_the_modal_operator_does():
     target = plane(size=4.0, cuts=20)
     props = configure(scale=1.5)
     job = synthesis.Job([target], Sample(path=props.sample_path), props.to_settings()).prepare()
-    state = texsynth.ui.operators.ModalSynthesis(job).start()
+    state = texsynth.ui.modal_jobs.ModalSynthesis(job).start()
     while state.running():
         time.sleep(0.02)
         assert 0.0 <= state.live_fraction() <= 1.0
@@ -714,7 +714,7 @@ def test_cancel_leaves_nothing_behind():
     try:
         job.compute()
         raise AssertionError("compute() did not raise after cancel()")
-    except texsynth.uv_methods.synthesis.Cancelled:
+    except texsynth.core.jobs.Cancelled:
         pass
     job.discard()
     assert names() == before and harness.mesh_hash(target.data) == hashed
@@ -848,7 +848,7 @@ def test_baking_refuses_a_target_edited_since_its_particles_and_changes_nothing(
     bm.to_mesh(target.data)
     bm.free()
     before = sorted(i.name for i in bpy.data.images)
-    from texsynth.bake import options
+    from texsynth.core import bake_options as options
     try:
         _bake(target, 128)
         raise AssertionError("a stale decal layer was baked")

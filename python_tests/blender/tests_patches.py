@@ -19,12 +19,15 @@ import harness  # noqa: E402
 
 texsynth = harness.load_addon()
 texsynth.register()
-from texsynth.bake import options  # noqa: E402
+from texsynth.core import bake_options as options  # noqa: E402
 from texsynth.bridge import mesh_io  # noqa: E402
+from texsynth.fields import mesh_state  # noqa: E402
 from texsynth.core import settings as core_settings  # noqa: E402
-from texsynth.fields import authoring, tools  # noqa: E402
+from texsynth.fields import authoring  # noqa: E402
+from texsynth.ui import field_edits  # noqa: E402
 from texsynth.surface_colour import core, synthesis as surface  # noqa: E402
-from texsynth.uv_methods import synthesis  # noqa: E402
+from texsynth.bridge import sources  # noqa: E402
+from texsynth.core import jobs  # noqa: E402
 
 from tests_surface import BRICKS, SAMPLE, pixels_of, plane, sample_bytes, state  # noqa: E402
 
@@ -161,7 +164,7 @@ def test_a_sample_smaller_than_the_patch_uses_smaller_patches():
     image.filepath_raw, image.file_format = small, "PNG"
     image.save()
     bpy.data.images.remove(image)
-    report = surface.synthesize([obj], synthesis.Sample(path=small), settings(patch_size=32, sample_world_size=0.375,
+    report = surface.synthesize([obj], sources.Sample(path=small), settings(patch_size=32, sample_world_size=0.375,
                                                                                round_resolution="FULL"),
                                 options.BakeRequest(size=64, margin=2), "NEW")
     assert report.objects == ["Plane"], report.summary()
@@ -176,7 +179,7 @@ def test_cancel_leaves_nothing_behind():
     try:
         job.compute()
         raise AssertionError("compute() did not raise after cancel()")
-    except synthesis.Cancelled:
+    except jobs.Cancelled:
         pass
     job.discard()
     assert state(obj) == before
@@ -187,20 +190,20 @@ def test_live_preview_after_a_field_edit_writes_a_small_image():
     props = bpy.context.scene.texsynth
     props.sample_path, props.method, props.scale, props.axis = BRICKS, "PATCHES", 3.0, (0.0, 1.0, 0.0)
     props.patch_size, props.bake_size, props.bake_margin = 16, 512, 4
-    state = tools.field_state(bpy.context, obj)  # what a comb stroke leaves: a painted field on the mesh
+    state = mesh_state.field_state(bpy.context, obj)  # what a comb stroke leaves: a painted field on the mesh
     authoring.preset_axis(state, (0.0, 1.0, 0.0))
-    mesh_io.write_field_state(obj, state)
+    mesh_state.write_field_state(obj, state)
     core.patch_targets.clear()
-    tools.live_update(bpy.context, obj)
+    field_edits.live_update(bpy.context, obj)
     image = bpy.data.images[IMAGE]
-    assert tuple(image.size) == (tools.PATCH_PREVIEW_SIZE,) * 2, tuple(image.size)
-    assert tools.last_timings["live_update"] > 0.0
+    assert tuple(image.size) == (field_edits.PATCH_PREVIEW_SIZE,) * 2, tuple(image.size)
+    assert field_edits.last_timings["live_update"] > 0.0
     assert not core.patch_targets.field.reused_mesh
     first = np.array(image.pixels[:])
     # The next stroke redoes the field only: same surface samples, the walk mesh copied.
     authoring.preset_axis(state, (1.0, 0.0, 0.0))
-    mesh_io.write_field_state(obj, state)
-    tools.live_update(bpy.context, obj)
+    mesh_state.write_field_state(obj, state)
+    field_edits.live_update(bpy.context, obj)
     assert core.patch_targets.field.reused_mesh
     assert not np.array_equal(first, np.array(bpy.data.images[IMAGE].pixels[:])), "the new field shows"
 
@@ -257,7 +260,7 @@ def test_full_resolution_sample_over_the_memory_limit_is_refused_before_any_work
     before = state(obj)
     core.exemplars.clear()
     core.patch_targets.clear()
-    sample = synthesis.Sample(path=path)
+    sample = sources.Sample(path=path)
     report = surface.synthesize([obj], sample, settings(sample_world_size=0.3, round_resolution="FULL", patch_size=32),
                                 options.BakeRequest(size=512, margin=4), "NEW")
     message = report.summary()

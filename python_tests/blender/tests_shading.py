@@ -23,6 +23,7 @@ from texsynth.core import layers as core_layers  # noqa: E402
 from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.shading import blend_groups  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
+from texsynth.bridge import sources  # noqa: E402
 
 PIXELS = 128
 CACHE = tempfile.mkdtemp(prefix="texsynth_shading_tests_")
@@ -80,7 +81,7 @@ def emission_with_group(group):
 def render_luminance(obj, scene, image, mode, blend=True, method="JUMPMAP"):
     # 1.2 world units per sample width: ~1 texel per pixel for the 128 px moss sample at this view.
     settings = core_settings.Settings(method=method, sample_world_size=1.2, seed=3, blend=blend, axis=(0.0, 1.0, 0.0))
-    report = synthesis.synthesize([obj], synthesis.Sample(path=MOSS), settings, cache_dir=CACHE, material_mode="NONE")
+    report = synthesis.synthesize([obj], sources.Sample(path=MOSS), settings, cache_dir=CACHE, material_mode="NONE")
     assert not report.failures, report.summary()
     group = blend_groups.ensure_blend_group(image, synthesis.blend_inputs(image, mode, CACHE, method))
     obj.data.materials.clear()

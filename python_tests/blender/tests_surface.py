@@ -23,9 +23,11 @@ from texsynth.bridge import mesh_io  # noqa: E402
 from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.surface_colour import core, synthesis as surface  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
+from texsynth.bridge import sources  # noqa: E402
+from texsynth.core import jobs  # noqa: E402
 
 BRICKS = os.path.join(harness.SAMPLES_DIR, "bricks.png")  # 192 x 192, 8-bit sRGB
-SAMPLE = synthesis.Sample(path=BRICKS)
+SAMPLE = sources.Sample(path=BRICKS)
 
 
 def sample_bytes():
@@ -230,7 +232,7 @@ def test_cancel_leaves_nothing_behind_even_a_new_uv_map():
     try:
         job.compute()
         raise AssertionError("compute() did not raise after cancel()")
-    except synthesis.Cancelled:
+    except jobs.Cancelled:
         pass
     job.discard()
     assert state(obj) == before
@@ -322,7 +324,7 @@ def test_a_uv_map_made_for_a_mesh_without_one_is_active_and_bake_works_after():
     assert layers[layers.active_index].name == "UVMap"
     # Then a UV method on the same mesh, and Bake through the map made above.
     settings_jumpmap = core_settings.Settings(method="JUMPMAP", sample_world_size=3.0, seed=3, axis=(0.0, 1.0, 0.0))
-    uv_report = synthesis.synthesize([obj], synthesis.Sample(path=os.path.join(harness.SAMPLES_DIR, "moss.png")),
+    uv_report = synthesis.synthesize([obj], sources.Sample(path=os.path.join(harness.SAMPLES_DIR, "moss.png")),
                                      settings_jumpmap, cache_dir=tempfile.mkdtemp(prefix="texsynth_surface_"))
     assert uv_report.objects == ["Cube"], uv_report.summary()
     layers = obj.data.uv_layers

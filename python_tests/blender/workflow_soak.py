@@ -88,7 +88,9 @@ texsynth = harness.load_addon()
 texsynth.register()
 from texsynth import native  # noqa: E402
 from texsynth.bridge import mesh_io  # noqa: E402
-from texsynth.fields import authoring, tools  # noqa: E402
+from texsynth.fields import mesh_state  # noqa: E402
+from texsynth.fields import authoring  # noqa: E402
+from texsynth.ui import field_edits  # noqa: E402
 
 sys.path.insert(0, harness.SAMPLES_DIR)
 import particle_instances  # noqa: E402
@@ -788,16 +790,16 @@ class Soak:
             context = bpy.context
             target = bpy.data.objects[name]
             try:
-                state = tools.field_state(context, target)
+                state = mesh_state.field_state(context, target)
                 props = context.scene.texsynth
-                brush = authoring.CombBrush(state, tools.caster_for(target, state.arrays), props.field_brush_radius,
+                brush = authoring.CombBrush(state, mesh_state.caster_for(target, state.arrays), props.field_brush_radius,
                                             props.field_brush_strength)
-                mesh_io.write_field_state(target, state)  # the operator's invoke
+                mesh_state.write_field_state(target, state)  # the operator's invoke
                 for point in path:
                     origin = np.array([point[0], point[1], point[2] + 5.0])
                     brush.dab(origin, np.array([0.0, 0.0, -1.0]), erase_mode=erase)
                 if brush.end_stroke():
-                    tools.commit_edit(context, target, state)
+                    field_edits.commit_edit(context, target, state)
             except (ValueError, RuntimeError) as error:
                 return "ERROR", str(error)
             bpy.ops.ed.undo_push(message="Comb Field")

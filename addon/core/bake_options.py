@@ -9,11 +9,11 @@ import dataclasses
 import os
 
 try:
-    from ..core.names import fit_name
+    from .names import fit_name
 except ImportError:  # the CLI loads this file on its own, before the add-on (texsynth_cli._bake_options)
     import importlib.util
 
-    _names_path = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "core", "names.py")
+    _names_path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "names.py")
     _names_spec = importlib.util.spec_from_file_location("texsynth_cli_names", _names_path)
     _names = importlib.util.module_from_spec(_names_spec)
     _names_spec.loader.exec_module(_names)
