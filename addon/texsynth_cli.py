@@ -228,17 +228,6 @@ def parse_axis(text):
     return vector
 
 
-def apply_field_preset(args, objects):
-    """--field-preset: the Field Preset operator's work (fields/mesh_state.py preset_field) on every object,
-    written to the direction attribute the synthesis then follows."""
-    from texsynth.fields import mesh_state
-    for obj in objects:
-        try:
-            mesh_state.write_field_state(obj, mesh_state.preset_field(obj, args.field_preset.upper(), args.axis))
-        except (ValueError, RuntimeError) as error:
-            raise CliError("--field-preset %s on %s: %s" % (args.field_preset, obj.name, error))
-
-
 PARTICLE_OPTIONS = ("classes", "blur", "min_area", "background_class", "merges", "class_order", "labels",
                     "particle_output", "instances", "size_jitter", "density", "probability", "size", "background")
 
@@ -285,30 +274,6 @@ def particle_settings(args):
         raise CliError(str(error))
 
 
-def run_particles(args, objects, sample, settings):
-    """--method particles: the label image read bottom row first (then removed), the example collection."""
-    from texsynth.bridge import mesh_io, sources
-    from texsynth.particles import synthesis as particle_synthesis
-    labels = None
-    if args.labels:
-        if not os.path.isfile(args.labels):
-            raise CliError("label image not found: %s" % args.labels)
-        image = bpy.data.images.load(os.path.abspath(args.labels))
-        try:
-            labels = mesh_io.read_image_pixels(image)[::-1]
-        finally:
-            bpy.data.images.remove(image)
-    if args.instances == "example" and bpy.data.collections.get("example") is None:
-        sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "blend_samples"))
-        try:
-            import particle_instances
-        except ImportError:
-            raise CliError("--instances example needs blend_samples/particle_instances.py (run from the repository)")
-        settings.particle_collection = particle_instances.make_collection().name
-    return particle_synthesis.synthesize(objects, sample, settings, args.cache_dir or sources.default_cache_dir(),
-                                         labels, material_mode=args.material.upper(), scene_=bpy.context.scene)
-
-
 def check_bake_args(args):
     """--bake-* options: only with --bake, one object, a supported image type, sizes in range, and never
     through TexSynth's own UV map (bake/options.py: the same rules as the operator)."""
@@ -335,6 +300,12 @@ def check_bake_args(args):
         raise UsageError(str(error))
 
 
+def bake_request(args, options):
+    return options.BakeRequest(target=os.path.abspath(args.bake), uv_map=args.bake_uv, size=args.bake_size,
+                               margin=args.bake_margin, create_uv=args.bake_uv == options.AUTO_UV,
+                               material="ASSIGN" if args.bake_material else "NONE")
+
+
 def _bake_options():
     """core/bake_options.py (bpy-free) loaded on its own, before the add-on."""
     name = "texsynth_cli_bake_options"
@@ -345,29 +316,6 @@ def _bake_options():
         sys.modules[name] = module
         spec.loader.exec_module(module)
     return sys.modules[name]
-
-
-def bake_request(args, options):
-    return options.BakeRequest(target=os.path.abspath(args.bake), uv_map=args.bake_uv, size=args.bake_size,
-                               margin=args.bake_margin, create_uv=args.bake_uv == options.AUTO_UV,
-                               material="ASSIGN" if args.bake_material else "NONE")
-
-
-def run_bake(args, objects, stats):
-    from texsynth.bake import baking, options
-    if len(objects) != 1:
-        raise CliError("--bake bakes one object; %d were imported or given" % len(objects))
-    started = time.perf_counter()
-    try:
-        result = baking.bake(objects[0], bake_request(args, options), bpy.context)
-    except (ValueError, RuntimeError) as error:
-        raise CliError("bake: %s" % error)
-    stats["seconds"]["bake"] = time.perf_counter() - started
-    stats["bake"] = {"image": result.image.name, "path": result.path, "uv_map": result.uv_map,
-                     "size": list(result.image.size), "created_uv": result.created_uv,
-                     "material": result.material.name if result.material is not None else "",
-                     "notes": list(result.notes)}
-    print("%s: %s" % (PROG, result.summary(objects[0].name)))
 
 
 def load_addon():
@@ -384,113 +332,13 @@ def load_addon():
     return module
 
 
-# Blender's factory scene: (name, type, location). Matched exactly so a scene someone set up is never touched.
-FACTORY_OBJECTS = (("Cube", "MESH", (0.0, 0.0, 0.0)), ("Camera", "CAMERA", (7.3589, -6.9258, 4.9583)),
-                   ("Light", "LIGHT", (4.0762, 1.0055, 5.9039)))
-
-
-def factory_objects(scene):
-    """The factory startup's Cube, Camera and Light still in place, when no .blend was opened."""
-    if bpy.data.filepath:
-        return []
-    found = []
-    for name, kind, location in FACTORY_OBJECTS:
-        obj = scene.objects.get(name)
-        if (obj is not None and obj.type == kind and obj.parent is None
-                and all(abs(a - b) < 1e-3 for a, b in zip(obj.location, location))
-                and (kind != "MESH" or (len(obj.data.vertices), len(obj.data.polygons)) == (8, 6))):
-            found.append(obj)
-    return found
-
-
-def remove_factory_objects(scene):
-    """--mesh without a .blend: the default Cube would hide the mesh and the default camera and light are
-    placed for that cube, so all three go; frame_scene then adds a camera and a sun for the mesh. Returns
-    whether any went."""
-    found = factory_objects(scene)
-    for obj in found:
-        data = obj.data
-        datablocks = {"MESH": bpy.data.meshes, "CAMERA": bpy.data.cameras, "LIGHT": bpy.data.lights}[obj.type]
-        bpy.data.objects.remove(obj)
-        if data.users == 0:
-            datablocks.remove(data)
-    return bool(found)
-
-
-def find_objects(args, compat):
-    if args.mesh:
-        if not os.path.isfile(args.mesh):
-            raise CliError("mesh file not found: %s" % args.mesh)
-        replaced = remove_factory_objects(bpy.context.scene)
-        try:
-            objects = compat.import_mesh_file(os.path.abspath(args.mesh))
-        except (RuntimeError, ValueError) as error:
-            raise CliError("could not import %s: %s" % (args.mesh, str(error).strip().splitlines()[-1]))
-        if not objects:
-            raise CliError("no mesh found in %s" % args.mesh)
-        if replaced:  # a .blend's own scene is only framed by --render, as before
-            frame_scene(bpy.context.scene, objects)
-        return objects
-    objects = []
-    for name in args.object:
-        obj = bpy.data.objects.get(name)
-        if obj is None:
-            meshes = ", ".join(o.name for o in bpy.data.objects if o.type == "MESH") or "none"
-            raise CliError("no object named %r (mesh objects: %s)" % (name, meshes))
-        if obj.type != "MESH":
-            raise CliError("object %r is a %s, not a mesh" % (name, obj.type.lower()))
-        objects.append(obj)
-    return objects
-
-
-def frame_scene(scene, objects):
-    """Adds a camera framing the objects and a sun when the scene has none."""
-    from mathutils import Vector
-    corners = [obj.matrix_world @ Vector(c) for obj in objects for c in obj.bound_box]
-    low = Vector(tuple(min(c[i] for c in corners) for i in range(3)))
-    high = Vector(tuple(max(c[i] for c in corners) for i in range(3)))
-    center, radius = (low + high) / 2, max((high - low).length / 2, 1e-3)
-    if scene.camera is None:
-        data = bpy.data.cameras.new("TexSynth Camera")
-        camera = bpy.data.objects.new("TexSynth Camera", data)
-        scene.collection.objects.link(camera)
-        direction = Vector((1.0, -1.4, 0.9)).normalized()
-        distance = radius / math.sin(min(data.angle_x, data.angle_y) / 2) * 1.05
-        camera.location = center + direction * distance
-        camera.rotation_euler = (-direction).to_track_quat("-Z", "Y").to_euler()
-        data.clip_end = max(data.clip_end, distance * 4)
-        scene.camera = camera
-    if not any(obj.type == "LIGHT" for obj in scene.objects):
-        sun = bpy.data.objects.new("TexSynth Sun", bpy.data.lights.new("TexSynth Sun", "SUN"))
-        sun.data.energy = 3.0
-        sun.rotation_euler = (0.7, 0.2, 0.8)
-        scene.collection.objects.link(sun)
-    if scene.world is None:
-        scene.world = bpy.data.worlds.new("TexSynth World")
-        scene.world.color = (0.3, 0.33, 0.38)
-
-
-def render(scene, objects, path, resolution):
-    from texsynth import compat
-    frame_scene(scene, objects)
-    compat.use_eevee(scene)
-    if resolution:
-        scene.render.resolution_x, scene.render.resolution_y = resolution
-        scene.render.resolution_percentage = 100
-    scene.render.image_settings.file_format = "PNG"
-    scene.render.filepath = os.path.abspath(path)
-    bpy.ops.render.render(write_still=True)
-    if not os.path.isfile(scene.render.filepath):
-        raise CliError("render did not write %s" % path)
-
-
 def main(argv, command_line=False):
     started = time.perf_counter()
     args = parse_args(argv)
     addon = load_addon()
     if addon.UNSUPPORTED:
         raise CliError(addon.UNSUPPORTED)
-    from texsynth import compat, native  # noqa: F401  (registered by load_addon)
+    from texsynth import native  # registered by load_addon
     from texsynth.bridge import sources
     from texsynth.core.settings import SURFACE_METHODS, Settings
     from texsynth.uv_methods import synthesis
@@ -498,9 +346,16 @@ def main(argv, command_line=False):
         raise CliError(native.reason())
     if not os.path.isfile(args.sample):
         raise CliError("sample image not found: %s" % args.sample)
-    objects = find_objects(args, compat)
+    from texsynth.cli import scene as cli_scene
+    try:
+        objects = cli_scene.find_objects(args)
+    except cli_scene.SceneError as error:
+        raise CliError(str(error)) from None
     if args.field_preset:
-        apply_field_preset(args, objects)
+        try:
+            cli_scene.apply_field_preset(args, objects)
+        except cli_scene.SceneError as error:
+            raise CliError(str(error)) from None
     direction_attribute = args.direction_attribute or (FIELD_NAME if args.field_preset else "")
     settings = Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
                         jump_rate=args.jump_rate, working_size=args.working_size, blend=not args.no_blend,
@@ -526,7 +381,7 @@ def main(argv, command_line=False):
         if command_line:  # after the settings' own errors (exit 1), before any synthesis
             check_kept_output(args)
         if settings.method == "PARTICLES":
-            report = run_particles(args, objects, sample, settings)
+            report = cli_scene.run_particles(args, objects, sample, settings)
         elif surface:
             from texsynth.core import bake_options as options
             from texsynth.surface_colour import synthesis as surface_synthesis
@@ -541,12 +396,19 @@ def main(argv, command_line=False):
         raise CliError(report.summary())
     stats = report.as_json()
     if args.bake and not surface:
-        run_bake(args, objects, stats)
+        try:
+            from texsynth.core import bake_options
+            print("%s: %s" % (PROG, cli_scene.run_bake(objects, bake_request(args, bake_options), stats)))
+        except cli_scene.SceneError as error:
+            raise CliError(str(error)) from None
     if args.save:
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.save), copy=True)
     if args.render:
         render_start = time.perf_counter()
-        render(bpy.context.scene, objects, args.render, args.resolution)
+        try:
+            cli_scene.render(bpy.context.scene, objects, args.render, args.resolution)
+        except cli_scene.SceneError as error:
+            raise CliError(str(error)) from None
         stats["seconds"]["render"] = time.perf_counter() - render_start
     stats["seconds"]["cli_total"] = time.perf_counter() - started
     if args.stats:

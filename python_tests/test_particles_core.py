@@ -11,6 +11,7 @@ import addon_package
 
 core_settings = addon_package.load("core.settings")
 core = addon_package.load("particles.core")
+outputs = addon_package.load("particles.outputs")
 
 GROUND = np.array([0.2, 0.3, 0.25], np.float32)
 STONE = np.array([0.9, 0.8, 0.3], np.float32)
@@ -201,7 +202,7 @@ def test_thousands_of_tiny_components_are_bounded_and_reported():
 def test_atlas_packs_every_sprite_with_padding_in_a_power_of_two():
     rng = np.random.default_rng(1)
     sizes = rng.integers(4, 40, size=(60, 2))
-    atlas = core.pack_atlas(np.arange(60), sizes, np.zeros(60, np.int32))
+    atlas = outputs.pack_atlas(np.arange(60), sizes, np.zeros(60, np.int32))
     assert atlas.width == atlas.height and atlas.width & (atlas.width - 1) == 0 and not atlas.dropped
     cells = atlas.cells
     padded = np.column_stack([cells[:, 0] - 2, cells[:, 1] - 2, cells[:, 0] + cells[:, 2] + 2,
@@ -219,20 +220,20 @@ def test_atlas_packs_every_sprite_with_padding_in_a_power_of_two():
 def test_atlas_beyond_the_limit_keeps_a_subset_of_every_class():
     sizes = np.full((300, 2), 30)
     classes = np.repeat([0, 1, 2], 100)
-    atlas = core.pack_atlas(np.arange(300), sizes, classes, max_side=256)
+    atlas = outputs.pack_atlas(np.arange(300), sizes, classes, max_side=256)
     assert atlas.width <= 256 and len(atlas.ids) <= (256 // 34) ** 2
     assert set(atlas.dropped) == {0, 1, 2} and sum(atlas.dropped.values()) == 300 - len(atlas.ids)
     assert set(atlas.classes.tolist()) == {0, 1, 2}
-    sprites, turn = core.substitute_sprites([atlas.ids[0], 299], [0, 2], atlas, np.linspace(0, 1, 300))
+    sprites, turn = outputs.substitute_sprites([atlas.ids[0], 299], [0, 2], atlas, np.linspace(0, 1, 300))
     assert sprites[0] == atlas.ids[0] and turn[0] == 0.0
     assert sprites[1] in atlas.ids[atlas.classes == 2] or 299 in atlas.ids
 
 
 def test_atlas_pixels_put_each_sprite_in_its_cell():
-    atlas = core.pack_atlas([7, 9], [(3, 2), (2, 4)], [0, 0])
+    atlas = outputs.pack_atlas([7, 9], [(3, 2), (2, 4)], [0, 0])
     a = np.full((2, 3, 4), 0.5, np.float32)
     b = np.full((4, 2, 4), 1.0, np.float32)
-    pixels = core.atlas_pixels(atlas, [a if s == 7 else b for s in atlas.ids])
+    pixels = outputs.atlas_pixels(atlas, [a if s == 7 else b for s in atlas.ids])
     assert pixels.shape == (atlas.height, atlas.width, 4)
     assert pixels[..., 3].sum() == pytest.approx(0.5 * 6 + 8)
 
@@ -246,23 +247,23 @@ class _Analysis:
 
 
 def test_decal_rectangles_are_the_sprite_around_its_box_centre_in_world_units():
-    atlas = core.pack_atlas([0, 1], [(12, 8), (4, 4)], [0, 0])
+    atlas = outputs.pack_atlas([0, 1], [(12, 8), (4, 4)], [0, 0])
     placed = {"class": np.array([0]), "sprite": np.array([0]), "sprite_axis": np.array([[1.0, 0.0, 0.0]]),
               "normal": np.array([[0.0, 0.0, 1.0]]), "pixel_size": np.array([0.5])}
     boxes = {0: (4, 16, 12, 8), 1: (3, 3, 4, 4)}
-    axes, rects, uv_rects, sprites = core.decal_inputs(placed, _Analysis(), atlas, boxes)
+    axes, rects, uv_rects, sprites = outputs.decal_inputs(placed, _Analysis(), atlas, boxes)
     # Sprite x 4..16, y 16..24 around the centre (10, 20), at 0.5 world units per pixel.
     np.testing.assert_allclose(rects[0], [-3.0, -2.0, 3.0, 2.0])
     np.testing.assert_allclose(axes[0], [1, 0, 0])
     np.testing.assert_allclose(uv_rects[0], atlas.uv_rects([0])[0])
-    assert core.decal_offset(0, 10.0) == pytest.approx(1e-3) and core.decal_offset(2, 10.0) == pytest.approx(3e-3)
+    assert outputs.decal_offset(0, 10.0) == pytest.approx(1e-3) and outputs.decal_offset(2, 10.0) == pytest.approx(3e-3)
 
 
 def test_instance_frames_point_x_along_the_box_and_z_along_the_normal():
     # Sprite axis +x, box angle 0.5 rad: the box axis is +x turned by 0.5 rad about the normal +z.
     placed = {"sprite": np.array([1]), "sprite_axis": np.array([[1.0, 0.0, 0.0]]),
               "normal": np.array([[0.0, 0.0, 1.0]]), "pixel_size": np.array([2.0])}
-    rotation, scale = core.instance_frames(placed, _Analysis())
+    rotation, scale = outputs.instance_frames(placed, _Analysis())
     np.testing.assert_allclose(rotation[0], [0.0, 0.0, 0.5], atol=1e-6)
     np.testing.assert_allclose(scale[0], [4.0, 4.0, 4.0])
 
@@ -271,7 +272,7 @@ def test_euler_angles_rebuild_the_frame():
     rng = np.random.default_rng(5)
     z = rng.normal(size=(50, 3))
     x = np.cross(z, rng.normal(size=(50, 3)))
-    angles = core.euler_xyz(x, z).astype(np.float64)
+    angles = outputs.euler_xyz(x, z).astype(np.float64)
 
     def matrix(a, b, c):  # Blender's XYZ Euler: Rz(c) Ry(b) Rx(a)
         rx = np.array([[1, 0, 0], [0, math.cos(a), -math.sin(a)], [0, math.sin(a), math.cos(a)]])

@@ -10,6 +10,7 @@ import addon_package
 core_layers = addon_package.load("core.layers")
 core_settings = addon_package.load("core.settings")
 core = addon_package.load("surface_colour.core")
+round_core = addon_package.load("surface_colour.round_neighbourhoods")
 sample_image = addon_package.load("core.sample_image")
 
 
@@ -113,16 +114,16 @@ def test_context_cache_keys_on_geometry_target_and_parameters():
     arrays = core_layers.MeshArrays(positions, np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0, np.int32))
     settings = core_settings.Settings(method="ROUND")
     target = core.SurfaceTarget("IMAGE", 64, 64, 2)
-    key = core.ContextCache.key(arrays, triangles, uvs, target, 10.0, settings)
-    assert key == core.ContextCache.key(arrays, triangles, uvs.copy(), target, 10.0, settings)
+    key = round_core.ContextCache.key(arrays, triangles, uvs, target, 10.0, settings)
+    assert key == round_core.ContextCache.key(arrays, triangles, uvs.copy(), target, 10.0, settings)
     moved = core_layers.MeshArrays(positions + 1, arrays.corner_verts, arrays.poly_starts, arrays.poly_sizes)
-    others = [core.ContextCache.key(moved, triangles, uvs, target, 10.0, settings),
-              core.ContextCache.key(arrays, triangles, uvs * 0.5, target, 10.0, settings),
-              core.ContextCache.key(arrays, triangles, uvs, core.SurfaceTarget("IMAGE", 128, 128, 2), 10.0, settings),
-              core.ContextCache.key(arrays, triangles, uvs, target, 11.0, settings),
-              core.ContextCache.key(arrays, triangles, uvs, target, 10.0, core_settings.Settings(round_levels=2))]
+    others = [round_core.ContextCache.key(moved, triangles, uvs, target, 10.0, settings),
+              round_core.ContextCache.key(arrays, triangles, uvs * 0.5, target, 10.0, settings),
+              round_core.ContextCache.key(arrays, triangles, uvs, core.SurfaceTarget("IMAGE", 128, 128, 2), 10.0, settings),
+              round_core.ContextCache.key(arrays, triangles, uvs, target, 11.0, settings),
+              round_core.ContextCache.key(arrays, triangles, uvs, target, 10.0, core_settings.Settings(round_levels=2))]
     assert len(set(others + [key])) == 6
-    cache = core.ContextCache(capacity=2)
+    cache = round_core.ContextCache(capacity=2)
     for name in ("a", "b", "c"):
         cache.put(name, name.upper())
     assert (cache.get("a"), cache.get("b"), cache.get("c")) == (None, "B", "C")

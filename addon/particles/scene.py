@@ -15,7 +15,7 @@ from .. import compat
 from ..bridge import mesh_io
 from ..core.names import fit_name
 from ..shading import surface_material
-from . import core
+from . import core, outputs
 
 TAG, CLASS_TAG, KIND_TAG = "texsynth_particles", "texsynth_class", "texsynth_kind"
 # For baking (particles/baking.py): the class's layer order and the target's loop-triangle count at synthesis
@@ -177,7 +177,7 @@ def local_frames(target, rotation_axes_x, normals, scale):
     det = np.linalg.det(linear)
     inverse = np.linalg.inv(linear) if abs(det) > 1e-30 else np.eye(3)
     factor = abs(det) ** (1.0 / 3.0) if abs(det) > 1e-30 else 1.0
-    rotation = core.euler_xyz(np.asarray(rotation_axes_x) @ inverse.T, np.asarray(normals) @ inverse.T)
+    rotation = outputs.euler_xyz(np.asarray(rotation_axes_x) @ inverse.T, np.asarray(normals) @ inverse.T)
     return rotation, np.ascontiguousarray(np.asarray(scale, np.float64) / factor, dtype=np.float32)
 
 

@@ -28,7 +28,7 @@ from ..core import orientation
 from ..core.reporting import Report, Timings
 from ..core.settings import Settings, SettingsError, object_seed
 from ..uv_methods import synthesis as uv_synthesis
-from . import core, scene
+from . import core, outputs, scene
 
 PLACEMENT_KEYS = ("class", "sprite", "triangle", "barycentric", "position", "normal", "sprite_axis", "pixel_size")
 
@@ -120,7 +120,7 @@ class Job:
         arrays = mesh_io.read_mesh(obj, settings.direction_attribute if settings.orientation != "AXIS" else "")
         arrays.scale_multiplier = mesh_state.read_scale_multiplier(obj, settings)
         triangles, _ = mesh_io.read_loop_triangles(obj)
-        if triangles.shape[0] == 0 or core.triangle_areas(arrays.positions, triangles).sum() <= 0.0:
+        if triangles.shape[0] == 0 or outputs.triangle_areas(arrays.positions, triangles).sum() <= 0.0:
             raise SettingsError("mesh %r has no area: particles need faces to sit on" % obj.data.name)
         overrides = {}
         polygons = None
@@ -224,7 +224,7 @@ class Job:
             with self.timings.phase("synthesis"):
                 self._build_atlas(module, item)
             item.stats["seconds_atlas"] = time.perf_counter() - start
-        diagonal = core.bbox_diagonal(item.arrays.positions)
+        diagonal = outputs.bbox_diagonal(item.arrays.positions)
         item.outputs = []
         item.stats["per_class"] = {int(c): int(np.count_nonzero(placed["class"] == c)) for c in classes}
         for c in classes:
@@ -238,20 +238,20 @@ class Job:
             if decals:
                 start = time.perf_counter()
                 with self.timings.phase("synthesis"):
-                    axes, rects, uv_rects, _ = core.decal_inputs(part, self.analysis, item.atlas, item.sprite_boxes)
+                    axes, rects, uv_rects, _ = outputs.decal_inputs(part, self.analysis, item.atlas, item.sprite_boxes)
                     out.decals = dict(module.decal_mesh(
                         walk_mesh, np.ascontiguousarray(part["triangle"], np.int32),
                         np.ascontiguousarray(part["barycentric"], np.float64), axes, rects, uv_rects,
-                        offset=core.decal_offset(rank[c], diagonal), cancel=self.token))
+                        offset=outputs.decal_offset(rank[c], diagonal), cancel=self.token))
                 if "source_triangle" not in out.decals:  # a build from before baking needed them
                     raise SettingsError("this build of texsynth_native's decal_mesh returns no source "
                                                  "triangles: rebuild with scripts/build.sh")
                 item.stats["seconds_decal_mesh"] += time.perf_counter() - start
             if points:
-                rotation_axes = core.rotate_in_plane(
+                rotation_axes = outputs.rotate_in_plane(
                     part["sprite_axis"], part["normal"],
                     np.asarray(self.analysis.particles["box_angle"], np.float64)[part["sprite"]])
-                _, scale = core.instance_frames(part, self.analysis)
+                _, scale = outputs.instance_frames(part, self.analysis)
                 out.points = dict(position=part["position"], axis=rotation_axes, normal=part["normal"], scale=scale)
             item.outputs.append(out)
 
@@ -267,14 +267,14 @@ class Job:
             sprites.append(rgba)
             sizes.append((rgba.shape[1], rgba.shape[0]))
             boxes[int(pid)] = (sprite["origin"][0], sprite["origin"][1], rgba.shape[1], rgba.shape[0])
-        atlas = core.pack_atlas(wanted, sizes, particles["class"][wanted], seed=int(self.settings.seed))
+        atlas = outputs.pack_atlas(wanted, sizes, particles["class"][wanted], seed=int(self.settings.seed))
         order = {int(s): i for i, s in enumerate(wanted)}
         item.atlas = atlas
-        item.atlas_pixels = core.atlas_pixels(atlas, [sprites[order[int(s)]] for s in atlas.ids])
+        item.atlas_pixels = outputs.atlas_pixels(atlas, [sprites[order[int(s)]] for s in atlas.ids])
         item.sprite_boxes = boxes
         if atlas.dropped:
             self.report.notes.append("%s: atlas limited to %d px: %s sprite(s) left out (their particles reuse "
-                                     "kept sprites of the class)" % (item.obj.name, core.ATLAS_MAX_SIDE, ", ".join(
+                                     "kept sprites of the class)" % (item.obj.name, outputs.ATLAS_MAX_SIDE, ", ".join(
                                          "class %d: %d" % kv for kv in sorted(atlas.dropped.items()))))
 
     # -- main thread --------------------------------------------------------------------------

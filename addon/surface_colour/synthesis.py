@@ -25,6 +25,8 @@ from ..core.settings import SURFACE_METHODS, SettingsError, object_seed, texels_
 from ..core.names import fit_name
 from ..shading import surface_material
 from . import core
+from . import round_neighbourhoods as round_core
+from . import patches as patches_core
 
 MATERIAL_PREFIX = "TexSynth Surface: "
 # Share of the progress bar per stage when the context is built (the synthesis measures ~60% of the time).
@@ -164,12 +166,12 @@ class Job:
                 try:
                     with self.timings.phase("synthesis"):
                         if self.settings.method == "PATCHES":
-                            item.result = core.synthesize_patches(
+                            item.result = patches_core.synthesize_patches(
                                 self.sample_array, item.arrays, item.triangles, item.corner_uvs, self.settings, seed,
                                 self.texels_per_unit, target, self.token, stage=self._set_stage(index),
                                 cache_dir=self.cache_dir)
                         else:
-                            item.result = core.synthesize_round(
+                            item.result = round_core.synthesize_round(
                                 self.sample_array, item.arrays, item.triangles, item.corner_uvs, self.settings, seed,
                                 self.texels_per_unit, target, self.token, stage=self._set_stage(index))
                 except module.Cancelled:

@@ -89,8 +89,8 @@ def synthetic(args, obj):
 
 def real(args, obj, texsynth):
     from texsynth.core import settings as core_settings
-    from texsynth.particles import core, scene, synthesis
-    from texsynth.uv_methods.synthesis import Sample
+    from texsynth.particles import core, outputs, scene, synthesis
+    from texsynth.bridge.sources import Sample
     path = pebble_sample(os.path.join(tempfile.mkdtemp(), "pebbles.png"))
     settings = core_settings.Settings(method="PARTICLES", particle_classes=3, particle_blur=0.0,
                                  particle_background="NONE", seed=3)
@@ -98,7 +98,7 @@ def real(args, obj, texsynth):
     a = probe.analysis
     rows = core.class_rows(a)
     n_sample = sum(r["particles"] for r in rows if not r["background"])
-    area = float(core.triangle_areas(probe.items[0].arrays.positions, probe.items[0].triangles).sum())
+    area = float(outputs.triangle_areas(probe.items[0].arrays.positions, probe.items[0].triangles).sum())
     pixel = np.sqrt(n_sample * area / (a.width * a.height * args.particles))
     settings.sample_world_size = float(pixel * a.width)
     # Calibrated on one untimed placement (the placement packs particles more tightly than the sample's density).

@@ -349,7 +349,7 @@ def part_progressive(bench):
           "(x <= 0.4) vs right half (x >= 0.6); %s, %d^2 ==" % (name, res))
     print("sample's own period %.2f px; goal: left / right = 2 +- 10 %% (1.80..2.20)" % own)
     print("%-30s %-13s %8s %8s %8s %6s" % ("scale", "mode", "left px", "right px", "ratio", "goal"))
-    # The add-on's law (surface_colour.core.synthesize_patches): the sample is reduced by the largest
+    # The add-on's law (surface_colour.patches.synthesize_patches): the sample is reduced by the largest
     # multiplier first, so the densest region shows one reduced-sample pixel per surface sample and the
     # rest is magnified; unreduced, density 2 asks each sample to show two pixels and bricks fall apart.
     core = addon_package.load("surface_colour.core")

@@ -152,6 +152,7 @@ def round_job(side, size):
     size² image; the sample at its own density is reduced to the target's."""
     from texsynth.core import bake_options as options
     from texsynth.surface_colour import core, synthesis as surface
+    from texsynth.surface_colour import round_neighbourhoods as round_core
     obj = big_grid(side)
     mesh = obj.data
     corner_verts = np.empty(len(mesh.loops), np.int32)
@@ -162,7 +163,7 @@ def round_job(side, size):
     mesh.uv_layers["UVMap"].data.foreach_set("uv", np.ascontiguousarray(uv).ravel())
     props = settings()
     props.method, props.scale = "ROUND", 0.01 * side * 192 / size
-    core.contexts.clear()
+    round_core.contexts.clear()
     request = options.BakeRequest(size=size, margin=2, create_uv=False)
     return obj, surface.Job([obj], sources.Sample(path=BRICKS), props.to_settings(), request, "NEW")
 

@@ -23,8 +23,8 @@ texsynth.register()
 from texsynth import native  # noqa: E402
 from texsynth.core import layers as core_layers  # noqa: E402
 from texsynth.core import settings as core_settings  # noqa: E402
-from texsynth.particles import core, scene, synthesis  # noqa: E402
-from texsynth.uv_methods.synthesis import Sample  # noqa: E402
+from texsynth.particles import core, outputs, scene, synthesis  # noqa: E402
+from texsynth.bridge.sources import Sample  # noqa: E402
 
 sys.path.insert(0, harness.SAMPLES_DIR)
 import particle_instances  # noqa: E402
@@ -663,7 +663,7 @@ def test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_alo
     diagonal = 4.5 * math.sqrt(2.0)
     for obj in scene.owned_objects("Plane", ("DECALS",)):
         world = np.array([obj.matrix_world @ v.co for v in obj.data.vertices])
-        assert np.abs(world[:, 1]).max() <= 3 * core.DECAL_OFFSET_FACTOR * diagonal + 1e-5, np.abs(world[:, 1]).max()
+        assert np.abs(world[:, 1]).max() <= 3 * outputs.DECAL_OFFSET_FACTOR * diagonal + 1e-5, np.abs(world[:, 1]).max()
     depsgraph = bpy.context.evaluated_depsgraph_get()
     axes = [np.array(i.matrix_world.to_3x3().normalized().col[2]) for i in depsgraph.object_instances
             if i.is_instance and i.parent is not None and i.parent.original.get(scene.TAG) == "Plane"]
@@ -724,7 +724,8 @@ def test_cancel_leaves_nothing_behind():
 # -- baking the particles with the background (particles/baking.py) --------------------------------
 
 def _bake(target, size, margin=2):
-    from texsynth.bake import baking, options
+    from texsynth.bake import baking
+    from texsynth.core import bake_options as options
     result = baking.bake(target, options.BakeRequest(uv_map="UVMap", size=size, margin=margin))
     pixels = np.empty(size * size * 4, np.float32)
     result.image.pixels.foreach_get(pixels)

@@ -26,6 +26,7 @@ from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.fields import authoring  # noqa: E402
 from texsynth.ui import field_edits  # noqa: E402
 from texsynth.surface_colour import core, synthesis as surface  # noqa: E402
+from texsynth.surface_colour import patches as patches_core  # noqa: E402
 from texsynth.bridge import sources  # noqa: E402
 from texsynth.core import jobs  # noqa: E402
 
@@ -51,7 +52,7 @@ def test_image_target_shows_whole_sample_patches_along_the_field():
     # field along +y every texel centre is a grid point, so outside the cross-faded boundary zones the
     # texels are the sample's own pixels, and rows of the sample stay rows of the image.
     obj = plane()
-    core.exemplars.clear()
+    patches_core.exemplars.clear()
     report = run([obj])
     assert report.objects == ["Plane"] and not report.failures, report.summary()
     image = bpy.data.images[IMAGE]
@@ -126,18 +127,18 @@ def test_same_seed_same_image_and_another_seed_another():
 def test_analysed_sample_is_cached_on_disk_and_a_corrupt_file_is_rebuilt():
     obj = plane()
     folder = tempfile.mkdtemp(prefix="texsynth_patches_cache_")
-    core.exemplars.clear()
+    patches_core.exemplars.clear()
     assert run([obj], cache_dir=folder).native_stats["Plane"]["exemplar"] == "built"
     files = [name for name in os.listdir(folder) if name.startswith("patches-")]
     assert len(files) == 1, os.listdir(folder)
     assert run([obj], cache_dir=folder).native_stats["Plane"]["exemplar"] == "memory"
-    core.exemplars.clear()
+    patches_core.exemplars.clear()
     assert run([obj], cache_dir=folder).native_stats["Plane"]["exemplar"] == "disk"
     path = os.path.join(folder, files[0])
     with open(path, "r+b") as handle:
         handle.seek(os.path.getsize(path) // 2)
         handle.write(b"\xff" * 64)
-    core.exemplars.clear()
+    patches_core.exemplars.clear()
     report = run([obj], cache_dir=folder)
     assert report.objects == ["Plane"] and report.native_stats["Plane"]["exemplar"] == "built", report.summary()
 
@@ -193,18 +194,18 @@ def test_live_preview_after_a_field_edit_writes_a_small_image():
     state = mesh_state.field_state(bpy.context, obj)  # what a comb stroke leaves: a painted field on the mesh
     authoring.preset_axis(state, (0.0, 1.0, 0.0))
     mesh_state.write_field_state(obj, state)
-    core.patch_targets.clear()
+    patches_core.patch_targets.clear()
     field_edits.live_update(bpy.context, obj)
     image = bpy.data.images[IMAGE]
     assert tuple(image.size) == (field_edits.PATCH_PREVIEW_SIZE,) * 2, tuple(image.size)
     assert field_edits.last_timings["live_update"] > 0.0
-    assert not core.patch_targets.field.reused_mesh
+    assert not patches_core.patch_targets.field.reused_mesh
     first = np.array(image.pixels[:])
     # The next stroke redoes the field only: same surface samples, the walk mesh copied.
     authoring.preset_axis(state, (1.0, 0.0, 0.0))
     mesh_state.write_field_state(obj, state)
     field_edits.live_update(bpy.context, obj)
-    assert core.patch_targets.field.reused_mesh
+    assert patches_core.patch_targets.field.reused_mesh
     assert not np.array_equal(first, np.array(bpy.data.images[IMAGE].pixels[:])), "the new field shows"
 
 
@@ -258,18 +259,18 @@ def test_full_resolution_sample_over_the_memory_limit_is_refused_before_any_work
     obj = harness.add_primitive("cube", "Cube")
     harness.select_only([obj])
     before = state(obj)
-    core.exemplars.clear()
-    core.patch_targets.clear()
+    patches_core.exemplars.clear()
+    patches_core.patch_targets.clear()
     sample = sources.Sample(path=path)
     report = surface.synthesize([obj], sample, settings(sample_world_size=0.3, round_resolution="FULL", patch_size=32),
                                 options.BakeRequest(size=512, margin=4), "NEW")
     message = report.summary()
     assert not report.objects, message
     found = re.search(r"about (\d+) MB \(limit (\d+) MB\)", message)
-    assert found and int(found.group(1)) > int(found.group(2)) == core.PATCH_MAX_MEGABYTES, message
+    assert found and int(found.group(1)) > int(found.group(2)) == patches_core.PATCH_MAX_MEGABYTES, message
     assert "Synthesis Resolution" in message and "Match Target" in message, message
     # Refused before the sample analysis and the field: nothing of either was built.
-    assert core.exemplars.entry is None and core.patch_targets.field is None
+    assert patches_core.exemplars.entry is None and patches_core.patch_targets.field is None
     assert state(obj) == before
     # The default Synthesis Resolution (Match Target) analyses the sample reduced to the cube's density.
     report = surface.synthesize([obj], sample, settings(sample_world_size=0.3, patch_size=32),
@@ -285,7 +286,7 @@ def test_a_boundary_wider_than_half_the_patches_used_is_refused_by_the_addon():
     # boundary of at most 4 there. The add-on must refuse it itself, before any work, naming the setting.
     obj = plane()
     before = state(obj)
-    core.exemplars.clear()
+    patches_core.exemplars.clear()
     request = options.BakeRequest(size=64, margin=2)
     wide = dict(patch_mode="OPTIMISATION", patch_size=16, patch_boundary=6, sample_world_size=1.0)
     settings(**wide).validate()  # fine as long as the sample is not known
@@ -293,7 +294,7 @@ def test_a_boundary_wider_than_half_the_patches_used_is_refused_by_the_addon():
     message = report.summary()
     assert not report.objects and "Boundary" in message and "at most 4" in message, message
     assert "patch synthesis:" not in message, "refused by the native code, not the add-on: " + message
-    assert core.exemplars.entry is None, "the sample was analysed before the refusal"
+    assert patches_core.exemplars.entry is None, "the sample was analysed before the refusal"
     assert state(obj) == before
     # The operator turns it into an error report and changes nothing.
     props = bpy.context.scene.texsynth

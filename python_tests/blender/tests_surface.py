@@ -18,10 +18,12 @@ import harness  # noqa: E402
 
 texsynth = harness.load_addon()
 texsynth.register()
-from texsynth.bake import baking, options  # noqa: E402
+from texsynth.bake import baking  # noqa: E402
+from texsynth.core import bake_options as options  # noqa: E402
 from texsynth.bridge import mesh_io  # noqa: E402
 from texsynth.core import settings as core_settings  # noqa: E402
 from texsynth.surface_colour import core, synthesis as surface  # noqa: E402
+from texsynth.surface_colour import round_neighbourhoods as round_core  # noqa: E402
 from texsynth.uv_methods import synthesis  # noqa: E402
 from texsynth.bridge import sources  # noqa: E402
 from texsynth.core import jobs  # noqa: E402
@@ -240,7 +242,7 @@ def test_cancel_leaves_nothing_behind_even_a_new_uv_map():
 
 def test_resynthesis_with_a_new_field_reuses_the_neighbourhoods():
     obj = plane()
-    core.contexts.clear()
+    round_core.contexts.clear()
     first = run([obj])
     assert "neighbourhoods reused" not in first.summary()
     image = bpy.data.images["TexSynth Round: Plane"]
@@ -254,10 +256,10 @@ def test_resynthesis_with_a_new_field_reuses_the_neighbourhoods():
 
 def test_same_seed_same_image():
     obj = plane()
-    core.contexts.clear()
+    round_core.contexts.clear()
     run([obj])
     first = pixels_of(bpy.data.images["TexSynth Round: Plane"]).copy()
-    core.contexts.clear()
+    round_core.contexts.clear()
     run([obj])
     assert np.array_equal(pixels_of(bpy.data.images["TexSynth Round: Plane"]), first)
     report = run([obj])  # the kept context gives the same bytes as a fresh one
