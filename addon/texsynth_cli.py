@@ -276,7 +276,7 @@ def particle_settings(args):
 
 def check_bake_args(args):
     """--bake-* options: only with --bake, one object, a supported image type, sizes in range, and never
-    through TexSynth's own UV map (bake/options.py: the same rules as the operator)."""
+    through TexSynth's own UV map (core/bake_options.py: the same rules as the operator)."""
     options = _bake_options()
     extra = [name for name in ("bake_uv", "bake_size", "bake_margin") if getattr(args, name) is not None]
     if args.bake_material:

@@ -97,7 +97,7 @@ class Settings:
     round_coarse_rings: int = 4     # neighbourhood radius in rings at the coarsest level
     round_fine_rings: int = 2       # ... and at the finer levels
     round_candidates: int = 2       # random candidates per point at the coarsest level
-    # AUTO: a sample finer than the target is reduced to the target's density first (surface_colour/core.py)
+    # AUTO: a sample finer than the target is reduced to the target's density first (surface_colour/core.py working_sample)
     round_resolution: str = "AUTO"
     patch_mode: str = "SAMPLING"
     patch_size: int = 32            # w_B, a multiple of 4

@@ -227,7 +227,7 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                ("NONE", "Layers Only", "Only write UV layers and weights")),
         default="NEW")
 
-    # Bake (see bake/options.py)
+    # Bake (see core/bake_options.py)
     bake_target: bpy.props.StringProperty(
         name="Image", default="",
         description="Image name (packed, or saved next to the .blend) or a file path (.png, .exr, ...) to save to; "
