@@ -3,15 +3,23 @@
 import os
 import warnings
 
+import pytest
+
 import addon_package
 import blender_run
+import blender_suite
 
 
-def test_addon_suite_inside_blender():
-    process = blender_run.blender("--python", os.path.join(blender_run.BLENDER_TESTS, "tests_addon.py"))
-    output = process.stdout + process.stderr
-    assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-6000:]
-    assert output.count("PASS test_") >= 25, output[-3000:]
+ADDON_SUITE = os.path.join(blender_run.BLENDER_TESTS, "tests_addon.py")
+
+
+@pytest.mark.parametrize("check", blender_suite.check_names(ADDON_SUITE))
+def test_addon_check_inside_blender(check):
+    blender_suite.assert_check(ADDON_SUITE, check)
+
+
+def test_addon_suite_uses_the_real_module_once_built():
+    output = blender_suite.run(ADDON_SUITE).output
     if addon_package.real_synthesizer_available():
         assert "NATIVE real" in output, "the suite must use the real module once it is built"
     else:

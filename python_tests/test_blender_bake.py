@@ -9,17 +9,19 @@ import pytest
 
 import addon_package
 import blender_run
+import blender_suite
 
 BRICKS = os.path.join(blender_run.SAMPLES, "bricks.png")
 needs_native = pytest.mark.skipif(not addon_package.real_synthesizer_available(), reason="texsynth_native not built")
 
 
+BAKE_SUITE = os.path.join(blender_run.BLENDER_TESTS, "tests_bake.py")
+
+
 @needs_native
-def test_bake_suite_inside_blender():
-    process = blender_run.blender("--python", os.path.join(blender_run.BLENDER_TESTS, "tests_bake.py"))
-    output = process.stdout + process.stderr
-    assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-6000:]
-    assert output.count("PASS test_") == 9, output[-3000:]
+@pytest.mark.parametrize("check", blender_suite.check_names(BAKE_SUITE))
+def test_bake_check_inside_blender(check):
+    blender_suite.assert_check(BAKE_SUITE, check)
 
 
 def write_grid_obj(path, cells=4, size=2.0):

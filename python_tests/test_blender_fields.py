@@ -8,6 +8,7 @@ import pytest
 
 import addon_package
 import blender_run
+import blender_suite
 
 SCENE = os.path.join(blender_run.SAMPLES, "scene.blend")
 BRICKS = os.path.join(blender_run.SAMPLES, "bricks.png")
@@ -24,12 +25,13 @@ def _native_has_fields():
 needs_native = pytest.mark.skipif(not _native_has_fields(), reason="texsynth_native with RayCaster not built")
 
 
+FIELDS_SUITE = os.path.join(blender_run.BLENDER_TESTS, "tests_fields.py")
+
+
 @needs_native
-def test_field_suite_inside_blender():
-    process = blender_run.blender("--python", os.path.join(blender_run.BLENDER_TESTS, "tests_fields.py"))
-    output = process.stdout + process.stderr
-    assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-6000:]
-    assert output.count("PASS test_") >= 10, output[-3000:]
+@pytest.mark.parametrize("check", blender_suite.check_names(FIELDS_SUITE))
+def test_fields_check_inside_blender(check):
+    blender_suite.assert_check(FIELDS_SUITE, check)
 
 
 @needs_native

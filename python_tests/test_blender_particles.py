@@ -2,7 +2,6 @@
 """Texture Particles in Blender: the checks inside Blender (python_tests/blender/tests_particles.py) and the
 CLI's --method particles end to end in a subprocess. The end-to-end checks need the native place_particles
 and decal_mesh: skipped while the module lacks them (they are not faked)."""
-import ast
 import json
 import os
 
@@ -11,6 +10,7 @@ import pytest
 
 import addon_package
 import blender_run
+import blender_suite
 from test_blender_bake import run_failing, write_grid_obj
 
 needs_native = pytest.mark.skipif(not addon_package.real_synthesizer_available(), reason="texsynth_native not built")
@@ -29,37 +29,22 @@ needs_placement = pytest.mark.skipif(not _has("place_particles", "decal_mesh"),
 SUITE = os.path.join(blender_run.BLENDER_TESTS, "tests_particles.py")
 
 
-def suite_names():
-    """(every test of the suite, the end-to-end ones): read from its source, which needs bpy to import."""
-    tree = ast.parse(open(SUITE).read())
-    names = [node.name for node in tree.body if isinstance(node, ast.FunctionDef) and node.name.startswith("test_")]
-    full = next(ast.literal_eval(node.value) for node in tree.body if isinstance(node, ast.Assign)
-                and getattr(node.targets[0], "id", "") == "FULL_RUN_TESTS")
-    return names, tuple(full)
-
-
-ALL_TESTS, FULL_RUN = suite_names()
-
-
-def run_suite(*names):
-    process = blender_run.blender("--python", SUITE, "--", *names)
-    output = process.stdout + process.stderr
-    assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-6000:]
-    return output
+ALL_TESTS = blender_suite.check_names(SUITE)
+FULL_RUN = tuple(blender_suite.module_constant(SUITE, "FULL_RUN_TESTS"))
+VIEW_AND_OUTPUTS = tuple(name for name in ALL_TESTS if name not in FULL_RUN)
 
 
 @needs_native
-def test_particles_view_and_outputs_inside_blender():
-    names = [name for name in ALL_TESTS if name not in FULL_RUN]
-    output = run_suite(*names)
-    assert output.count("PASS test_") == len(names) >= 17, output[-3000:]
+@pytest.mark.parametrize("check", VIEW_AND_OUTPUTS)
+def test_particles_view_and_outputs_inside_blender(check):
+    blender_suite.assert_check(SUITE, check, *VIEW_AND_OUTPUTS)
 
 
 @needs_native
 @needs_placement
-def test_particles_end_to_end_inside_blender():
-    output = run_suite(*FULL_RUN)
-    assert output.count("PASS test_") == len(FULL_RUN), output[-3000:]
+@pytest.mark.parametrize("check", FULL_RUN)
+def test_particles_end_to_end_inside_blender(check):
+    blender_suite.assert_check(SUITE, check, *FULL_RUN)
 
 
 def write_png(path, pixels):

@@ -2,14 +2,17 @@
 """Runs the blend-group render checks inside Blender (python_tests/blender/tests_shading.py)."""
 import os
 
+import pytest
+
 import addon_package
 import blender_run
-import pytest
+import blender_suite
+
+
+SHADING_SUITE = os.path.join(blender_run.BLENDER_TESTS, "tests_shading.py")
 
 
 @pytest.mark.skipif(not addon_package.real_synthesizer_available(), reason="texsynth_native not built")
-def test_blend_group_renders_inside_blender():
-    process = blender_run.blender("--python", os.path.join(blender_run.BLENDER_TESTS, "tests_shading.py"))
-    output = process.stdout + process.stderr
-    assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-6000:]
-    assert output.count("PASS test_") == 4, output[-3000:]
+@pytest.mark.parametrize("check", blender_suite.check_names(SHADING_SUITE))
+def test_shading_check_inside_blender(check):
+    blender_suite.assert_check(SHADING_SUITE, check)

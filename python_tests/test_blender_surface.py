@@ -8,18 +8,20 @@ import pytest
 
 import addon_package
 import blender_run
+import blender_suite
 from test_blender_bake import png_size, run_failing, write_grid_obj
 
 BRICKS = os.path.join(blender_run.SAMPLES, "bricks.png")
 needs_native = pytest.mark.skipif(not addon_package.real_synthesizer_available(), reason="texsynth_native not built")
 
 
+SURFACE_SUITE = os.path.join(blender_run.BLENDER_TESTS, "tests_surface.py")
+
+
 @needs_native
-def test_surface_suite_inside_blender():
-    process = blender_run.blender("--python", os.path.join(blender_run.BLENDER_TESTS, "tests_surface.py"))
-    output = process.stdout + process.stderr
-    assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-6000:]
-    assert output.count("PASS test_") == 16, output[-3000:]
+@pytest.mark.parametrize("check", blender_suite.check_names(SURFACE_SUITE))
+def test_surface_check_inside_blender(check):
+    blender_suite.assert_check(SURFACE_SUITE, check)
 
 
 @needs_native

@@ -150,7 +150,6 @@ def projected_material(name, image, world_size, projection="FLAT", shift=(0.0, 0
 def texsynth_material(image, blend_mode, cache_dir, method):
     from texsynth.shading import blend_groups
     from texsynth.uv_methods import synthesis
-    from texsynth.bridge import sources
     inputs = synthesis.blend_inputs(image, blend_mode, cache_dir, method)
 
     def color(nodes, links):
@@ -171,6 +170,7 @@ def render(scene, path):
 
 
 def synthesize(obj, sample_path, mode, world_size, seed, cache_dir, axis):
+    from texsynth.bridge import sources
     from texsynth.core import settings as core_settings
     from texsynth.uv_methods import synthesis
     method = "TEXTON" if mode.startswith("texton") else "JUMPMAP"

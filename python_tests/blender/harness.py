@@ -187,7 +187,8 @@ class Checks:
             except Exception:
                 self.failed.append(function.__name__)
                 print("FAIL", function.__name__, flush=True)
-                traceback.print_exc()
+                traceback.print_exc(file=sys.stdout)  # under its FAIL line: the pytest case shows it
+                sys.stdout.flush()
         print("SUMMARY failed=%d %s" % (len(self.failed), " ".join(self.failed)), flush=True)
         sys.exit(1 if self.failed else 0)
 

@@ -20,7 +20,7 @@ from texsynth.bridge import mesh_io  # noqa: E402
 from texsynth.core import layers as core_layers  # noqa: E402
 from texsynth.fields import mesh_state  # noqa: E402
 from texsynth.uv_methods import core as uv_core  # noqa: E402
-from texsynth.fields import authoring  # noqa: E402
+from texsynth.fields import authoring, overlay  # noqa: E402
 from texsynth.ui import field_edits  # noqa: E402
 from texsynth.ui import field_operators  # noqa: E402
 
