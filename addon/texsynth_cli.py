@@ -12,7 +12,7 @@
       [--synthesis-resolution auto|full]
       [--mode sampling|optimisation] [--patch-size N] [--boundary-width N] [--tolerance T] [--iterations N]
       [--classes K] [--blur SIGMA] [--min-area PX] [--background-class C] [--merges a>b,...] [--class-order c,...]
-      [--labels IMAGE] [--particle-output decals|instances|both] [--instances COLLECTION] [--size-jitter J]
+      [--labels IMAGE] [--write-labels PNG] [--particle-output decals|instances|both] [--instances COLLECTION] [--size-jitter J]
       [--density NAME] [--probability NAME] [--size NAME] [--background jumpmap|texton|none]
 
 --method round and --method patches synthesize a colour per texel of the --bake image through --bake-uv
@@ -92,6 +92,9 @@ def parse_args(argv):
     particles.add_argument("--class-order", default=None, metavar="c,...", help="particles: classes to place, in order")
     particles.add_argument("--labels", default=None, metavar="IMAGE",
                            help="particles: label image of the sample's size, one colour per class")
+    particles.add_argument("--write-labels", default=None, metavar="PNG",
+                           help="particles: also write the segmentation as a label image (one flat colour per "
+                                "class) to repaint and give back as --labels")
     particles.add_argument("--particle-output", choices=("decals", "instances", "both"), default=None)
     particles.add_argument("--instances", default=None, metavar="COLLECTION",
                            help="particles: collection instanced per class ('example': the thorn collection)")
@@ -229,7 +232,7 @@ def parse_axis(text):
 
 
 PARTICLE_OPTIONS = ("classes", "blur", "min_area", "background_class", "merges", "class_order", "labels",
-                    "particle_output", "instances", "size_jitter", "density", "probability", "size", "background")
+                    "write_labels", "particle_output", "instances", "size_jitter", "density", "probability", "size", "background")
 
 
 def check_kept_output(args):

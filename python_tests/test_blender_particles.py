@@ -110,12 +110,31 @@ def test_cli_particles_bake_composites_the_decals_into_the_image(tmp_path):
         stats["bake"]
     assert png_size(baked) == (128, 128)
 
+@needs_native
+@needs_placement
+def test_cli_write_labels_writes_the_segmentation_and_labels_reads_it_back(tmp_path):
+    import texsynth_native
+    written = tmp_path / "labels.png"
+    first = cli_particles(tmp_path, "--write-labels", str(written))
+    labels = texsynth_native.load_image(str(written))
+    sample = texsynth_native.load_image(str(tmp_path / "pebbles.png"))
+    assert labels.shape[:2] == sample.shape[:2]
+    colours = np.unique(np.round(labels[:, :, :3] * 255).astype(np.int32).reshape(-1, 3), axis=0)
+    assert len(colours) == 3, colours  # --classes 3: one flat colour per class
+    again = tmp_path / "again"
+    again.mkdir()
+    second = cli_particles(again, "--labels", str(written))
+    placed = [stats["native"][stats["objects"][0]]["placed"] for stats in (first, second)]
+    assert placed[1] > 0 and abs(placed[1] - placed[0]) <= 0.15 * placed[0], placed
+
+
 @pytest.mark.parametrize("extra, code, fragment", [
     (("--method", "jumpmap", "--classes", "3"), 2, "--classes is for --method particles"),
     (("--method", "particles", "--particle-output", "instances"), 2, "--instances"),
     (("--method", "particles", "--classes", "20"), 1, "particle classes"),
     (("--method", "particles", "--size-jitter", "2"), 1, "size jitter"),
     (("--method", "particles", "--background", "none", "--bake", "out.png"), 2, "drop --background none"),
+    (("--method", "jumpmap", "--write-labels", "labels.png"), 2, "--write-labels is for --method particles"),
 ])
 def test_cli_particles_bad_arguments_exit_with_one_line(tmp_path, extra, code, fragment):
     mesh = write_grid_obj(tmp_path / "grid.obj")

@@ -283,3 +283,16 @@ def test_euler_angles_rebuild_the_frame():
         m = matrix(*angles[i])
         np.testing.assert_allclose(m[:, 0], x[i] / np.linalg.norm(x[i]), atol=1e-5)
         np.testing.assert_allclose(m[:, 2], z[i] / np.linalg.norm(z[i]), atol=1e-5)
+
+
+def test_label_image_gives_back_the_segmentation_it_was_written_from():
+    # --write-labels then --labels: the same partition of the sample (class ids may be renumbered).
+    sample = pebbles()
+    analysis, _ = core.analyse(sample, settings(), cache=core.AnalysisCache())
+    image = core.label_image(analysis)
+    assert image.shape == sample.shape[:2] + (4,) and image.dtype == np.float32
+    assert np.array_equal(np.round(image * 255) / 255, image)  # exact in an 8-bit PNG
+    ids = core.labels_from_image(image, sample.shape[1], sample.shape[0])
+    labels = np.asarray(analysis.labels)
+    pairs = set(zip(labels.ravel().tolist(), ids.ravel().tolist()))
+    assert len(pairs) == len(np.unique(labels)) == len(np.unique(ids)) >= 2, pairs

@@ -76,3 +76,21 @@ def write_surface_colour(image, rgba, coverage, margin=options.DEFAULT_MARGIN):
     image.pixels.foreach_set(np.ascontiguousarray(rgba[::-1]).ravel())
     image.update()
     return image
+
+
+def write_png(path, rgba_bottom_first):
+    """Saves float RGBA pixels (row 0 = bottom, values 0..1 as stored) as an 8-bit PNG at path, through a
+    temporary image that is removed again."""
+    rgba = np.ascontiguousarray(rgba_bottom_first, dtype=np.float32)
+    height, width = rgba.shape[:2]
+    image = bpy.data.images.new("TexSynth PNG", width, height, alpha=True)
+    try:
+        image.pixels.foreach_set(rgba.ravel())
+        image.filepath_raw = path
+        image.file_format = "PNG"
+        try:
+            image.save()
+        except RuntimeError as error:
+            raise BakeError("could not write %s: %s" % (path, str(error).strip()))
+    finally:
+        bpy.data.images.remove(image)

@@ -11,7 +11,7 @@ import bpy
 
 from .. import compat
 from ..bake import baking
-from ..bridge import mesh_io, sources
+from ..bridge import images, mesh_io, sources
 from ..fields import mesh_state
 from ..particles import synthesis as particle_synthesis
 
@@ -162,6 +162,11 @@ def run_particles(args, objects, sample, settings):
             labels = mesh_io.read_image_pixels(image)[::-1]
         finally:
             bpy.data.images.remove(image)
+    if args.write_labels:
+        from ..particles import core as particle_core
+        cache_dir = args.cache_dir or sources.default_cache_dir()
+        analysis, _, _ = particle_synthesis.analyse(sample, settings, cache_dir, labels)
+        images.write_png(os.path.abspath(args.write_labels), particle_core.label_image(analysis))
     if args.instances == "example" and bpy.data.collections.get("example") is None:
         sys.path.insert(0, os.path.join(REPOSITORY, "blend_samples"))
         try:

@@ -226,6 +226,22 @@ def segmentation_preview(analysis):
     return image
 
 
+# Flat label colours, one per class id (8-bit exact, far apart): what --write-labels writes and --labels
+# reads back (labels_from_image numbers classes by first appearance, so ids may be renumbered).
+LABEL_PALETTE = np.array([[0, 0, 0], [230, 25, 75], [60, 180, 75], [255, 225, 25], [0, 130, 200], [245, 130, 48],
+                          [145, 30, 180], [70, 240, 240], [240, 50, 230], [210, 245, 60], [250, 190, 212],
+                          [255, 255, 255]], np.float32) / np.float32(255.0)
+
+
+def label_image(analysis):
+    """(H, W, 4) float32 RGBA, row 0 = bottom: the analysis' classes as flat colours (LABEL_PALETTE by class
+    id, no outlines), a label image the artist can repaint and give back as --labels or Label Image."""
+    labels = np.clip(np.asarray(analysis.labels), 0, len(LABEL_PALETTE) - 1)
+    image = np.ones(labels.shape + (4,), np.float32)
+    image[:, :, :3] = LABEL_PALETTE[labels]
+    return image
+
+
 def class_at(analysis, x, y):
     """Class id of sample pixel (x, y) (x right, y up from the bottom row); SettingsError outside."""
     if not (0 <= x < analysis.width and 0 <= y < analysis.height):
