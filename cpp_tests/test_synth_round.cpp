@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// Round-neighbourhood synthesis (Chen & Dong 2008, note 003). Expectations come from the samples
-// themselves, not from the synthesizer: a result must be as close to its sample (colour histogram,
+// Round-neighbourhood synthesis (Chen & Dong 2008; docs/algorithms/round_neighbourhoods.md).
+// Expectations come from the samples themselves, not from the synthesizer: a result must be as close to its sample (colour histogram,
 // nearest 5x5 patches) as the sample's own halves / non-overlapping patches are to each other, and a
 // pixel-shuffled sample must fail the same test; orientation is read from the structure tensor and
 // from which rotation or mirror image of the sample the result's patches match; seams compare

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// The synthesis half of round-neighbourhood synthesis (Chen & Dong 2008; note 003): sample pyramid,
-// template neighbourhoods of the sample, then the levels coarsest first. See round_synth.hpp.
+// The synthesis half of round-neighbourhood synthesis (Chen & Dong 2008;
+// docs/algorithms/round_neighbourhoods.md): sample pyramid, template neighbourhoods of the sample, then
+// the levels coarsest first. See round_synth.hpp.
 #include <tbb/blocked_range.h>
 #include <tbb/combinable.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -37,7 +38,7 @@ using round_detail::seconds_since;
 
 constexpr double kTwoPi = 6.283185307179586476925;
 // A template point (or ring bin) whose bilinear weights over coloured texels sum below this is
-// uncoloured (note 003 "Partly coloured triangles": renormalise, 0.5 uses more data early).
+// uncoloured (docs/algorithms/round_neighbourhoods.md, "Ring-point colour").
 constexpr float kMinColourWeight = 0.5f;
 // Candidates are de-duplicated on a quarter-pixel lattice (and kept there).
 constexpr int32_t kSub = 4;
@@ -417,7 +418,7 @@ class LevelSynth {
       const double px = sub ? cx : std::floor(cx) + 0.5, py = sub ? cy : std::floor(cy) + 0.5;
       for (const std::array<int, 2>& h : hier_) push_candidate(s, px + h[0], py + h[1], sub);
     }
-    // Random candidates (note 003: coherence-only sets get stuck) per sample pixel of surface, not
+    // Random candidates (round_neighbourhoods.md, "Candidates") per sample pixel of surface, not
     // per point: where points are ρ times denser than r (the vertex target's coarser levels) a point
     // gets random_candidates / ρ² on average, else random sources would keep breaking up copies.
     Rng rng(p_.seed, (uint64_t(L_.level) << 40) ^ uint64_t(uint32_t(i)) ^ 0x726f756e64ull);
@@ -457,8 +458,8 @@ class LevelSynth {
     return out;
   }
 
-  // Adaptive metric (§5.2, note 003 "Metric"). Per candidate and coloured template point the squared
-  // colour difference, clamped at mean + 2σ of that candidate's differences (outliers: clamped, not
+  // Adaptive metric (§5.2; round_neighbourhoods.md, "Metric"). Per candidate and coloured template
+  // point the squared colour difference, clamped at mean + 2σ of that candidate's differences (outliers: clamped, not
   // dropped, so every candidate keeps the same terms); per-ring sums D_m. Top size T: starting from
   // all candidates, at size s = min_top_size, ... keep those with SSD_s = Σ_{m<=s} D_m <= μ - σ (else
   // the minimum; no cut when σ ≈ 0 or ring s has no coloured point) until one is left, capped at the
@@ -642,8 +643,8 @@ void run_coarsest(LevelSynth& ls, const RoundLevel& L, LevelState& st, const Rou
   for (int32_t i = 0; i < n; ++i) perm[i] = i;
   Rng rng(p.seed, 0x636f61727365ull);
   for (int32_t i = n - 1; i > 0; --i) std::swap(perm[i], perm[rng.below(uint32_t(i + 1))]);
-  // Coverage order (note 003): the point with the most synthesized points within 2r next; ties
-  // by lowest index (a max-heap of (count, -index) with stale entries skipped).
+  // Coverage order (round_neighbourhoods.md, "Order"): the point with the most synthesized points
+  // within 2r next; ties by lowest index (a max-heap of (count, -index) with stale entries skipped).
   std::vector<int32_t> count(size_t(n), 0);
   std::priority_queue<std::pair<int32_t, int32_t>> heap;
   size_t cursor = 0;

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// Direction-invariant round neighbourhoods (Chen & Dong 2008, §4.3; implementation note 003,
-// "Rings on real meshes" and §3), precomputed once per mesh, point set, radii and K.
+// Direction-invariant round neighbourhoods (Chen & Dong 2008, §4.3;
+// docs/algorithms/round_neighbourhoods.md, "Rings"), precomputed once per mesh, point set, radii and K.
 //
 // Each surface sample point P (a texel centre through the UV map, or a vertex) gets rings of radius
 // m·r (m = 1..K). Ring m holds A_m = 8m bins; bin a is where a straightest-geodesic walk from P,
@@ -13,7 +13,7 @@
 //
 // Why a radial walk rather than the paper's cylinder cuts: on a plane both give the same points; on
 // open or broken rings (boundaries, holes, thin parts) each point still has a defined angle, and a
-// point past a boundary is simply invalid (note 003, "Open rings").
+// point past a boundary is simply invalid (round_neighbourhoods.md, "Rings").
 //
 // Walks run on a copy of the mesh welded by exactly equal positions (UV-seam splits and split-vertex
 // imports connect). A walk is a straight line inside each face, unfolded across each edge (rotated

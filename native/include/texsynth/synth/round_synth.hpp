@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
 // Pixel-based surface texture synthesis with round neighbourhoods and the adaptive metric
-// (Chen & Dong 2008, §3–6), following implementation note 003 ("Rec:" defaults) and adapted to an
-// image target through UVs (note §3) as well as the paper's per-vertex colours.
+// (Chen & Dong 2008, §3–6), decisions in docs/algorithms/round_neighbourhoods.md, adapted to an
+// image target through UVs ("Image target") as well as the paper's per-vertex colours.
 //
 // Two calls, so that a new direction field costs only the synthesis:
 //  - build_round_context(): everything that depends on geometry, UVs, target size, scale, levels
@@ -33,7 +33,7 @@
 // sequentially; finer levels run in four fixed passes that read only earlier passes and the
 // prediction from the level below.
 //
-// Decisions where the paper and note 003 are silent, or where we measured (bench_round, tests):
+// Decisions where the paper is silent, or where we measured (bench_round, tests):
 //  - Template: ring m has the 8m - 4 grid crossings (round_template), at angles counter-clockwise
 //    from sample +x; on the surface, angle a of the template is the field direction turned by
 //    a - 90° counter-clockwise about the outward normal, read by linear interpolation between the
@@ -50,8 +50,8 @@
 //    the vertex target where 2·s of a coarse centre is a fine pixel corner.
 //  - Random candidates: random_candidates per sample pixel of surface at the coarsest level (per
 //    point divided by density²), and 2 for a point with no other candidate.
-//  - Metric: literal nested sums with the mean + 2σ clamp (note "Metric"); the adaptive cuts start at
-//    size 2 (min_top_size) because ring 1 has only 4 points (see RoundSynthParams).
+//  - Metric: literal nested sums with the mean + 2σ clamp (round_neighbourhoods.md, "Metric"); the
+//    adaptive cuts start at size 2 (min_top_size) because ring 1 has only 4 points (see RoundSynthParams).
 //  - Finer levels: predictions (2·s_parent + the point's offset from its parent, read at that level)
 //    give every ring point a colour; passes by 2x2 texel parity (vertex index & 3 on the vertex
 //    target) in the order (0,0), (1,1), (1,0), (0,1).
