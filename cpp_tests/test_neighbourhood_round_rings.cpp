@@ -217,7 +217,7 @@ TEST(NeighbourhoodRoundRings, SphereRingPointsAtGeodesicRadius) {
           worst = std::max(worst, std::fabs(geodesic / (ring * r) - 1));
         }
     }
-    EXPECT_LT(worst, 0.01) << "r = " << r;  // polyhedral vs round sphere; far below 5 % ("Rings" in docs/algorithms)
+    EXPECT_LT(worst, 0.01) << "r = " << r;  // far below 5 % (round_neighbourhoods.md, "Rings")
   }
 }
 

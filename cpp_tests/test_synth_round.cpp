@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Round-neighbourhood synthesis (Chen & Dong 2008; docs/algorithms/round_neighbourhoods.md).
-// Expectations come from the samples themselves, not from the synthesizer: a result must be as close to its sample (colour histogram,
-// nearest 5x5 patches) as the sample's own halves / non-overlapping patches are to each other, and a
-// pixel-shuffled sample must fail the same test; orientation is read from the structure tensor and
-// from which rotation or mirror image of the sample the result's patches match; seams compare
-// colours of surface neighbours across and within UV islands.
+// Expectations come from the samples themselves, not from the synthesizer: a result must be as close to its
+// sample (colour histogram, nearest 5x5 patches) as the sample's own halves / non-overlapping patches are
+// to each other, and a pixel-shuffled sample must fail the same test; orientation is read from the
+// structure tensor and from which rotation or mirror image of the sample the result's patches match; seams
+// compare colours of surface neighbours across and within UV islands.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 

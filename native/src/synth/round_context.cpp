@@ -32,8 +32,9 @@ using round_detail::seconds_since;
 std::atomic<int64_t> g_ring_builds{0};
 
 // Ordering neighbourhood of a coarsest-level point: points within 2·r
-// (docs/algorithms/round_neighbourhoods.md, "Order"), capped at the nearest 48 so a sample magnified far beyond the texel spacing cannot blow up the lists
-// (the order only needs "how much around me is done", not every point).
+// (docs/algorithms/round_neighbourhoods.md, "Order"), capped at the nearest 48 so a sample magnified far
+// beyond the texel spacing cannot blow up the lists (the order only needs "how much around me is done", not
+// every point).
 constexpr int kOrderNeighbours = 48;
 // Gutter texels mapped to their nearest covered texel for bilinear reads: 2 reaches the diagonal
 // corner of a bilinear footprint at an island edge.

@@ -458,13 +458,13 @@ class LevelSynth {
     return out;
   }
 
-  // Adaptive metric (§5.2; round_neighbourhoods.md, "Metric"). Per candidate and coloured template
-  // point the squared colour difference, clamped at mean + 2σ of that candidate's differences (outliers: clamped, not
-  // dropped, so every candidate keeps the same terms); per-ring sums D_m. Top size T: starting from
-  // all candidates, at size s = min_top_size, ... keep those with SSD_s = Σ_{m<=s} D_m <= μ - σ (else
-  // the minimum; no cut when σ ≈ 0 or ring s has no coloured point) until one is left, capped at the
-  // last ring with a coloured point (≤ K). Winner: argmin over ALL candidates of Σ_{s<=T} SSD_s (the
-  // literal nested sums, i.e. ring m weighted T - m + 1); ties: lowest index (the candidate order).
+  // Adaptive metric (§5.2; round_neighbourhoods.md, "Metric"). Per candidate and coloured template point
+  // the squared colour difference, clamped at mean + 2σ of that candidate's differences (outliers: clamped,
+  // not dropped, so every candidate keeps the same terms); per-ring sums D_m. Top size T: starting from all
+  // candidates, at size s = min_top_size, ... keep those with SSD_s = Σ_{m<=s} D_m <= μ - σ (else the
+  // minimum; no cut when σ ≈ 0 or ring s has no coloured point) until one is left, capped at the last ring
+  // with a coloured point (≤ K). Winner: argmin over ALL candidates of Σ_{s<=T} SSD_s (the literal nested
+  // sums, i.e. ring m weighted T - m + 1); ties: lowest index (the candidate order).
   template <int C>
   int choose(Scratch& s, int n, int* top_out) const {
     int last_ring = 0;
