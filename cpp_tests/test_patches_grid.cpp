@@ -190,8 +190,8 @@ SphereGridErrors sphere_latitude_grid(const TriMesh& m, double h, double latitud
 }
 
 TEST(PatchesGrid, APatchWiderThanAThinPartIsCutBeforeItMeetsItself) {
-  // Note 001, "Thin parts": a cylinder 10 steps round, a circumferential field and 32-step patches:
-  // untruncated, each row would go round three times and paste onto itself.
+  // vector_field_patches.md, "Thin parts": a cylinder 10 steps round, a circumferential field and 32-step
+  // patches: untruncated, each row would go round three times and paste onto itself.
   const int segments = 48;
   const double h = 0.02, r = 10 * h / (2 * kPi);
   const TriMesh m = cylinder(segments, 60, r, 0.01);

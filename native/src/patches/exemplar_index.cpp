@@ -52,11 +52,12 @@
 //   bricks 256² (50625)    64/64     2.00     59       438 (189)           0.999 / 0.71          1.036
 //                         100/128    3.02     97       407 (167)           1.000 / 0.79          1.025
 //
-//  - M = 16 and ef_search = 64 as note 001 recommends. ef_construction 64, not 100: the same
-//    recall on queries near the data, 40 % less build time (the graph is ~90 % of the preprocessing).
+//  - M = 16 and ef_search = 64 (vector_field_patches.md, "Exemplar analysis"). ef_construction 64, not 100:
+//    the same recall on queries near the data, 40 % less build time (the graph is ~90 % of the
+//    preprocessing).
 //  - Queries between patches (blend) miss the exact first often on bricks (many near-equal
 //    mortar patches), but the first HNSW finds is on average 2-4 % farther than the exact one,
-//    inside the 1.2 x d_min tolerance patch sampling picks from (note 001).
+//    inside the 1.2 x d_min tolerance patch sampling picks from ("Patch sampling").
 //  - The exact search is the baseline and stays useful: below about kExactSearchMaxOrigins origins
 //    (the coarse levels) its batched form is about as fast as HNSW and exact.
 

@@ -236,12 +236,13 @@ class Tracer {
 FacePoint face_point(const Walker& w) { return {w.t, float(w.beta[1]), float(w.beta[2])}; }
 
 // One patch into its slots of `out` (points, positions, cells).
-// Thin parts (note 001): a patch wider than the part it lies on (a leg, a branch, a thin cylinder)
-// wraps round it and meets itself, pasting two patch regions onto one spot. On a sub-grid of every
-// kThinStride-th point, two points far apart in the grid (> 2 strides) but within kThinDistance steps in
-// 3D (the sub-grid of a sheet lying on itself is never farther apart than 2√2 steps) mean the patch has
-// come round: every point at or beyond that ring (Chebyshev distance from the centre), less a stride of
-// slack, is made invalid. The samples there are covered by other patches, an extra round or continued.
+// Thin parts (docs/algorithms/vector_field_patches.md, "Thin parts"): a patch wider than the part it lies
+// on (a leg, a branch, a thin cylinder) wraps round it and meets itself, pasting two patch regions onto one
+// spot. On a sub-grid of every kThinStride-th point, two points far apart in the grid (> 2 strides) but
+// within kThinDistance steps in 3D (the sub-grid of a sheet lying on itself is never farther apart than 2√2
+// steps) mean the patch has come round: every point at or beyond that ring (Chebyshev distance from the
+// centre), less a stride of slack, is made invalid. The samples there are covered by other patches, an
+// extra round or continued.
 constexpr int kThinStride = 4;
 constexpr double kThinDistance = 3.0;  // steps
 void truncate_thin_part(std::vector<Walker>& grid, const std::vector<V3>& p, int32_t n, double h) {

@@ -336,9 +336,9 @@ std::vector<int32_t> patch_order(const GridPatches& g, const PatchCoverage& cov,
   return order;
 }
 
-// Samples no patch reached (a strip along boundaries, next to singularities) continue the nearest
-// reached sample: its exemplar coordinate plus their offset in its local frame, in steps (note 001).
-// Returns how many were filled; those with no reached sample within 64 steps stay as they are.
+// Samples no patch reached (a strip along boundaries, next to singularities) continue the nearest reached
+// sample: its exemplar coordinate plus their offset in its local frame, in steps (vector_field_patches.md,
+// "Centres"). Returns how many were filled; those with no reached sample within 64 steps stay as they are.
 int64_t fill_unreached(const PatchField& field, const PatchSamples& samples, const ExemplarReader& reader,
                        PatchSynthResult& r, const std::atomic<bool>* cancel) {
   const int32_t count = samples.count;

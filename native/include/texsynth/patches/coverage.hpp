@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// Which grid patches cover which surface samples (vector-field patches, issue 14; note 001 "Centres"
-// and "Paste and extraction").
+// Which grid patches cover which surface samples (vector-field patches, issue 14;
+// docs/algorithms/vector_field_patches.md, "Centres" and "Paste").
 //
 //  - Centres: Poisson-disk over the samples, radius = spacing (in grid steps) × the local step h(x).
 //    Candidates are one seeded-random sample per occupied hash cell, accepted in a seeded order when no

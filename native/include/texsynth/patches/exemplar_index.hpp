@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// Exemplar analysis for vector-field patches (Chen, Liu & Dong, §4.1; note 001 "Exemplar"):
-// per-pixel appearance vectors, per-patch features over "representative pixels", PCA, and an
-// approximate nearest-neighbour index (hnswlib HNSW) next to an exact search as the baseline.
+// Exemplar analysis for vector-field patches (Chen, Liu & Dong, §4.1;
+// docs/algorithms/vector_field_patches.md, "Exemplar analysis"): per-pixel appearance vectors, per-patch
+// features over "representative pixels", PCA, and an approximate nearest-neighbour index (hnswlib HNSW)
+// next to an exact search as the baseline.
 //
 // Conventions.
 //  - Sample: height x width x channels floats (3 or 4), row y = 0 at the bottom (as round_synth.hpp),
@@ -184,7 +185,7 @@ struct ExemplarIndex {
 
 // Patch size for a width x height sample: `requested` if it fits (each side >= requested + 3, or
 // >= requested when tileable), else the largest multiple of 4 <= min(requested, smaller side / 2)
-// (note 001: small exemplars get smaller patches rather than a few hundred origins). Throws
+// (vector_field_patches.md, "Exemplar analysis": small exemplars get smaller patches). Throws
 // std::invalid_argument when requested is not a multiple of 4 in [8, 64], or when even 8 does not
 // fit (sides below 16).
 int fit_patch_size(int width, int height, int requested, bool tileable = false);

@@ -1,11 +1,12 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// Local resampling in a direction field (Chen, Liu & Dong, §3; implementation note 001, "Tracing"):
-// a regular grid patch around a surface point, built by tracing integral curves of the texture's
-// direction field ("up", sample +y) and of its orthogonal field (sample +x = up × normal, so the
+// Local resampling in a direction field (Chen, Liu & Dong, §3; docs/algorithms/vector_field_patches.md,
+// "Tracing"): a regular grid patch around a surface point, built by tracing integral curves of the
+// texture's direction field ("up", sample +y) and of its orthogonal field (sample +x = up × normal, so the
 // texture is not mirrored seen from outside), one grid step at a time.
 //
-// Decisions where the paper is silent (note 001; tests in cpp_tests/test_patches_grid.cpp):
+// Decisions where the paper is silent ("Tracing" and "Thin parts" there; tests in
+// cpp_tests/test_patches_grid.cpp):
 //  - Field inside a face: the three vertex vectors (unit length) projected into the face plane and
 //    interpolated linearly in barycentrics, then normalised. Where the interpolated vector is
 //    shorter than singular_threshold the field has a singularity (source, sink, umbilic) and the trace
@@ -106,10 +107,10 @@ GridPatches trace_grid_patches(const PatchField& field, const FacePoint* centres
 // result equals tracing all centres at once. Throws std::invalid_argument for another size.
 void append_grid_patches(GridPatches& into, const GridPatches& more);
 
-// Where a point lies within a grid cell (corners p00, p10, p11, p01 counter-clockwise in the grid),
-// by inverse bilinear interpolation in the cell's mean plane. The paper's paste formula (§3.2) neither
-// sums to one nor reproduces corner values (note 001); bilinear weights (1-s)(1-t), s(1-t), st,
-// (1-s)t do both. `distance` is the point's distance from the cell's mean plane.
+// Where a point lies within a grid cell (corners p00, p10, p11, p01 counter-clockwise in the grid), by
+// inverse bilinear interpolation in the cell's mean plane. The paper's paste formula (§3.2) neither sums to
+// one nor reproduces corner values (vector_field_patches.md, "Paste"); bilinear weights (1-s)(1-t), s(1-t),
+// st, (1-s)t do both. `distance` is the point's distance from the cell's mean plane.
 struct CellCoordinates {
   double s = 0, t = 0;
   double distance = 0;

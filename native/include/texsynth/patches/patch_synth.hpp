@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// Patch synthesis in a direction field (Chen, Liu & Dong §4–5; note 001): exemplar patches pasted
-// onto surface samples through grid patches traced along the field (grid_patch.hpp), located with
-// coverage.hpp, matched with the exemplar index (exemplar_index.hpp).
+// Patch synthesis in a direction field (Chen, Liu & Dong §4–5; docs/algorithms/vector_field_patches.md):
+// exemplar patches pasted onto surface samples through grid patches traced along the field
+// (grid_patch.hpp), located with coverage.hpp, matched with the exemplar index (exemplar_index.hpp).
 //
 // Grids are traced with a margin of 1 point on every side (size w + 2): the 5x5 appearance windows of
 // the representative pixels (patch pixels 2, 6, ..., w - 2) reach patch pixels 0..w, so they are on the
@@ -43,9 +43,9 @@ constexpr int kPatchGridMargin = 1;
 enum class PatchMode { kSampling, kOptimisation };
 
 // The discrete vote that ends the optimisation, measured on 256² planes (README, Vector-field patches):
-//  - kNearestMean: each sample keeps the proposal nearest the weighted mean (note 001, [8]): mortar
-//    lines stay continuous, but a stochastic sample loses ~16 % of its detail (moss 0.84 of the sample's
-//    mean gradient);
+//  - kNearestMean: each sample keeps the proposal nearest the weighted mean (the paper's [8];
+//    vector_field_patches.md, "Texture optimisation"): mortar lines stay continuous, but a stochastic
+//    sample loses ~16 % of its detail (moss 0.84 of the sample's mean gradient);
 //  - kBestPatch: each sample keeps the proposal of its best-matching patch, damped within the boundary
 //    zone: whole-patch detail (moss 1.02) but more broken mortar lines on bricks.
 // Keeping the most interior patch's proposal (a Voronoi of patch cores) broke the most lines.
@@ -98,11 +98,11 @@ PatchSynthResult synthesize_patches(const GridPatches& patches, const PatchCover
 // The whole surface pass: patch centres (Poisson-disk, spacing = centre_spacing × patch size, in
 // local steps), grids traced with the margin, samples located, one more round of centres among the
 // samples still uncovered (traced and located alone, then merged), then synthesize_patches().
-// centre_spacing: the note's w/2 for sampling is 0.5; the add-on uses 0.3 for optimisation.
-// Multi-resolution optimisation (levels > 1, note 001 "Multi-level"): the sample is halved (2×2 box)
-// per coarser level and the grid step doubled, so the same patch size in pixels spans twice the surface;
-// the coarsest level is patch sampling then optimisation, each finer level starts from the exemplar
-// coordinates of the one below, ×2 (coordinates up-sampled, not colours: no blur carried up).
+// centre_spacing: w/2 for sampling is 0.5 ("Centres"); the add-on uses 0.3 for optimisation.
+// Multi-resolution optimisation (levels > 1; vector_field_patches.md, "Multi-resolution"): the sample is
+// halved (2×2 box) per coarser level and the grid step doubled, so the same patch size in pixels spans
+// twice the surface; the coarsest level is patch sampling then optimisation, each finer level starts from
+// the exemplar coordinates of the one below, ×2 (coordinates up-sampled, not colours: no blur carried up).
 constexpr int kMaxPatchLevels = 3;
 struct SurfacePatchParams {
   PatchSynthParams synth;
