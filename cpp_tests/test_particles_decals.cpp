@@ -1,5 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// Decal geometry of texture particles (particles/decals.hpp; note 002 "Sprite on a curved patch"):
+// Decal geometry of texture particles (particles/decals.hpp;
+// docs/algorithms/texture_particles.md, "Decals and the analysis cache"):
 // areas, UV cells and shared-vertex counts worked out from the rectangles and the meshes (a big quad,
 // jittered and regular grids, a sphere, a cylinder, a mesh border, a sheet folded back), same bytes at
 // 1 and 2 threads, refusals and cancel.

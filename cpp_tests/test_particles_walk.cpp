@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
-// Normal-section walks and the pseudo-geodesic distance (surface_walk.hpp, note 002 "Inverse of dist",
-// "dist undefined"): against analytic curves on a plane (straight lines), a unit sphere (great
-// circles) and a unit cylinder (circle, line, ellipse); walls, limits, thin sheets, determinism, bad
-// input.
+// Normal-section walks and the pseudo-geodesic distance (surface_walk.hpp;
+// docs/algorithms/texture_particles.md, "Surface walks"): against analytic curves on a plane (straight
+// lines), a unit sphere (great circles) and a unit cylinder (circle, line, ellipse); walls, limits, thin
+// sheets, determinism, bad input.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 

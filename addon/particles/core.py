@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""bpy-free core of texture particles (Dischler et al. 2002; note 002-texture-particles.md, section 3):
-the analysis with its caches and the artist's edits (label image, merges, background, class order) and the
-analysis view (class rows, segmentation preview). outputs.py makes the atlas and the decal and instance
-arrays from a placement.
+"""bpy-free core of texture particles (Dischler et al. 2002; docs/algorithms/texture_particles.md, "In
+Blender"): the analysis with its caches and the artist's edits (label image, merges, background, class
+order) and the analysis view (class rows, segmentation preview). outputs.py makes the atlas and the decal
+and instance arrays from a placement.
 
 Frames: sample x right, y up, row 0 at the bottom (Blender's pixel order); a pixel (i, j) covers
 [i, i + 1] x [j, j + 1], as the analysis' centroids and boxes do.

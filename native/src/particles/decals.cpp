@@ -20,7 +20,9 @@ namespace texsynth {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kCurvedLimit = 0.5;       // R × κ (note 002: squash > 4 %)
+// R × κ above which a decal is flagged curved (squash > 4 %: docs/algorithms/texture_particles.md,
+// "Decals and the analysis cache").
+constexpr double kCurvedLimit = 0.5;
 constexpr double kMinAreaFraction = 1e-12;  // of the rectangle: a clip with less area only touches it
 constexpr int kMaxClip = 8;                 // a triangle clipped by 4 half-planes has at most 7 corners
 

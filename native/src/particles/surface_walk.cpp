@@ -16,7 +16,7 @@ namespace texsynth {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kNudge = 1e-7;               // × the start face's longest edge (note 002)
+constexpr double kNudge = 1e-7;               // × the start face's longest edge (texture_particles.md, "Surface walks")
 constexpr double kReachTolerance = 1e-6;      // × the same edge: the section passes through P2
 constexpr double kParallel = 1e-9;            // |P1P2 × N1| below this × |P1P2|: no plane
 constexpr double kBarycentricTolerance = 1e-4;

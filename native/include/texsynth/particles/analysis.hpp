@@ -1,8 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// Texture particles, analysis half (Dischler et al. 2002, §2.1-2.2; note 002 "Analysis" and
-// "Co-occurrences"): segmentation into classes, particles (8-connected components), their boxes and
-// completeness, co-occurrence lists, per-class tables, the filled background and soft sprites.
+// Texture particles, analysis half (Dischler et al. 2002, §2.1-2.2; docs/algorithms/texture_particles.md,
+// "Analysis"): segmentation into classes, particles (8-connected components), their boxes and completeness,
+// co-occurrence lists, per-class tables, the filled background and soft sprites.
 //
 // Conventions.
 //  - Sample: height x width x channels floats (3 or 4), interleaved, row y = 0 at the BOTTOM. Pixel

@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// Texture particles, Blender output (note 002 "Sprite on a curved patch", "Mapping onto Blender"):
+// Texture particles, Blender output (docs/algorithms/texture_particles.md, "Decals and the analysis cache"
+// and "In Blender"):
 // per placed particle, the target faces under its sprite rectangle, clipped to it, as decal polygons.
 //
 // Per particle: the anchor point x0 (smooth normal n0), the tangent frame u = the axis projected into

@@ -1,10 +1,10 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// Texture particles, placement on the surface (Dischler et al. 2002, §2.2-2.3; note 002 "Synthesis on
-// the surface"): seeding per mesh component, breadth-first propagation through the co-occurrence lists
-// along normal sections, overlap rejection against every particle placed so far, re-seeding of uncovered
-// areas, random classes by dart throwing, each class brought to the sample's density, the artist's
-// overrides.
+// Texture particles, placement on the surface (Dischler et al. 2002, §2.2-2.3;
+// docs/algorithms/texture_particles.md, "Placement"): seeding per mesh component, breadth-first propagation
+// through the co-occurrence lists along normal sections, overlap rejection against every particle placed so
+// far, re-seeding of uncovered areas, random classes by dart throwing, each class brought to the sample's
+// density, the artist's overrides.
 //
 // Frames and units (particles plan).
 //  - At a surface point: n = smooth normal, up = the direction field (per-vertex, interpolated by

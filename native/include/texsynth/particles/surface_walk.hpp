@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// Texture particles, synthesis half (Dischler et al. 2002, §2.3; note 002 "Synthesis on the surface",
-// bullets "Inverse of dist" and "dist undefined"): the pseudo-geodesic distance and its inverse.
+// Texture particles, synthesis half (Dischler et al. 2002, §2.3; docs/algorithms/texture_particles.md,
+// "Surface walks"): the pseudo-geodesic distance and its inverse.
 //
 // A normal section is the intersection of the surface with a plane through a point P that contains
 // P's smooth normal (vertex normals interpolated by barycentrics). On the mesh it is a polyline,
