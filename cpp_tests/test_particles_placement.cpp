@@ -539,7 +539,7 @@ double worst_turn_from_parent(const PlacedParticles& r, double z_min, int& count
 
 TEST(ParticlesPlace, WhereTheFieldVanishesParticlesTakeTheParentsDirection) {
   // An unpainted cap (zero vectors within 0.45 rad of the north pole, +z projected elsewhere): inside
-  // it every particle takes its parent's direction (note: neighbour jump <= 15 degrees).
+  // it every particle takes its parent's direction (texture_particles.md, "Placement": jump <= 15°).
   const Scene s(ring_fixtures::icosphere(5, 1.0));
   const texsynth::ParticleAnalysis a = analyse(jittered_discs());
   PlacementParams p;

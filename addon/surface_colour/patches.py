@@ -13,10 +13,11 @@ from ..core.settings import SettingsError, check_patch_boundary
 from .core import MAX_OVERLAP_FRACTION, target_density, vertex_samples, working_sample
 
 
-# Vector-field patches: the Poisson-disk radius of patch centres as a fraction of the patch size (note
-# 001, "Coverage"): half a patch for sampling; 0.3 for optimisation, which packs about as many patches
-# as the note's quarter did with sparser candidates (7 per sample at 256²) and measured more detail
-# (moss 0.84 vs 0.75 of the sample's gradient) in half the time (README, Vector-field patches).
+# Vector-field patches: the Poisson-disk radius of patch centres as a fraction of the patch size
+# (docs/algorithms/vector_field_patches.md, "Centres"): half a patch for sampling; 0.3 for optimisation,
+# which packs about as many patches as the paper's quarter did with sparser candidates (7 per sample at
+# 256²) and measured more detail (moss 0.84 vs 0.75 of the sample's gradient) in half the time (README,
+# Vector-field patches).
 PATCH_CENTRE_SPACING = {"SAMPLING": 0.5, "OPTIMISATION": 0.3}
 # Optimisation levels (coarse to fine, the sample halved per level): 3 kept brick courses whole where one
 # level broke them (nearest-patch distance 0.00083 vs 0.00317 on bricks, detail 0.95 vs 0.84 on moss).

@@ -1,7 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // Exemplar analysis for vector-field patches (patches/exemplar_index.hpp) on real samples:
-// blend_samples/bricks.png cropped to 96² (the paper's size) and resized to 256² (bilinear; the
-// note's 5 s goal on 2 cores), and moss.png (160²).
+// blend_samples/bricks.png cropped to 96² (the paper's size) and resized to 256² (bilinear; the 5 s
+// goal on 2 cores of vector_field_patches.md, "Exemplar analysis"), and moss.png (160²).
 //
 // BM_ExemplarBuild/size/band: preprocessing seconds (appearance, patch PCA, HNSW) for 32² patches,
 //   memory of the result, serialized bytes and the load time (checks + graph restoration).

@@ -33,9 +33,10 @@
 //    edges lie at P's far edges + (dx, dy). angle = neighbour box angle - P's, in (-pi/2, pi/2]; towards an
 //    incomplete neighbour (its box is that of its visible part) the class's median angle towards complete
 //    neighbours in that quadrant, 0 when there is none.
-//  - Empty quadrants (note "Mirroring"): the opposite quadrant's entries (point reflection: same dx,
-//    dy, angle); when it is empty too, the class-wide median of the measured entries of that quadrant;
-//    else the x-flipped adjacent quadrant (q ^ 1), else the y-flipped one (3 - q) (angle negated).
+//  - Empty quadrants (texture_particles.md, "Analysis"): the opposite quadrant's entries (point reflection:
+//    same dx, dy, angle); when it is empty too, the class-wide median of the measured entries of that
+//    quadrant; else the x-flipped adjacent quadrant (q ^ 1), else the y-flipped one (3 - q) (angle
+//    negated).
 //  - Classes with 1-3 particles are "random", and so are scattered classes (fewer than half of their
 //    complete particles' quadrants have a measured neighbour): min distance = 0.7 x the mean
 //    nearest-neighbour centre distance (one particle: 0.7 x min(W, H)); filled in for every class.
@@ -216,9 +217,9 @@ struct NeighbourHit {
 std::vector<NeighbourHit> particle_neighbours(const ParticleAnalysis& analysis, int32_t id,
                                               bool literal_dilation = false);
 
-// Soft sprite (note "⊗ and halo"): the particle's bounding box + 2 px, straight RGBA. Colour from the
-// sample (wrapped when tileable, clamped at the edges otherwise); alpha 1 on the mask, else
-// max(0, 1 - d / 3) with d the distance to the nearest mask pixel centre (2/3 and 1/3 on the two
+// Soft sprite (texture_particles.md, "Analysis"): the particle's bounding box + 2 px, straight RGBA.
+// Colour from the sample (wrapped when tileable, clamped at the edges otherwise); alpha 1 on the mask,
+// else max(0, 1 - d / 3) with d the distance to the nearest mask pixel centre (2/3 and 1/3 on the two
 // rings, 0 beyond 2 px). Alpha of a 4-channel sample is not used.
 struct ParticleSprite {
   int32_t x0 = 0, y0 = 0;           // unwrapped sample position of the sprite's pixel (0, 0)

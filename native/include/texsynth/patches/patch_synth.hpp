@@ -13,7 +13,7 @@
 // points with bilinear weights (the paper's barycentric read needs a colour per mesh vertex; this works
 // for texels and vertices alike). A grid point is known when its weight is >= 0.25.
 //
-// Patch sampling (§5, note "Band vs overlap"):
+// Patch sampling (§5; vector_field_patches.md, "Patch sampling"):
 //  - patches in breadth-first order over patches that share samples, from a seeded start;
 //  - candidates: an exact masked search of the full index over the known cells within W_E of the
 //    frontier (unknown and farther cells are masked; a separate band index was measured no better and
@@ -22,13 +22,13 @@
 //    a patch with no known band cell takes a seeded random origin;
 //  - paste: the whole patch is written; samples that were already settled are cross-faded over the
 //    boundary zone (weight distance-from-border / W_E), so the seam lies where the band was matched.
-// Texture optimisation (§4.3, note "Optimisation"): starts from the patch-sampling result; each
-// iteration matches every patch against the full index (M-step, in parallel) and sets each sample to
-// the weighted mean of its patches' proposals (E-step), ω = (d² + ε²)^((r − 2) / 2) with r the robust
-// exponent ([10]'s 0.8; the paper's |X − Z|^−0.8 is r = 1.2) and ε² = 1e-6 per dimension, which keeps
-// exact copies finite. Least squares blurs; the last iteration is a discrete vote instead ([8]): each
-// sample keeps the proposal nearest the weighted mean. It stops early when fewer than 1 % of the
-// patches change their match.
+// Texture optimisation (§4.3; vector_field_patches.md, "Texture optimisation"): starts from the
+// patch-sampling result; each iteration matches every patch against the full index (M-step, in parallel)
+// and sets each sample to the weighted mean of its patches' proposals (E-step), ω = (d² + ε²)^((r − 2) / 2)
+// with r the robust exponent ([10]'s 0.8; the paper's |X − Z|^−0.8 is r = 1.2) and ε² = 1e-6 per dimension,
+// which keeps exact copies finite. Least squares blurs; the last iteration is a discrete vote instead
+// ([8]): each sample keeps the proposal nearest the weighted mean. It stops early when fewer than 1 % of
+// the patches change their match.
 #include <atomic>
 #include <cstdint>
 #include <vector>

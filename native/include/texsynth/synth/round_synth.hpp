@@ -237,9 +237,9 @@ RoundSynthResult synthesize_round(const RoundSynthesisContext& context, const Ro
 // build_round_rings calls made by build_round_context in this process (synthesize_round makes none).
 int64_t round_context_ring_builds();
 
-// Template of K rings (note §1.2): ring m holds the 8m - 4 crossings of the circle of radius m with
-// the integer grid (fewer only at Pythagorean radii, m >= 5), as offsets (x, y) in sample pixels,
-// ascending angle from +x, rings in order. ring_start has K + 1 entries.
+// Template of K rings (round_neighbourhoods.md, "Rings"): ring m holds the 8m - 4 crossings of the circle
+// of radius m with the integer grid (fewer only at Pythagorean radii, m >= 5), as offsets (x, y) in sample
+// pixels, ascending angle from +x, rings in order. ring_start has K + 1 entries.
 struct RoundTemplate {
   int rings = 0;
   std::vector<int> ring_start;
