@@ -14,7 +14,8 @@
 // for texels and vertices alike). A grid point is known when its weight is >= 0.25.
 //
 // Patch sampling (§5; vector_field_patches.md, "Patch sampling"):
-//  - patches in breadth-first order over patches that share samples, from a seeded start;
+//  - patches in order of growth (Dijkstra by centre distance) over patches that share samples, from a
+//    seeded start (patch_order in patch_synth.cpp);
 //  - candidates: an exact masked search of the full index over the known cells within W_E of the
 //    frontier (unknown and farther cells are masked; a separate band index was measured no better and
 //    cost preprocessing), refined to the pixel, then one drawn uniformly among those within
