@@ -6,7 +6,7 @@
 // far, re-seeding of uncovered areas, random classes by dart throwing, each class brought to the sample's
 // density, the artist's overrides.
 //
-// Frames and units (particles plan).
+// Frames and units (texture_particles.md, "Placement").
 //  - At a surface point: n = smooth normal, up = the direction field (per-vertex, interpolated by
 //    barycentrics, projected into the tangent plane, normalised; where it is shorter than 1e-3 the
 //    parent's up projected, for a seed any vector perpendicular to n), right = normalize(up x n). Sample
