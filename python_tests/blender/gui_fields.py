@@ -157,7 +157,6 @@ def scenario():
     with bpy.context.temp_override(window=window, area=area, region=region):
         bpy.ops.wm.tool_set_by_id(name="texsynth.comb_tool")
     yield
-    from texsynth.fields import overlay
     with bpy.context.temp_override(window=window, area=area, region=region):
         check("comb_tool_active", overlay.comb_tool_active(bpy.context))
 
