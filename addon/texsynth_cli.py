@@ -62,6 +62,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def parse_args(argv):
+    d = _defaults()
     parser = _Parser(prog=PROG, description="TexSynth: synthesize a sample texture on a mesh, headless.",
                      epilog="--method round and patches keep their colours only in the scene: they need --bake, "
                             "--save, --render or --stats, and are refused (exit 2) without any of them.")
@@ -104,17 +105,17 @@ def parse_args(argv):
                                help="particles: face attribute or vertex group giving the %s per face" % name)
     particles.add_argument("--background", choices=("jumpmap", "texton", "none"), default=None,
                            help="particles: how the filled background is synthesized (default jumpmap)")
-    parser.add_argument("--levels", type=int, default=3, help="round: resolution levels on the surface (1-6)")
-    parser.add_argument("--coarse-rings", type=int, default=4, help="round: neighbourhood rings, coarsest level")
-    parser.add_argument("--fine-rings", type=int, default=2, help="round: neighbourhood rings, finer levels")
-    parser.add_argument("--candidates", type=int, default=2, help="round: random candidates per point (0-16)")
+    parser.add_argument("--levels", type=int, default=d.round_levels, help="round: resolution levels on the surface (1-6)")
+    parser.add_argument("--coarse-rings", type=int, default=d.round_coarse_rings, help="round: neighbourhood rings, coarsest level")
+    parser.add_argument("--fine-rings", type=int, default=d.round_fine_rings, help="round: neighbourhood rings, finer levels")
+    parser.add_argument("--candidates", type=int, default=d.round_candidates, help="round: random candidates per point (0-16)")
     parser.add_argument("--synthesis-resolution", choices=("auto", "full"), default="auto",
                         help="round: auto reduces a sample finer than the target to its texel density first")
-    parser.add_argument("--scale", type=float, default=1.0,
+    parser.add_argument("--scale", type=float, default=d.sample_world_size,
                         help="world size of the sample's width, in world units (default 1)")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--jump-rate", type=float, default=20.0)
-    parser.add_argument("--working-size", type=int, default=512,
+    parser.add_argument("--seed", type=int, default=d.seed)
+    parser.add_argument("--jump-rate", type=float, default=d.jump_rate)
+    parser.add_argument("--working-size", type=int, default=d.working_size,
                         help="jumpmap/texton: longest side the sample is analysed at (0 = its own resolution)")
     parser.add_argument("--no-blend", action="store_true", help="only the base UV layer, no blend sets")
     parser.add_argument("--blend-mode", choices=("auto", "histogram", "variance", "linear"), default="auto",
@@ -122,7 +123,7 @@ def parse_args(argv):
                              "or variance when the histogram transform keeps under 97 %% of the sample's detail or "
                              "cannot serve the sample; texton takes linear for periodic samples (periodicity >= 0.5), "
                              "variance for stochastic ones")
-    parser.add_argument("--blend-threshold", type=float, default=0.0,
+    parser.add_argument("--blend-threshold", type=float, default=d.blend_threshold,
                         help="texton method: blend only edges whose blending metric from the scene camera "
                              "exceeds this (0 = every edge)")
     parser.add_argument("--allow-oversized", action="store_true",
@@ -141,7 +142,7 @@ def parse_args(argv):
                        help="per-vertex density multiplier from this float vertex attribute (e.g. TexSynth_Scale)")
     scale.add_argument("--scale-group", metavar="NAME", default="",
                        help="per-vertex density multiplier from this vertex group's weights (see --scale-range)")
-    parser.add_argument("--scale-range", type=float, nargs=2, metavar=("LO", "HI"), default=(0.5, 2.0),
+    parser.add_argument("--scale-range", type=float, nargs=2, metavar=("LO", "HI"), default=(d.scale_min, d.scale_max),
                         help="density multiplier at weight 0 and 1 for --scale-group (default 0.5 2)")
     parser.add_argument("--material", default="new", choices=["new", "insert", "none"])
     parser.add_argument("--cache-dir", default="", help="preprocessing cache folder (default: Blender's)")
@@ -178,12 +179,12 @@ def parse_args(argv):
         raise UsageError("--%s is for --method patches" % patch_options[0].replace("_", "-"))
     if args.iterations is not None and (args.mode or "sampling") == "sampling":
         raise UsageError("--iterations is for --mode optimisation")
-    args.mode = {"optimization": "optimisation"}.get(args.mode, args.mode or "sampling")
-    args.patch_size = 32 if args.patch_size is None else args.patch_size
-    args.boundary_width = 4 if args.boundary_width is None else args.boundary_width
-    args.tolerance = 1.2 if args.tolerance is None else args.tolerance
-    args.iterations = 6 if args.iterations is None else args.iterations
-    args.target = args.target or "image"
+    args.mode = {"optimization": "optimisation"}.get(args.mode, args.mode or d.patch_mode.lower())
+    args.patch_size = d.patch_size if args.patch_size is None else args.patch_size
+    args.boundary_width = d.patch_boundary if args.boundary_width is None else args.boundary_width
+    args.tolerance = d.patch_tolerance if args.tolerance is None else args.tolerance
+    args.iterations = d.patch_iterations if args.iterations is None else args.iterations
+    args.target = args.target or d.surface_target.lower()
     check_particle_args(args)
     if surface and args.bake_material:
         raise UsageError("--bake-material is for baking jump-map or texton results; --method %s uses --material"
@@ -251,7 +252,7 @@ def check_particle_args(args):
     given = [name for name in PARTICLE_OPTIONS if getattr(args, name) is not None]
     if given and args.method != "particles":
         raise UsageError("--%s is for --method particles" % given[0].replace("_", "-"))
-    args.particle_output = args.particle_output or "decals"
+    args.particle_output = args.particle_output or _defaults().particle_output.lower()
     if args.particle_output != "decals" and not args.instances:
         raise UsageError("--particle-output %s needs --instances COLLECTION" % args.particle_output)
     if args.method == "particles" and args.bake is not None and args.background == "none":
@@ -263,16 +264,19 @@ def particle_settings(args):
     if args.method != "particles":
         return {}
     try:
-        return dict(particle_classes=4 if args.classes is None else args.classes,
-                    particle_blur=1.0 if args.blur is None else args.blur,
-                    particle_min_area=args.min_area or 0,
-                    particle_background_class=-1 if args.background_class is None else args.background_class,
+        d = _defaults()
+        return dict(particle_classes=d.particle_classes if args.classes is None else args.classes,
+                    particle_blur=d.particle_blur if args.blur is None else args.blur,
+                    particle_min_area=d.particle_min_area if args.min_area is None else args.min_area,
+                    particle_background_class=(d.particle_background_class if args.background_class is None
+                                               else args.background_class),
                     particle_merges=core.parse_merges(args.merges or ""),
                     particle_class_order=core.parse_class_list(args.class_order or ""),
                     particle_output=args.particle_output.upper(), particle_collection=args.instances or "",
-                    particle_size_jitter=args.size_jitter or 0.0, particle_density_source=args.density or "",
+                    particle_size_jitter=d.particle_size_jitter if args.size_jitter is None else args.size_jitter,
+                    particle_density_source=args.density or "",
                     particle_probability_source=args.probability or "", particle_size_source=args.size or "",
-                    particle_background=(args.background or "jumpmap").upper())
+                    particle_background=(args.background or d.particle_background.lower()).upper())
     except ValueError as error:
         raise CliError(str(error))
 
@@ -280,7 +284,7 @@ def particle_settings(args):
 def check_bake_args(args):
     """--bake-* options: only with --bake, one object, a supported image type, sizes in range, and never
     through TexSynth's own UV map (core/bake_options.py: the same rules as the operator)."""
-    options = _bake_options()
+    options = _standalone("bake_options")
     extra = [name for name in ("bake_uv", "bake_size", "bake_margin") if getattr(args, name) is not None]
     if args.bake_material:
         extra.append("bake_material")
@@ -309,16 +313,21 @@ def bake_request(args, options):
                                material="ASSIGN" if args.bake_material else "NONE")
 
 
-def _bake_options():
-    """core/bake_options.py (bpy-free) loaded on its own, before the add-on."""
-    name = "texsynth_cli_bake_options"
+def _standalone(module):
+    """core/<module>.py (bpy-free, no relative imports) loaded on its own, before the add-on."""
+    name = "texsynth_cli_" + module
     if name not in sys.modules:
-        path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "core", "bake_options.py")
+        path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "core", module + ".py")
         spec = importlib.util.spec_from_file_location(name, path)
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
+        module_object = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module_object
+        spec.loader.exec_module(module_object)
     return sys.modules[name]
+
+
+def _defaults():
+    """Settings() as core/settings.py defines it: every option's default is written once, there."""
+    return _standalone("settings").Settings()
 
 
 def load_addon():
@@ -333,6 +342,29 @@ def load_addon():
     sys.modules["texsynth"] = module
     spec.loader.exec_module(module)
     return module
+
+
+def settings_from_args(args, Settings):
+    """The run's Settings from parsed arguments (Settings: the add-on's class, once it is loaded); an option not
+    given keeps the Settings default."""
+    direction_attribute = args.direction_attribute or (FIELD_NAME if args.field_preset else "")
+    return Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
+                    jump_rate=args.jump_rate, working_size=args.working_size, blend=not args.no_blend,
+                    blend_mode=args.blend_mode.upper(),
+                    allow_oversized=args.allow_oversized, blend_threshold=args.blend_threshold,
+                    orientation="FIELD" if direction_attribute else "AXIS", axis=args.axis,
+                    direction_attribute=direction_attribute,
+                    scale_source="ATTRIBUTE" if args.scale_attribute else
+                    "VERTEX_GROUP" if args.scale_group else "NONE",
+                    scale_attribute=args.scale_attribute or _defaults().scale_attribute,
+                    scale_group=args.scale_group, scale_min=args.scale_range[0],
+                    scale_max=args.scale_range[1], surface_target=args.target.upper(),
+                    round_levels=args.levels, round_coarse_rings=args.coarse_rings,
+                    round_fine_rings=args.fine_rings, round_candidates=args.candidates,
+                    round_resolution=args.synthesis_resolution.upper(),
+                    patch_mode=args.mode.upper(), patch_size=args.patch_size,
+                    patch_boundary=args.boundary_width, patch_tolerance=args.tolerance,
+                    patch_iterations=args.iterations, interface="CLI", **particle_settings(args))
 
 
 def main(argv, command_line=False):
@@ -359,24 +391,7 @@ def main(argv, command_line=False):
             cli_scene.apply_field_preset(args, objects)
         except cli_scene.SceneError as error:
             raise CliError(str(error)) from None
-    direction_attribute = args.direction_attribute or (FIELD_NAME if args.field_preset else "")
-    settings = Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
-                        jump_rate=args.jump_rate, working_size=args.working_size, blend=not args.no_blend,
-                        blend_mode=args.blend_mode.upper(),
-                        allow_oversized=args.allow_oversized, blend_threshold=args.blend_threshold,
-                        orientation="FIELD" if direction_attribute else "AXIS", axis=args.axis,
-                        direction_attribute=direction_attribute,
-                        scale_source="ATTRIBUTE" if args.scale_attribute else
-                        "VERTEX_GROUP" if args.scale_group else "NONE",
-                        scale_attribute=args.scale_attribute or "TexSynth_Scale",
-                        scale_group=args.scale_group, scale_min=args.scale_range[0],
-                        scale_max=args.scale_range[1], surface_target=args.target.upper(),
-                        round_levels=args.levels, round_coarse_rings=args.coarse_rings,
-                        round_fine_rings=args.fine_rings, round_candidates=args.candidates,
-                        round_resolution=args.synthesis_resolution.upper(),
-                        patch_mode=args.mode.upper(), patch_size=args.patch_size,
-                        patch_boundary=args.boundary_width, patch_tolerance=args.tolerance,
-                        patch_iterations=args.iterations, interface="CLI", **particle_settings(args))
+    settings = settings_from_args(args, Settings)
     sample = sources.Sample(path=os.path.abspath(args.sample))
     surface = settings.method in SURFACE_METHODS
     try:

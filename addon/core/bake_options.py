@@ -10,7 +10,7 @@ import os
 
 try:
     from .names import fit_name
-except ImportError:  # the CLI loads this file on its own, before the add-on (texsynth_cli._bake_options)
+except ImportError:  # the CLI loads this file on its own, before the add-on (texsynth_cli._standalone)
     import importlib.util
 
     _names_path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "names.py")

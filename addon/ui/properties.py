@@ -8,6 +8,9 @@ from ..core.settings import (PARTICLE_CLASS_RANGE, PARTICLE_MAX_BLUR, PARTICLE_M
     PATCH_ITERATION_RANGE, PATCH_SIZE_RANGE, PATCH_TOLERANCE_RANGE, ROUND_CANDIDATE_RANGE, ROUND_LEVEL_RANGE,
     ROUND_RING_RANGE, Settings, WORKING_SIZE_RANGE)
 
+# Every default of the panel is the Settings default (core/settings.py): written once, there.
+DEFAULTS = Settings()
+
 ADDON_ID = __package__
 
 
@@ -46,18 +49,18 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                ("PARTICLES", "Texture Particles", "Cut the sample into its elements (pebbles, leaves, spots) and "
                                                   "scatter them whole over the surface as decals or 3D instances, "
                                                   "keeping their arrangement (Dischler et al.)")),
-        default="JUMPMAP")
+        default=DEFAULTS.method)
     particle_classes: bpy.props.IntProperty(
-        name="Classes", default=4, min=PARTICLE_CLASS_RANGE[0], max=PARTICLE_CLASS_RANGE[1],
+        name="Classes", default=DEFAULTS.particle_classes, min=PARTICLE_CLASS_RANGE[0], max=PARTICLE_CLASS_RANGE[1],
         description="Colour classes the sample is segmented into (background included)")
     particle_blur: bpy.props.FloatProperty(
-        name="Blur", default=1.0, min=0.0, max=PARTICLE_MAX_BLUR, subtype="PIXEL",
+        name="Blur", default=DEFAULTS.particle_blur, min=0.0, max=PARTICLE_MAX_BLUR, subtype="PIXEL",
         description="Smoothing before segmentation (sample pixels): higher ignores fine texture inside elements")
     particle_min_area: bpy.props.IntProperty(
-        name="Min Area", default=0, min=0, subtype="PIXEL",
+        name="Min Area", default=DEFAULTS.particle_min_area, min=0, subtype="PIXEL",
         description="Smaller regions join the background (0: automatic, max(16 px, 0.02 % of the sample))")
     particle_background_class: bpy.props.IntProperty(
-        name="Background Class", default=-1, min=-1, max=PARTICLE_CLASS_RANGE[1] - 1,
+        name="Background Class", default=DEFAULTS.particle_background_class, min=-1, max=PARTICLE_CLASS_RANGE[1] - 1,
         description="Class synthesized as texture under the particles (-1: the largest)")
     particle_merges: bpy.props.StringProperty(
         name="Merges", default="", description="Class merges a>b (class a joins b), comma separated")
@@ -73,27 +76,27 @@ class TexSynthSettings(bpy.types.PropertyGroup):
         items=(("DECALS", "Decals", "Per class a decal mesh on the surface showing the particles' sprites"),
                ("INSTANCES", "Instances", "Per class points instancing objects of a collection (Geometry Nodes)"),
                ("BOTH", "Both", "Decals and instances")),
-        default="DECALS")
+        default=DEFAULTS.particle_output)
     particle_collection: bpy.props.PointerProperty(
         name="Instances", type=bpy.types.Collection,
         description="Objects placed per class (child i for class i, wrapping): any objects, e.g. a thorn")
     particle_size_jitter: bpy.props.FloatProperty(
-        name="Size Jitter", default=0.0, min=0.0, max=PARTICLE_MAX_JITTER, subtype="FACTOR",
+        name="Size Jitter", default=DEFAULTS.particle_size_jitter, min=0.0, max=PARTICLE_MAX_JITTER, subtype="FACTOR",
         description="Each particle's size varies by up to this fraction")
     particle_density_source: bpy.props.StringProperty(
-        name="Density", default="",
+        name="Density", default=DEFAULTS.particle_density_source,
         description="Face attribute or vertex group: density factor per face (0 = none there)")
     particle_probability_source: bpy.props.StringProperty(
-        name="Probability", default="",
+        name="Probability", default=DEFAULTS.particle_probability_source,
         description="Face attribute or vertex group: chance (0..1) that a particle is kept")
     particle_size_source: bpy.props.StringProperty(
-        name="Size", default="", description="Face attribute or vertex group: size factor per face")
+        name="Size", default=DEFAULTS.particle_size_source, description="Face attribute or vertex group: size factor per face")
     particle_background: bpy.props.EnumProperty(
         name="Background",
         items=(("JUMPMAP", "Jump Map", "The filled background sample through the jump-map method"),
                ("TEXTON", "Texton Strings", "The filled background sample through texton strings"),
                ("NONE", "None", "Leave the object's own material under the particles")),
-        default="JUMPMAP")
+        default=DEFAULTS.particle_background)
     particle_rows: bpy.props.CollectionProperty(type=TexSynthParticleClass)
     particle_active_class: bpy.props.IntProperty(name="Class", default=0, min=0,
                                                  description="Class picked in the analysis view")
@@ -104,24 +107,24 @@ class TexSynthSettings(bpy.types.PropertyGroup):
         name="Target",
         items=(("IMAGE", "Image", "Texels of an image through a UV map (see Output): export and painting ready"),
                ("VERTICES", "Vertices", "A colour attribute: one colour per vertex of a dense mesh (attribute TexSynth_Colour)")),
-        default="IMAGE")
+        default=DEFAULTS.surface_target)
     round_levels: bpy.props.IntProperty(
-        name="Levels", default=3, min=ROUND_LEVEL_RANGE[0], max=ROUND_LEVEL_RANGE[1],
+        name="Levels", default=DEFAULTS.round_levels, min=ROUND_LEVEL_RANGE[0], max=ROUND_LEVEL_RANGE[1],
         description="Resolution levels on the surface: more levels keep larger structures together")
     round_coarse_rings: bpy.props.IntProperty(
-        name="Coarse Rings", default=4, min=ROUND_RING_RANGE[0], max=ROUND_RING_RANGE[1],
+        name="Coarse Rings", default=DEFAULTS.round_coarse_rings, min=ROUND_RING_RANGE[0], max=ROUND_RING_RANGE[1],
         description="Neighbourhood radius (in rings of samples) at the coarsest level, which lays out the structure")
     round_fine_rings: bpy.props.IntProperty(
-        name="Fine Rings", default=2, min=ROUND_RING_RANGE[0], max=ROUND_RING_RANGE[1],
+        name="Fine Rings", default=DEFAULTS.round_fine_rings, min=ROUND_RING_RANGE[0], max=ROUND_RING_RANGE[1],
         description="Neighbourhood radius at the finer levels, which refine the detail")
     round_resolution: bpy.props.EnumProperty(
         name="Resolution",
         items=(("AUTO", "Match Target", "Synthesize from the sample reduced to the target's texel density when the "
                                         "target is coarser (what a mipmap would show; keeps thin features whole)"),
                ("FULL", "Full Sample", "Always synthesize from the full-resolution sample")),
-        default="AUTO")
+        default=DEFAULTS.round_resolution)
     round_candidates: bpy.props.IntProperty(
-        name="Random Candidates", default=2, min=ROUND_CANDIDATE_RANGE[0],
+        name="Random Candidates", default=DEFAULTS.round_candidates, min=ROUND_CANDIDATE_RANGE[0],
         max=ROUND_CANDIDATE_RANGE[1],
         description="Random sample positions tried per point at the coarsest level: more gives more variety")
     patch_mode: bpy.props.EnumProperty(
@@ -130,34 +133,34 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                               "(fast; the live preview uses it)"),
                ("OPTIMISATION", "Optimisation", "Start from patch sampling, then refine every patch by texture "
                                                 "optimisation (slower, fewer broken structures)")),
-        default="SAMPLING")
+        default=DEFAULTS.patch_mode)
     patch_size: bpy.props.IntProperty(
-        name="Patch Size", default=32, min=PATCH_SIZE_RANGE[0], max=PATCH_SIZE_RANGE[1], step=4,
+        name="Patch Size", default=DEFAULTS.patch_size, min=PATCH_SIZE_RANGE[0], max=PATCH_SIZE_RANGE[1], step=4,
         description="Patch width in sample pixels (a multiple of 4): larger keeps larger structures whole")
     patch_boundary: bpy.props.IntProperty(
-        name="Boundary", default=4, min=PATCH_BOUNDARY_RANGE[0], max=PATCH_BOUNDARY_RANGE[1],
+        name="Boundary", default=DEFAULTS.patch_boundary, min=PATCH_BOUNDARY_RANGE[0], max=PATCH_BOUNDARY_RANGE[1],
         description="Width in sample pixels of the zone where a new patch is matched and cross-faded into its "
                     "neighbours: at most half the patch size (of the smaller patches a small sample or a coarse "
                     "optimisation level gets)")
     patch_tolerance: bpy.props.FloatProperty(
-        name="Tolerance", default=1.2, min=PATCH_TOLERANCE_RANGE[0], max=PATCH_TOLERANCE_RANGE[1],
+        name="Tolerance", default=DEFAULTS.patch_tolerance, min=PATCH_TOLERANCE_RANGE[0], max=PATCH_TOLERANCE_RANGE[1],
         description="Candidates matching within this factor of the best are equally likely: higher gives more "
                     "variety, lower better fits")
     patch_iterations: bpy.props.IntProperty(
-        name="Iterations", default=6, min=PATCH_ITERATION_RANGE[0], max=PATCH_ITERATION_RANGE[1],
+        name="Iterations", default=DEFAULTS.patch_iterations, min=PATCH_ITERATION_RANGE[0], max=PATCH_ITERATION_RANGE[1],
         description="Optimisation passes over every patch")
-    scale: bpy.props.FloatProperty(name="Scale", subtype="DISTANCE", default=1.0, min=1e-4, soft_max=100.0,
+    scale: bpy.props.FloatProperty(name="Scale", subtype="DISTANCE", default=DEFAULTS.sample_world_size, min=1e-4, soft_max=100.0,
                                    description="World size of the sample's width: one sample spans this many "
                                                "world units on every selected object")
-    seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
+    seed: bpy.props.IntProperty(name="Seed", default=DEFAULTS.seed, min=0)
     neighbourhood: bpy.props.IntProperty(
-        name="Neighbourhood", default=11, min=3, max=25, step=2, subtype="PIXEL",
+        name="Neighbourhood", default=DEFAULTS.neighbourhood, min=3, max=25, step=2, subtype="PIXEL",
         description="Window (in analysis pixels, odd) that textons and jumps compare")
     working_size: bpy.props.IntProperty(
-        name="Analysis Size", default=512, min=0, max=WORKING_SIZE_RANGE[1], subtype="PIXEL",
+        name="Analysis Size", default=DEFAULTS.working_size, min=0, max=WORKING_SIZE_RANGE[1], subtype="PIXEL",
         description="Longest side of the copy the sample is analysed at (0: its own resolution, at most 4096 "
                     "pixels). The material still shows the full image")
-    jump_rate: bpy.props.FloatProperty(name="Jump Rate", default=20.0, min=0.0, soft_max=100.0,
+    jump_rate: bpy.props.FloatProperty(name="Jump Rate", default=DEFAULTS.jump_rate, min=0.0, soft_max=100.0,
                                        description="How often the walk jumps to a similar sample location")
     orientation: bpy.props.EnumProperty(
         name="Orientation",
@@ -165,8 +168,8 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                ("FIELD", "Direction Attribute", "A vertex vector attribute gives the direction everywhere"),
                ("ANCHORS", "Anchors", "Vertices with a non-zero vector in the attribute are anchors; "
                                       "the direction is interpolated between them")),
-        default="AXIS")
-    axis: bpy.props.FloatVectorProperty(name="Axis", size=3, default=(0.0, 0.0, 1.0), subtype="XYZ")
+        default=DEFAULTS.orientation)
+    axis: bpy.props.FloatVectorProperty(name="Axis", size=3, default=DEFAULTS.axis, subtype="XYZ")
     direction_attribute: bpy.props.StringProperty(name="Attribute", default="TexSynth_Direction",
                                                   description="Vertex FLOAT_VECTOR attribute name "
                                                               "(TexSynth_Direction is the field the Field tools edit)")
@@ -176,14 +179,14 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                ("ATTRIBUTE", "Attribute", "A float vertex attribute multiplies the texture density "
                                           "(2 = features half as large)"),
                ("VERTEX_GROUP", "Vertex Group", "Weight-painted vertex group mapped to the Min..Max range")),
-        default="NONE")
-    scale_attribute: bpy.props.StringProperty(name="Scale Attribute", default="TexSynth_Scale",
+        default=DEFAULTS.scale_source)
+    scale_attribute: bpy.props.StringProperty(name="Scale Attribute", default=DEFAULTS.scale_attribute,
                                               description="Float vertex attribute: density multiplier (> 0)")
-    scale_group: bpy.props.StringProperty(name="Vertex Group", default="",
+    scale_group: bpy.props.StringProperty(name="Vertex Group", default=DEFAULTS.scale_group,
                                           description="Vertex group whose weights map to the density range")
-    scale_min: bpy.props.FloatProperty(name="Min", default=0.5, min=1e-3, soft_max=10.0,
+    scale_min: bpy.props.FloatProperty(name="Min", default=DEFAULTS.scale_min, min=1e-3, soft_max=10.0,
                                        description="Density multiplier at weight 0")
-    scale_max: bpy.props.FloatProperty(name="Max", default=2.0, min=1e-3, soft_max=10.0,
+    scale_max: bpy.props.FloatProperty(name="Max", default=DEFAULTS.scale_max, min=1e-3, soft_max=10.0,
                                        description="Density multiplier at weight 1")
     field_brush_radius: bpy.props.FloatProperty(name="Radius", subtype="DISTANCE", default=0.2, min=1e-5,
                                                 soft_max=10.0, description="Comb / stroke brush radius (world units)")
@@ -200,7 +203,7 @@ class TexSynthSettings(bpy.types.PropertyGroup):
     field_live_update: bpy.props.BoolProperty(
         name="Live Update", default=False,
         description="Re-synthesize the object after each field edit (uses the cached sample)")
-    blend: bpy.props.BoolProperty(name="Blending", default=True,
+    blend: bpy.props.BoolProperty(name="Blending", default=DEFAULTS.blend,
                                   description="Write blend sets and weights that hide patch seams")
     blend_mode: bpy.props.EnumProperty(
         name="Blend Mode",
@@ -211,13 +214,13 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                 "(Gaussianized look-ups; slightly more shader work)"),
                ("VARIANCE", "Variance", "Keep the sample's contrast where patches overlap"),
                ("LINEAR", "Linear", "Plain cross-fade: cheapest, but overlaps look washed out")),
-        default="AUTO")
+        default=DEFAULTS.blend_mode)
     blend_threshold: bpy.props.FloatProperty(
-        name="Blend Threshold", default=0.0, min=0.0, soft_max=50.0,
+        name="Blend Threshold", default=DEFAULTS.blend_threshold, min=0.0, soft_max=50.0,
         description="Texton method: blend only edges whose seam, seen from the scene camera, exceeds this "
                     "(colour error × edge length in pixels); 0 blends every edge")
     allow_oversized: bpy.props.BoolProperty(
-        name="Allow Oversized Faces", default=False,
+        name="Allow Oversized Faces", default=DEFAULTS.allow_oversized,
         description="Also map faces larger than the sample at this scale (otherwise they are refused: "
                     "subdivide them or raise the scale)")
     material_mode: bpy.props.EnumProperty(

@@ -799,6 +799,35 @@ def test_smart_uv_project_for_one_object_leaves_the_other_selected_objects_uvs_a
     assert len(rock.data.uv_layers) >= 1
     assert ground.select_get() and rock.select_get() and bpy.context.view_layer.objects.active == ground
 
+def test_every_default_is_written_once_in_the_settings():
+    """The panel's and the command line's defaults are core/settings.py's Settings(), for every method."""
+    import dataclasses
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("texsynth_cli_for_defaults",
+                                                  os.path.join(harness.ADDON_DIR, "texsynth_cli.py"))
+    cli = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(cli)
+    props = bpy.data.scenes.new("TexSynth defaults").texsynth  # a scene no other check has touched
+
+    def as_float32(values):  # Blender stores float properties in single precision (1.2 -> 1.2000000476837158)
+        return {k: (float(np.float32(v)) if isinstance(v, float) else v) for k, v in values.items()}
+    try:
+        for method in core_settings.METHODS:
+            want = dataclasses.asdict(core_settings.Settings(method=method))
+            props.method = method
+            panel = dataclasses.asdict(props.to_settings())
+            # The panel names the field's attribute up front; Settings leaves it empty for the axis.
+            assert panel.pop("direction_attribute") == "TexSynth_Direction"
+            assert as_float32({k: v for k, v in panel.items() if k != "interface"}) == \
+                as_float32({k: v for k, v in want.items() if k not in ("interface", "direction_attribute")}), method
+            args = cli.parse_args(["--sample", "s.png", "--mesh", "m.obj", "--method", method.lower()])
+            command_line = dataclasses.asdict(cli.settings_from_args(args, core_settings.Settings))
+            assert {k: v for k, v in command_line.items() if k != "interface"} == \
+                {k: v for k, v in want.items() if k != "interface"}, method
+    finally:
+        bpy.data.scenes.remove(bpy.data.scenes["TexSynth defaults"])
+
+
 if __name__ == "__main__":
     harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")],
                          only=harness.script_args())
