@@ -2,6 +2,8 @@
 """bpy-free part of the surface-colour methods (addon/surface_colour/core.py), under plain pytest:
 colour encodings, the sample's row order, the target's density and the working sample it implies,
 the settings' ranges, and the context cache."""
+import re
+
 import numpy as np
 import pytest
 
@@ -10,6 +12,7 @@ import addon_package
 core_layers = addon_package.load("core.layers")
 core_settings = addon_package.load("core.settings")
 core = addon_package.load("surface_colour.core")
+patches_core = addon_package.load("surface_colour.patches")
 round_core = addon_package.load("surface_colour.round_neighbourhoods")
 sample_image = addon_package.load("core.sample_image")
 
@@ -127,3 +130,33 @@ def test_context_cache_keys_on_geometry_target_and_parameters():
     for name in ("a", "b", "c"):
         cache.put(name, name.upper())
     assert (cache.get("a"), cache.get("b"), cache.get("c")) == (None, "B", "C")
+
+
+class _FlatExemplarEstimate:
+    """A stand-in for the module's sample-analysis estimate: 100 MB whatever the level."""
+
+    @staticmethod
+    def estimate_patch_exemplar_bytes(width, height, channels, patch, tileable=False):
+        return 100e6
+
+
+def test_patch_memory_advice_names_only_changes_that_apply_and_an_image_size_that_fits():
+    module, levels = _FlatExemplarEstimate(), [(512, 512, 32)]
+    target = core.SurfaceTarget("IMAGE", 4096, 4096, 4)
+    samples, surface_pixels = 4096 * 4096, 16e6
+    settings = core_settings.Settings(method="PATCHES", patch_mode="SAMPLING", patch_size=32)
+    needed = patches_core.estimate_patch_megabytes(module, samples, "SAMPLING", levels, surface_pixels, 4, False)
+    assert needed > patches_core.PATCH_MAX_MEGABYTES
+    advice = patches_core.memory_advice(module, settings, target, samples, levels, surface_pixels, 4, 1.0, (512, 512))
+    size = int(re.search(r"an image of (\d+) px \(Size, CLI --bake-size \1\)", advice).group(1))
+    fits = patches_core.estimate_patch_megabytes(module, samples * (size / 4096) ** 2, "SAMPLING", levels,
+                                                 surface_pixels, 4, False)
+    bigger = patches_core.estimate_patch_megabytes(module, samples * ((size + 64) / 4096) ** 2, "SAMPLING", levels,
+                                                   surface_pixels, 4, False)
+    assert fits <= patches_core.PATCH_MAX_MEGABYTES < bigger, (size, fits, bigger)
+    assert "Sampling mode" not in advice and "larger patches" in advice, advice  # already sampling
+    optimisation = core_settings.Settings(method="PATCHES", patch_mode="OPTIMISATION", patch_size=64)
+    advice = patches_core.memory_advice(module, optimisation, core.SurfaceTarget("VERTICES"), samples, levels,
+                                        surface_pixels, 4, 1.0, (512, 512))
+    assert "Patch Sampling mode (CLI --mode sampling)" in advice and "image" not in advice, advice
+    assert "larger patches" not in advice, advice  # 64 is the largest patch size

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import native
 from ..core.orientation import directions
-from ..core.settings import SettingsError, check_patch_boundary
+from ..core.settings import PATCH_SIZE_RANGE, SettingsError, check_patch_boundary
 from .core import MAX_OVERLAP_FRACTION, target_density, vertex_samples, working_sample
 
 
@@ -124,6 +124,31 @@ def estimate_patch_megabytes(module, samples, mode, level_sizes, surface_pixels,
     return total / 1e6
 
 
+def memory_advice(module, settings, target, samples, level_sizes, surface_pixels, channels, finer, sample_shape):
+    """What brings a patch synthesis over PATCH_MAX_MEGABYTES under it, in the panel's words with the CLI's
+    flags: only the changes that apply to these settings, and for an image target the largest image size
+    whose estimate fits (the surface samples go with the image's area; the sample analysis does not)."""
+    if settings.round_resolution == "FULL" and finer > 1.05:
+        return ("set Synthesis Resolution to Match Target (CLI --synthesis-resolution auto): at Full Sample the "
+                "%d x %d sample has %.1f pixels between neighbouring surface samples, and the patches are traced "
+                "and the sample analysed at its resolution" % (sample_shape[1], sample_shape[0], finer))
+    ways = []
+    if target.kind == "IMAGE":
+        side = max(int(target.width), int(target.height))
+        for smaller in range((side - 1) // 64 * 64, 63, -64):
+            fewer = samples * (smaller / float(side)) ** 2
+            if estimate_patch_megabytes(module, fewer, settings.patch_mode, level_sizes, surface_pixels, channels,
+                                        bool(settings.tileable)) <= PATCH_MAX_MEGABYTES:
+                ways.append("an image of %d px (Size, CLI --bake-size %d)" % (smaller, smaller))
+                break
+    if settings.patch_mode == "OPTIMISATION":
+        ways.append("Patch Sampling mode (CLI --mode sampling)")
+    if settings.patch_size < PATCH_SIZE_RANGE[1]:
+        ways.append("larger patches (Patch Size, CLI --patch-size)")
+    ways.append("a smaller sample")
+    return "use " + (", ".join(ways[:-1]) + " or " if len(ways) > 1 else "") + ways[-1]
+
+
 class PatchTargetCache:
     """What a patch synthesis reads from the mesh and target alone, kept for the last mesh so a live
     preview after a comb stroke redoes only the field: the surface samples (texels through the UV map)
@@ -222,12 +247,8 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
                                       bool(settings.tileable))
     if needed > PATCH_MAX_MEGABYTES:
         finer = texels_per_unit / density if density > 0.0 else 1.0
-        if settings.round_resolution == "FULL" and finer > 1.05:
-            advice = ("set Synthesis Resolution to Match Target (CLI --synthesis-resolution auto): at Full Sample "
-                      "the %d x %d sample has %.1f pixels between neighbouring surface samples, and the patches are "
-                      "traced and the sample analysed at its resolution" % (sample.shape[1], sample.shape[0], finer))
-        else:
-            advice = "use a smaller image, Patch Sampling mode, larger patches or a smaller sample"
+        advice = memory_advice(module, settings, target, positions.shape[0], level_sizes, surface_pixels,
+                               sample.shape[2], finer, sample.shape)
         raise SettingsError(
             "%d surface samples with %d px patches in %s mode need about %d MB (limit %d MB): %s"
             % (positions.shape[0], level_sizes[0][2], mode.lower(), needed, PATCH_MAX_MEGABYTES, advice))
