@@ -183,7 +183,13 @@ def test_unusable_samples_get_clear_errors():
     checker = np.where(((np.arange(64)[:, None] // 8 + np.arange(64)[None, :] // 8) % 2)[..., None] == 1,
                        STONE, GROUND).astype(np.float32)
     analysis, _ = core.analyse(checker, settings(particle_classes=2), cache=core.AnalysisCache())
-    with pytest.raises(core_settings.SettingsError, match="complete particle"):
+    with pytest.raises(core_settings.SettingsError, match="complete particle") as refused:
+        core.check_usable(analysis)
+    assert "--method jumpmap" in str(refused.value) and "Round Neighbourhoods" in str(refused.value)
+    # A gradient has no elements at all: k-means cuts it into bands that touch the border.
+    gradient = np.repeat(np.linspace(0.0, 1.0, 96, dtype=np.float32)[None, :, None], 64, 0).repeat(3, 2)
+    analysis, _ = core.analyse(gradient, settings(), cache=core.AnalysisCache())
+    with pytest.raises(core_settings.SettingsError, match="served by Jump Maps"):
         core.check_usable(analysis)
 
 

@@ -174,6 +174,11 @@ def class_rows(analysis):
     return rows
 
 
+# Where a sample has no separate elements, another method serves it (named as the panel and the CLI name them).
+OTHER_METHODS = ("A texture without separate elements (noise, a gradient, grain) is served by Jump Maps (--method "
+                 "jumpmap) or Round Neighbourhoods (--method round) instead.")
+
+
 def check_usable(analysis):
     """Raises SettingsError when the sample cannot give particles: one colour, all particles, no complete
     particle. Returns notes for what was bounded (merged tiny components)."""
@@ -183,7 +188,7 @@ def check_usable(analysis):
     if particles == 0:
         raise SettingsError(
             "the sample has no particles: it is one colour, or every component is smaller than the minimum area "
-            "(%d px); use a sample of distinct elements or lower the minimum area" % analysis.min_area)
+            "(%d px); use a sample of distinct elements or lower the minimum area. %s" % (analysis.min_area, OTHER_METHODS))
     background = sum(row["pixels"] for row in rows if row["background"])
     if background < MIN_BACKGROUND_SHARE * total:
         raise SettingsError(
@@ -192,7 +197,7 @@ def check_usable(analysis):
     if not any(row["has_complete"] for row in rows if not row["background"]):
         raise SettingsError(
             "no class has a complete particle (every particle is cut by the sample's border or joined into one "
-            "region): use a sample where whole elements lie inside, or mark it tileable")
+            "region): use a sample where whole elements lie inside, or mark it tileable. %s" % OTHER_METHODS)
     notes = []
     if analysis.merged_components:
         notes.append("%d tiny components joined the background%s" % (
