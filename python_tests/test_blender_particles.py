@@ -143,6 +143,14 @@ def test_cli_particles_bad_arguments_exit_with_one_line(tmp_path, extra, code, f
 
 
 @needs_native
+def test_cli_particles_over_the_cap_are_refused_before_placement(tmp_path):
+    # A 2 x 2 grid under a sample 1 mm wide: hundreds of millions of particles. Refused with the scale that fits.
+    mesh = write_grid_obj(tmp_path / "grid.obj")
+    run_failing("--sample", pebbles_png(tmp_path / "pebbles.png"), "--mesh", str(mesh), "--method", "particles",
+                "--scale", "0.001", code=1, fragment="raise Scale (CLI --scale) to at least")
+
+
+@needs_native
 def test_cli_particles_one_colour_sample_fails_clearly(tmp_path):
     mesh = write_grid_obj(tmp_path / "grid.obj")
     run_failing("--sample", pebbles_png(tmp_path / "flat.png", flat=True), "--mesh", str(mesh),

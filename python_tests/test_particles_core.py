@@ -4,6 +4,8 @@ images, merges, the analysis cache and the refusals of unusable samples, the seg
 packing, decal rectangles and instance frames. Expected values are worked out from the inputs."""
 import math
 
+import re
+
 import numpy as np
 import pytest
 
@@ -302,3 +304,21 @@ def test_label_image_gives_back_the_segmentation_it_was_written_from():
     labels = np.asarray(analysis.labels)
     pairs = set(zip(labels.ravel().tolist(), ids.ravel().tolist()))
     assert len(pairs) == len(np.unique(labels)) == len(np.unique(ids)) >= 2, pairs
+
+
+def test_a_run_over_the_particle_cap_is_refused_with_the_scale_that_fits():
+    analysis, _ = core.analyse(pebbles(), settings(), cache=core.AnalysisCache())
+    placed = sum(row["particles"] for row in core.class_rows(analysis) if not row["background"])
+    # The sample (1 unit wide, height / width of a unit high) over 10 units² of surface.
+    expected = core.expected_particles(analysis, 1.0, 10.0)
+    assert expected == pytest.approx(placed * 10.0 / (analysis.height / analysis.width))
+    assert core.expected_particles(analysis, 2.0, 10.0) == pytest.approx(expected / 4)  # twice the scale
+    core.check_particle_count(expected, 1.0, "Rock", cap=int(expected) + 1)  # under the cap: nothing said
+    with pytest.raises(core_settings.SettingsError) as refused:
+        core.check_particle_count(expected, 1.0, "Rock", cap=int(expected / 9))
+    found = re.search(r"Rock: about (\d+) particles .* raise Scale \(CLI --scale\) to at least ([\d.]+)",
+                      str(refused.value))
+    assert found and int(found.group(1)) == int(expected), refused.value
+    suggested = float(found.group(2))
+    assert core.expected_particles(analysis, suggested, 10.0) <= int(expected / 9) < \
+        core.expected_particles(analysis, suggested * 0.95, 10.0)

@@ -247,6 +247,29 @@ def label_image(analysis):
     return image
 
 
+# Most particles one run places on one object: their decal meshes (4 vertices each) and instance points stay
+# within what Blender edits without stalling; the native placement stops there too (max_particles).
+MAX_PARTICLES = 1000000
+
+
+def expected_particles(analysis, sample_world_width, surface_area):
+    """Particles the sample's density predicts on `surface_area` world units² (every placed class counted;
+    per-face density overrides and the scale field not included)."""
+    rows = class_rows(analysis)
+    per_sample = sum(row["particles"] for row in rows if not row["background"])
+    sample_area = float(sample_world_width) ** 2 * analysis.height / float(analysis.width)
+    return per_sample * float(surface_area) / sample_area
+
+
+def check_particle_count(expected, sample_world_width, name, cap=MAX_PARTICLES):
+    """SettingsError naming the count and the Scale that brings it under the cap (the count goes with
+    1 / scale²), before any placement."""
+    if expected > cap:
+        scale = float(sample_world_width) * (expected / cap) ** 0.5 * 1.01
+        raise SettingsError("%s: about %d particles at this scale, more than the %d one run places: raise Scale "
+                            "(CLI --scale) to at least %.3g" % (name, expected, cap, scale))
+
+
 def class_at(analysis, x, y):
     """Class id of sample pixel (x, y) (x right, y up from the bottom row); SettingsError outside."""
     if not (0 <= x < analysis.width and 0 <= y < analysis.height):

@@ -120,8 +120,11 @@ class Job:
         arrays = mesh_io.read_mesh(obj, settings.direction_attribute if settings.orientation != "AXIS" else "")
         arrays.scale_multiplier = mesh_state.read_scale_multiplier(obj, settings)
         triangles, _ = mesh_io.read_loop_triangles(obj)
-        if triangles.shape[0] == 0 or outputs.triangle_areas(arrays.positions, triangles).sum() <= 0.0:
+        area = outputs.triangle_areas(arrays.positions, triangles).sum() if triangles.shape[0] else 0.0
+        if area <= 0.0:
             raise SettingsError("mesh %r has no area: particles need faces to sit on" % obj.data.name)
+        core.check_particle_count(core.expected_particles(self.analysis, settings.sample_world_size, area),
+                                  settings.sample_world_size, obj.name)
         overrides = {}
         polygons = None
         for key, name in (("face_density", settings.particle_density_source),
