@@ -3,9 +3,8 @@
 bpy-free: SettingsError names the setting and the value that would work."""
 import dataclasses
 import math
+import numbers
 import zlib
-
-import numpy as np
 
 
 METHODS = ("JUMPMAP", "TEXTON", "ROUND", "PATCHES", "PARTICLES")
@@ -137,8 +136,11 @@ class Settings:
         if self.orientation not in ORIENTATIONS:
             raise SettingsError("unknown orientation %r (choose one of %s)" % (self.orientation, ", ".join(ORIENTATIONS)))
         if self.orientation == "AXIS":
-            axis = np.asarray(self.axis, dtype=np.float64)
-            if axis.shape != (3,) or not np.all(np.isfinite(axis)) or np.linalg.norm(axis) < 1e-12:
+            try:
+                axis = tuple(float(c) for c in self.axis)
+            except (TypeError, ValueError):
+                axis = ()
+            if len(axis) != 3 or not all(math.isfinite(c) for c in axis) or math.sqrt(sum(c * c for c in axis)) < 1e-12:
                 raise SettingsError("orientation axis must be a finite non-zero 3D vector, got %r" % (tuple(self.axis),))
         elif not self.direction_attribute:
             raise SettingsError("orientation %s needs the name of a vector attribute on the mesh" % self.orientation)
@@ -274,7 +276,7 @@ def _finite_positive(value):
 
 def texels_per_unit(sample_width, sample_world_size):
     """Native `scale` (texels per world unit) for a sample whose width spans sample_world_size units."""
-    if not (isinstance(sample_width, (int, np.integer)) and sample_width > 0):
+    if not (isinstance(sample_width, numbers.Integral) and sample_width > 0):
         raise SettingsError("sample width must be a positive integer, got %r" % (sample_width,))
     if not _finite_positive(float(sample_world_size)):
         raise SettingsError("scale must be a positive world size of the sample, got %r" % (sample_world_size,))
