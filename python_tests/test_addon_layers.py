@@ -19,6 +19,7 @@ LAYERS = {
     "bake": 6,                                        # bakes any family's result
     "ui": 7, "cli": 7,                                # the two interfaces: the panel, the command line in Blender
     "__init__": 8, "texsynth_cli": 8,                 # their entry points (register; the CLI script)
+    "texsynth_batch": 9,                              # batch runs of the CLI on Dask (outside Blender)
 }
 BPY_FREE = ("core",)  # never import bpy (or Blender-only modules) at all
 BLENDER_ONLY = {"bpy", "bmesh", "mathutils", "gpu", "gpu_extras", "bpy_extras", "bl_math"}

@@ -6,6 +6,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake pkg-config git
   python3-dev python3-numpy python3-pytest pybind11-dev
+  python3-distributed
   libopenimageio-dev openimageio-tools
   libembree-dev libeigen3-dev libtbb-dev
   libgtest-dev libbenchmark-dev
