@@ -10,6 +10,7 @@ after the other as bare `blender -b ... texsynth_cli.py` calls."""
 import argparse
 import json
 import os
+import pathlib
 import shutil
 import subprocess
 import sys
@@ -32,7 +33,7 @@ def main():
     args = parser.parse_args()
     folder = args.out or tempfile.mkdtemp(prefix="texsynth-bench-batch-")
     os.makedirs(folder, exist_ok=True)
-    grid = str(write_grid_obj(os.path.join(folder, "grid.obj"), cells=8))
+    grid = str(write_grid_obj(pathlib.Path(folder) / "grid.obj", cells=8))
     sample = os.path.join(ROOT, "blend_samples", "bricks.png")
     jobs = [{"name": "seed %d" % seed, "input": grid,
              "args": ["--sample", sample, "--seed", str(seed), "--bake-size", "64", "--bake-margin", "2"],
@@ -50,7 +51,9 @@ def main():
         seconds = time.perf_counter() - started
         if process.returncode != 0:
             sys.exit(process.stdout[-2000:] + process.stderr[-2000:])
-        rows.append((workers, seconds, 60.0 * args.jobs / seconds))
+        with open(os.path.join(folder, "report-%d" % workers, "summary.json")) as handle:
+            in_worker = [job["seconds"] for job in json.load(handle)["jobs"]]
+        rows.append((workers, seconds, 60.0 * args.jobs / seconds, sum(in_worker)))
     bare = []
     for job in jobs[:max(4, args.jobs // 4)]:
         started = time.perf_counter()
@@ -61,12 +64,15 @@ def main():
     mean_bare = sum(bare) / len(bare)
     print("%d jobs (jump map, 64² bake on an 8 x 8 grid), %d cores" % (args.jobs, os.cpu_count() or 0))
     print("%-8s %10s %12s" % ("workers", "seconds", "jobs/min"))
-    for workers, seconds, rate in rows:
+    for workers, seconds, rate, _ in rows:
         print("%-8d %10.1f %12.1f" % (workers, seconds, rate))
     print("scaling 2 workers / 1 worker: %.2f" % (rows[1][2] / rows[0][2]))
-    per_job = rows[0][1] / args.jobs
-    print("bare CLI call: %.2f s per job (mean of %d); batch with 1 worker: %.2f s per job, overhead %+.1f %%"
+    workers, seconds, _, in_worker = rows[0]
+    per_job = in_worker / args.jobs
+    print("bare CLI call: %.2f s per job (mean of %d); the same call inside a worker: %.2f s (%+.1f %%)"
           % (mean_bare, len(bare), per_job, 100.0 * (per_job / mean_bare - 1.0)))
+    print("cluster start, scheduling and stop with 1 worker: %.1f s in all (%.2f s per job over %d jobs)"
+          % (seconds - in_worker, (seconds - in_worker) / args.jobs, args.jobs))
 
 
 if __name__ == "__main__":
