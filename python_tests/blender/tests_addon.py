@@ -579,6 +579,80 @@ def test_image_pixels_are_flipped_to_top_row_first():
     assert np.allclose(pixels[:, 0, 0], [0.2, 0.1, 0.0], atol=0.01)  # Blender's last row is the top
 
 
+def _save_test_image(directory, name, file_format, color_mode, depth, float_buffer, extension, rng):
+    """A 37 x 23 image of random values written by Blender in the given format; its path."""
+    image = bpy.data.images.new(name, 37, 23, alpha=True, float_buffer=float_buffer)
+    values = rng.random((23, 37, 4), dtype=np.float32)
+    image.pixels.foreach_set((values if float_buffer else np.round(values * 255) / 255).ravel())
+    settings = bpy.context.scene.render.image_settings
+    settings.file_format, settings.color_mode = file_format, color_mode
+    if depth:
+        settings.color_depth = depth
+    path = os.path.join(directory, name + extension)
+    image.save_render(path, scene=bpy.context.scene)
+    bpy.data.images.remove(image)
+    return path
+
+
+def _write_grey_alpha_png(path, pixels):
+    """A minimal 8-bit grey + alpha PNG (colour type 4): signature, IHDR, one IDAT, IEND."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    height, width = pixels.shape[:2]
+    rows = b"".join(b"\x00" + pixels[row].tobytes() for row in range(height))  # filter type 0 per row
+    with open(path, "wb") as handle:
+        handle.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 4, 0, 0, 0))
+                     + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+
+
+def test_blender_decodes_sample_files_as_openimageio_does():
+    """Issue 31: inside Blender the sample is decoded by Blender. Every stored value, the channel count
+    and the encoding must be the ones OpenImageIO gives, or caches and results would change."""
+    if USE_FAKE:
+        print("SKIP: needs the real texsynth_native (load_image)")
+        return
+    clean()
+    rng = np.random.default_rng(31)
+    directory = tempfile.mkdtemp(prefix="texsynth_decode_")
+    cases = [("rgb8", "PNG", "RGB", "8", False, ".png"), ("rgba8", "PNG", "RGBA", "8", False, ".png"),
+             ("grey8", "PNG", "BW", "8", False, ".png"), ("rgb16", "PNG", "RGB", "16", True, ".png"),
+             ("grey16", "PNG", "BW", "16", True, ".png"), ("rgba16", "TIFF", "RGBA", "16", True, ".tif"),
+             ("jpeg", "JPEG", "RGB", None, False, ".jpg"), ("targa", "TARGA_RAW", "RGBA", None, False, ".tga"),
+             ("half", "OPEN_EXR", "RGBA", "16", True, ".exr"), ("float", "OPEN_EXR", "RGB", "32", True, ".exr")]
+    paths = [_save_test_image(directory, *case, rng) for case in cases] + [BRICKS]
+    grey_alpha = os.path.join(directory, "grey_alpha.png")  # Blender cannot write grey + alpha
+    _write_grey_alpha_png(grey_alpha, rng.integers(0, 256, (23, 37, 2), dtype=np.uint8))
+    paths.append(grey_alpha)
+    kept = bpy.data.images.load(BRICKS)  # the artist's own datablock for the same file
+    kept_space, images_before = kept.colorspace_settings.name, len(bpy.data.images)
+    for path in paths:
+        expected = native.require().load_image(path)
+        stored = native.require().image_info(path)["data_type"]
+        decoded = sources.decode_sample_file(path)
+        name = os.path.basename(path)
+        assert decoded.shape == expected.shape, (name, decoded.shape, expected.shape)
+        if stored == "uint8":
+            assert decoded.dtype == np.uint8, (name, decoded.dtype)
+            assert np.array_equal(decoded, np.rint(expected * 255.0).astype(np.uint8)), name
+        elif stored == "uint16":
+            assert decoded.dtype == np.uint16, (name, decoded.dtype)
+            assert np.array_equal(decoded, np.rint(expected * 65535.0).astype(np.uint16)), name
+        else:
+            assert decoded.dtype == np.float32, (name, decoded.dtype, stored)
+            assert np.array_equal(decoded, expected), (name, float(np.abs(decoded - expected).max()))
+    assert len(bpy.data.images) == images_before and kept.colorspace_settings.name == kept_space
+    expect_error(lambda: sources.decode_sample_file(os.path.join(directory, "missing.png")), "not found")
+    damaged = os.path.join(directory, "damaged.png")
+    with open(damaged, "wb") as handle:
+        handle.write(b"\x89PNG\r\n\x1a\n" + bytes(40))
+    expect_error(lambda: sources.decode_sample_file(damaged), "cannot read the sample image")
+    assert len(bpy.data.images) == images_before
+
+
 def test_preprocess_and_cache_check_operators():
     clean()
     configure()
