@@ -7,7 +7,7 @@
 #include <limits>
 
 #include "temp_dir.hpp"
-#include "texsynth/image/image.hpp"
+#include "texsynth/image_files/image_files.hpp"
 
 using texsynth::ColorEncoding;
 using texsynth::Image;

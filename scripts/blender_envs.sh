@@ -23,7 +23,7 @@ BUILD_PACKAGES=(
   blender
   build-essential cmake pkg-config
   python3-dev python3-numpy python3-pytest pybind11-dev
-  libopenimageio-dev openimageio-tools
+  libopenimageio-dev openimageio-tools libtinyexr-dev zlib1g-dev
   libembree-dev libeigen3-dev libtbb-dev libgtest-dev libhnswlib-dev
   xvfb xauth
 )

@@ -7,7 +7,7 @@ PACKAGES=(
   build-essential cmake pkg-config git
   python3-dev python3-numpy python3-pytest pybind11-dev
   python3-distributed
-  libopenimageio-dev openimageio-tools
+  libopenimageio-dev openimageio-tools libtinyexr-dev zlib1g-dev
   libembree-dev libeigen3-dev libtbb-dev
   libgtest-dev libbenchmark-dev
   libnanoflann-dev libhnswlib-dev libfaiss-dev

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: GPL-3.0-or-later
-# One installable package per Blender family, each holding texsynth_native built for that Blender's Python:
+# One installable package per Blender family, each holding texsynth_native and texsynth_image_io built for
+# that Blender's Python:
 #   host    Blender 3.x (Debian 12): legacy add-on zip  dist/texsynth-<version>-blender<X.Y>-py<XY>.zip
 #           (a folder texsynth/ for Preferences > Add-ons > Install)
 #   trixie  Blender 4.2+ (Debian 13), sid  Blender 5.x (Debian sid): an extension built and validated
@@ -34,7 +35,9 @@ for env in "${envs[@]}"; do
   read -r blender_version py_tag suffix <<<"$probe"
   [ -n "${suffix:-}" ] || { echo "package_addon: could not ask $env's Blender for its version and Python" >&2; exit 1; }
   module="$root/addon/texsynth_native$suffix"
-  if [ ! -f "$module" ]; then
+  # Debian packages carry both modules: texsynth_image_io (OpenImageIO) reads sample files by path.
+  io_module="$root/addon/texsynth_image_io$suffix"
+  if [ ! -f "$module" ] || [ ! -f "$io_module" ]; then
     if [ "$env" = host ]; then bash "$root/scripts/build.sh"; else bash "$root/scripts/blender_envs.sh" build "$env"; fi
   fi
   family="${blender_version%.*}"
@@ -46,7 +49,7 @@ for env in "${envs[@]}"; do
   (cd "$root/addon" && find . -name '*.py' -not -path '*/__pycache__/*' | while read -r file; do
      mkdir -p "$stage/$(dirname "$file")" && cp "$file" "$stage/$file"; done
    cp blender_manifest.toml "$stage/")
-  cp "$module" "$stage/"
+  cp "$module" "$io_module" "$stage/"
   if [ "${blender_version%%.*}" -lt 4 ] || { [ "${blender_version%%.*}" -eq 4 ] && [ "${family#*.}" -lt 2 ]; }; then
     # Legacy add-on zip (Blender < 4.2 has no extension platform).
     (cd "$root/dist/stage-$env" && find texsynth -type f | LC_ALL=C sort | zip -q -X -@ "$root/dist/$name")

@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "texsynth/common/rng.hpp"
-#include "texsynth/image/image.hpp"
+#include "texsynth/image_files/image_files.hpp"
 #include "texsynth/patches/exemplar_cache.hpp"
 #include "texsynth/patches/exemplar_index.hpp"
 

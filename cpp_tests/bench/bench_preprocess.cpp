@@ -19,6 +19,7 @@
 
 #include "../synthetic_texture.hpp"
 #include "texsynth/common/errors.hpp"
+#include "texsynth/image_files/image_files.hpp"
 #include "texsynth/preprocess/cache.hpp"
 #include "texsynth/preprocess/features.hpp"
 #include "texsynth/preprocess/jump_map.hpp"

@@ -3,7 +3,7 @@
 // extension must decode to a valid Image or throw std::invalid_argument.
 // Input: byte 0 picks the file extension; the rest is the file.
 #include "fuzz_common.hpp"
-#include "texsynth/image/image.hpp"
+#include "texsynth/image_files/image_files.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const char* kExtensions[] = {".png", ".jpg", ".exr", ".tif", ".bmp", ".tga", ".hdr", ".ppm", ".gif", ".psd"};

@@ -22,12 +22,49 @@ std::optional<std::string> as_path(py::handle object) {
 }
 
 namespace {
+std::string g_image_io_name = "texsynth_image_io";  // a sibling of this module (set_image_io_package)
+}  // namespace
+
+void set_image_io_package(const std::string& package_prefix) { g_image_io_name = package_prefix + "texsynth_image_io"; }
+
+// texsynth_image_io (OpenImageIO), imported on first use. Packages for blender.org builds leave it out:
+// there Blender decodes the sample, and a path reaching this module gets a clear error instead.
+py::module_ image_io() {
+  static PyObject* module = nullptr;  // deliberately leaked, like the exception types in module.cpp
+  if (module == nullptr) {
+    try {
+      module = py::module_::import(g_image_io_name.c_str()).release().ptr();
+    } catch (py::error_already_set& error) {
+      throw std::invalid_argument("reading or writing image files needs " + g_image_io_name +
+                                  " (OpenImageIO), which could not be loaded (" + std::string(error.what()) +
+                                  "); pass the decoded pixels as a numpy array instead (inside Blender: "
+                                  "bpy.data.images)");
+    }
+  }
+  return py::reinterpret_borrow<py::module_>(module);
+}
+
+namespace {
+
+// What load_image always gave: every channel the file has, 8/16-bit data normalised, sRGB for
+// integer data and linear for float data (the Image is taken as decoded, not re-validated here).
+texsynth::Image decode_file(const std::string& path) {
+  py::module_ io = image_io();
+  const std::string stored = py::str(io.attr("image_info")(path)["data_type"]);
+  py::array_t<float, py::array::c_style | py::array::forcecast> pixels = io.attr("load_image")(path);
+  if (pixels.ndim() != 3) throw std::invalid_argument("image '" + path + "': decoder returned no H×W×C array");
+  texsynth::Image image;
+  image.height = int(pixels.shape(0));
+  image.width = int(pixels.shape(1));
+  image.channels = int(pixels.shape(2));
+  image.encoding = (stored == "half" || stored == "float" || stored == "double") ? texsynth::ColorEncoding::kLinear
+                                                                                   : texsynth::ColorEncoding::kSrgb;
+  image.pixels.assign(pixels.data(), pixels.data() + pixels.size());
+  return image;
+}
 
 texsynth::Image decode(py::handle object) {
-  if (auto path = as_path(object)) {
-    py::gil_scoped_release release;
-    return texsynth::load_image(*path);
-  }
+  if (auto path = as_path(object)) return decode_file(*path);
   if (!py::isinstance<py::array>(object))
     throw std::invalid_argument("image must be a file path or a numpy array, got " +
                                 std::string(py::str(py::type::of(object))));
@@ -74,37 +111,16 @@ texsynth::Image image_from_python(py::handle object, const std::string& color_sp
 }  // namespace texsynth_python
 
 void bind_image(py::module_& m) {
+  const std::string name = py::str(m.attr("__name__"));
+  const size_t dot = name.rfind('.');
+  texsynth_python::set_image_io_package(dot == std::string::npos ? "" : name.substr(0, dot + 1));
   m.def(
-      "load_image",
-      [](py::object path_like) {
-        auto path = texsynth_python::as_path(path_like);
-        if (!path) throw std::invalid_argument("load_image expects a str or os.PathLike path");
-        texsynth::Image image;
-        {
-          py::gil_scoped_release release;
-          image = texsynth::load_image(*path);
-        }
-        auto* pixels = new std::vector<float>(std::move(image.pixels));
-        py::capsule owner(pixels, [](void* p) { delete static_cast<std::vector<float>*>(p); });
-        return py::array_t<float>({py::ssize_t(image.height), py::ssize_t(image.width), py::ssize_t(image.channels)},
-                                  pixels->data(), owner);
-      },
+      "load_image", [](py::object path) { return texsynth_python::image_io().attr("load_image")(path); },
       py::arg("path"),
-      "Decodes an image file (any OpenImageIO format) to float32 H×W×C, values as decoded "
-      "(8/16-bit data normalised to [0, 1]), row 0 = top.");
+      "Decodes an image file to float32 H×W×C (row 0 = top), through texsynth_image_io (OpenImageIO); "
+      "ValueError where that module is not part of the build.");
   m.def(
-      "image_info",
-      [](py::object path_like) {
-        auto path = texsynth_python::as_path(path_like);
-        if (!path) throw std::invalid_argument("image_info expects a str or os.PathLike path");
-        const texsynth::ImageInfo info = texsynth::read_image_info(*path);
-        py::dict d;
-        d["width"] = info.width;
-        d["height"] = info.height;
-        d["channels"] = info.channels;
-        d["format"] = info.format;
-        d["data_type"] = info.data_type;
-        return d;
-      },
-      py::arg("path"), "Image header: dict(width, height, channels, format, data_type) without decoding pixels.");
+      "image_info", [](py::object path) { return texsynth_python::image_io().attr("image_info")(path); },
+      py::arg("path"),
+      "Image header: dict(width, height, channels, format, data_type), through texsynth_image_io.");
 }

@@ -131,11 +131,11 @@ void bind_preprocess(py::module_& m) {
           [](const Preprocessed& r, py::object path) {
             auto p = texsynth_python::as_path(path);
             if (!p) throw std::invalid_argument("write_texton_map_image expects a str or os.PathLike path");
-            py::gil_scoped_release release;
-            const auto rgb = texsynth::texton_map_colors(r);
-            texsynth::write_image_u8(*p, rgb.data(), r.width, r.height, 3);
+            py::module_ io = texsynth_python::image_io();
+            io.attr("write_image_u8")(*p, copy_array(texsynth::texton_map_colors(r), {r.height, r.width, 3}));
           },
-          py::arg("path"), "Writes the pseudo-colour texton map with OpenImageIO (format from the extension).")
+          py::arg("path"),
+          "Writes the pseudo-colour texton map through texsynth_image_io (format from the extension).")
       .def("__repr__", [](const Preprocessed& r) {
         return "<Preprocessed " + std::to_string(r.width) + "x" + std::to_string(r.height) + ", " +
                std::to_string(r.num_textons) + " textons, cache " + r.cache_status + ">";

@@ -13,7 +13,13 @@ namespace texsynth_python {
 // A str/os.PathLike as a filesystem path, or nullopt when `object` is not path-like.
 std::optional<std::string> as_path(pybind11::handle object);
 
-// Path -> decoded file; ndarray (H×W or H×W×C, uint8/uint16/float16/float32) -> pixels.
+// The sibling module texsynth_image_io (OpenImageIO), imported on first use; std::invalid_argument naming
+// it where the build has none (packages for blender.org builds). The prefix is the package this module
+// was imported from ("texsynth." inside Blender's add-on, "" on sys.path).
+pybind11::module_ image_io();
+void set_image_io_package(const std::string& package_prefix);
+
+// Path -> decoded file (through image_io()); ndarray (H×W or H×W×C, uint8/uint16/float16/float32) -> pixels.
 // color_space: "auto" (integer data sRGB, float data linear), "srgb" or "linear" (e.g. Blender's float
 // pixels of an 8-bit sRGB image are still sRGB-encoded). Throws std::invalid_argument (ValueError).
 texsynth::Image image_from_python(pybind11::handle object, const std::string& color_space = "auto");

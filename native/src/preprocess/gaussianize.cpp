@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "texsynth/preprocess/gaussianize.hpp"
 
-#include <OpenImageIO/imageio.h>
+#include "texsynth/common/float_exr.hpp"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -207,36 +208,42 @@ struct FileTags {
   }
 };
 
+FloatExrTags exr_tags(const FileTags& tags) {
+  FloatExrTags exr;
+  exr.ints = {{"texsynth:histogram_version", tags.version},
+              {"texsynth:ok", tags.ok},
+              {"texsynth:colour_channels", tags.colour_channels},
+              {"texsynth:min_distinct_values", tags.min_distinct_values}};
+  exr.strings = {{"texsynth:fallback_reason", tags.reason}};
+  return exr;
+}
+
+int int_tag(const FloatExrTags& tags, const std::string& name, int missing) {
+  const auto found = tags.ints.find(name);
+  return found == tags.ints.end() ? missing : found->second;
+}
+
 void write_exr(const std::string& path, const std::vector<float>& data, int width, int height, int channels,
                const FileTags& tags) {
   static std::atomic<uint64_t> counter{0};
   const fs::path target(path);
-  // Ends in .exr so a leftover temporary is recognisable; the format is named explicitly anyway.
+  // Ends in .exr so a leftover temporary is recognisable.
   const fs::path temp = target.parent_path() / ("." + target.filename().string() + ".tmp." +
                                                 std::to_string(::getpid()) + "." + std::to_string(counter++) + ".exr");
-  auto fail = [&](const std::string& why) {
+  try {
+    write_float_exr(temp.string(), data, width, height, channel_names(channels), exr_tags(tags));
+  } catch (const std::exception& error) {
     std::error_code ec;
     fs::remove(temp, ec);
-    throw std::runtime_error("cannot write '" + path + "': " + why);
-  };
-  auto out = OIIO::ImageOutput::create("openexr");
-  if (!out) fail("no OpenEXR writer: " + OIIO::geterror());
-  OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::FLOAT);
-  spec.channelnames = channel_names(channels);
-  spec.alpha_channel = has_alpha(channels) ? channels - 1 : -1;
-  spec.attribute("compression", "zip");
-  spec.attribute("texsynth:histogram_version", tags.version);
-  spec.attribute("texsynth:ok", tags.ok);
-  spec.attribute("texsynth:fallback_reason", tags.reason);
-  spec.attribute("texsynth:colour_channels", tags.colour_channels);
-  spec.attribute("texsynth:min_distinct_values", tags.min_distinct_values);
-  if (!out->open(temp.string(), spec)) fail(out->geterror());
-  const bool written = out->write_image(OIIO::TypeDesc::FLOAT, data.data());
-  const bool closed = out->close();
-  if (!written || !closed) fail(out->geterror() + " (disk full?)");
+    throw std::runtime_error("cannot write '" + path + "': " + error.what() + " (disk full?)");
+  }
   std::error_code ec;
   fs::rename(temp, target, ec);
-  if (ec) fail("cannot move the temporary file into place (" + ec.message() + ")");
+  if (ec) {
+    fs::remove(temp, ec);
+    throw std::runtime_error("cannot write '" + path + "': cannot move the temporary file into place (" +
+                             ec.message() + ")");
+  }
 }
 
 // The pixels of a float EXR of exactly this size and channel layout, or nullopt for anything else.
@@ -244,41 +251,15 @@ std::optional<std::vector<float>> read_exr(const std::string& path, int width, i
                                            FileTags& tags) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) return std::nullopt;
-  {
-    // Only OpenEXR's own reader ever sees the file (no probing of other formats' plugins).
-    char magic[4] = {0};
-    std::ifstream probe(path, std::ios::binary);
-    if (!probe.read(magic, 4) || std::memcmp(magic, "\x76\x2f\x31\x01", 4) != 0) return std::nullopt;
-  }
-  auto in = OIIO::ImageInput::create("openexr");
-  if (!in) {
-    OIIO::geterror();
-    return std::nullopt;
-  }
-  OIIO::ImageSpec spec;
-  if (!in->open(path, spec)) {
-    in->geterror();  // retrieved, so OpenImageIO does not report it at exit
-    return std::nullopt;
-  }
-  const std::vector<std::string> names = channel_names(channels);
-  bool layout_ok = spec.width == width && spec.height == height && spec.depth == 1 && spec.x == 0 && spec.y == 0 &&
-                   spec.z == 0 && spec.nchannels == channels && int(spec.channelnames.size()) == channels;
-  for (int c = 0; layout_ok && c < channels; ++c) layout_ok = spec.channelnames[size_t(c)] == names[size_t(c)];
-  if (!layout_ok) return std::nullopt;
-  tags.version = spec.get_int_attribute("texsynth:histogram_version", 0);
-  tags.ok = spec.get_int_attribute("texsynth:ok", -1);
-  tags.reason = spec.get_string_attribute("texsynth:fallback_reason");
-  tags.colour_channels = spec.get_int_attribute("texsynth:colour_channels", 0);
-  tags.min_distinct_values = spec.get_int_attribute("texsynth:min_distinct_values", 0);
-  std::vector<float> data(size_t(width) * size_t(height) * size_t(channels));
-  if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, data.data()) || in->has_error()) {
-    in->geterror();
-    return std::nullopt;
-  }
-  in->close();
-  for (float v : data)
-    if (!std::isfinite(v)) return std::nullopt;
-  return data;
+  std::optional<FloatExr> file = read_float_exr(path, width, height, channel_names(channels));
+  if (!file) return std::nullopt;
+  tags.version = int_tag(file->tags, "texsynth:histogram_version", 0);
+  tags.ok = int_tag(file->tags, "texsynth:ok", -1);
+  const auto reason = file->tags.strings.find("texsynth:fallback_reason");
+  tags.reason = reason == file->tags.strings.end() ? std::string() : reason->second;
+  tags.colour_channels = int_tag(file->tags, "texsynth:colour_channels", 0);
+  tags.min_distinct_values = int_tag(file->tags, "texsynth:min_distinct_values", 0);
+  return std::move(file->data);
 }
 
 }  // namespace
@@ -422,7 +403,7 @@ std::optional<HistogramTransform> load_histogram_transform(const std::string& st
     t.fallback_reason = lut_tags.reason;
     t.min_distinct_values = lut_tags.min_distinct_values;
     return t;
-  } catch (...) {  // out of memory, OpenEXR exceptions OpenImageIO let through: treat as stale
+  } catch (...) {  // out of memory while reading: treat as stale
     return std::nullopt;
   }
 }

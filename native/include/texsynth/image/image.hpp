@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #pragma once
-// Sample images as TexSynth sees them.
+// Sample images as TexSynth sees them. No file formats here: pixels come in as arrays (Blender decodes
+// the sample inside Blender); files are read and written by image_files/ (OpenImageIO), outside Blender.
 //
 // Pixels are stored as float, row 0 = top, interleaved channels (1 gray, 2 gray+alpha, 3 RGB, 4 RGBA).
 // Values are "as decoded": 8/16-bit integer data is normalised to [0, 1] and is taken to be
@@ -38,23 +39,6 @@ struct Image {
   int64_t pixel_count() const { return int64_t(width) * height; }
 };
 
-struct ImageInfo {
-  int width = 0;
-  int height = 0;
-  int channels = 0;
-  std::string format;     // file format as named by OpenImageIO, e.g. "png", "openexr"
-  std::string data_type;  // stored sample type, e.g. "uint8", "uint16", "half", "float"
-};
-
-// Reads header only. Throws std::invalid_argument naming the path and problem.
-ImageInfo read_image_info(const std::string& path);
-
-// Decodes the first subimage of any OpenImageIO-readable file, with all its channels (up to 64;
-// preprocessing accepts 1-4).
-// Throws std::invalid_argument for missing/unreadable/zero-byte/corrupt files, directories,
-// images over the size limit and NaN/Inf pixels or pixels beyond ±kMaxPixelMagnitude.
-Image load_image(const std::string& path);
-
 enum class PixelType { kUint8, kUint16, kFloat16, kFloat32 };
 
 // Builds an Image from raw interleaved pixels (row 0 = top). Integer types are normalised to [0, 1]
@@ -65,14 +49,17 @@ Image image_from_pixels(const void* data, PixelType type, int width, int height,
 // max_pixels pixels included).
 void validate_image(const Image& image, int64_t max_pixels = kMaxImagePixels);
 
+// The checks every decoder shares (pixel arrays here, files in image_files/), messages prefixed by `where`:
+// size and channel count, then every value finite and within ±kMaxPixelMagnitude.
+void check_image_dims(int width, int height, int channels, const std::string& where, int max_channels = 4,
+                      int64_t max_pixels = kMaxSamplePixels);
+void check_image_values(const std::vector<float>& pixels, int width, int channels, const std::string& where);
+
 // 64-bit hash of the decoded pixels, dimensions, channel count and encoding.
 uint64_t image_hash(const Image& image);
 
 // Per-pixel feature channels in L*a*b* (+ alpha): returns width*height*feature_channel_count(image) floats.
 int feature_channel_count(const Image& image);
 std::vector<float> to_feature_colors(const Image& image);
-
-// Writes an 8-bit image (PNG/JPEG/TIFF...) via OpenImageIO; throws std::runtime_error on failure.
-void write_image_u8(const std::string& path, const uint8_t* pixels, int width, int height, int channels);
 
 }  // namespace texsynth

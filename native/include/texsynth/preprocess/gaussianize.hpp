@@ -18,11 +18,11 @@
 // caller can blend the sample linearly without a special case.
 //
 // Cache files (histogram_file_stem): "<stem>.gauss.exr" (W×H×C) and "<stem>.lut.exr" (lut_size×1×C),
-// 32-bit float OpenEXR (zip: an 8-bit sample's Gaussian has <= 256 values per channel and shrinks >10×),
-// channels named Y / Y,A / R,G,B / R,G,B,A. Both carry the same header attributes, and a pair that
-// disagrees is stale (the two renames are not one atomic step):
+// 32-bit float OpenEXR written with tinyexr (common/float_exr.hpp); zip, as an 8-bit sample's Gaussian
+// has <= 256 values per channel and shrinks >10×; channels named Y / Y,A / R,G,B / R,G,B,A. Both carry
+// the same header attributes, and a pair that disagrees is stale (the two renames are not one atomic step):
 //   texsynth:histogram_version (int, 1), texsynth:ok (int 0/1), texsynth:fallback_reason (string;
-//   absent when ok, as OpenImageIO drops empty strings), texsynth:colour_channels (int),
+//   not written when empty, i.e. when ok), texsynth:colour_channels (int),
 //   texsynth:min_distinct_values (int).
 #include <cstdint>
 #include <optional>

@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "temp_dir.hpp"
-#include "texsynth/image/image.hpp"
+#include "texsynth/image_files/image_files.hpp"
 
 namespace {
 
