@@ -20,14 +20,12 @@ namespace texsynth {
 
 namespace {
 
-// Owns what tinyexr allocates, so every early return frees it.
+// Owns what tinyexr allocates, so every early return frees it. Freed after a failed parse too: tinyexr
+// can fail after ConvertHeader filled the header's arrays, and leaves them there (LeakSanitizer found it).
 struct HeaderGuard {
   EXRHeader header;
-  bool parsed = false;
   HeaderGuard() { InitEXRHeader(&header); }
-  ~HeaderGuard() {
-    if (parsed) FreeEXRHeader(&header);
-  }
+  ~HeaderGuard() { FreeEXRHeader(&header); }
 };
 
 struct ImageGuard {
@@ -137,7 +135,6 @@ std::optional<FloatExr> read_float_exr(const std::string& path, int width, int h
     take_error(error, parsed);
     return std::nullopt;
   }
-  header.parsed = true;
   const EXRHeader& h = header.header;
   const size_t channels = channel_names.size();
   // The layout is checked before any pixel is decoded: a damaged header cannot ask for memory.
