@@ -59,3 +59,27 @@ for call in (lambda: ts.preprocess("sample.png"), lambda: ts.load_image("sample.
     assert len(refusals) == 4 and "NO ERROR" not in lines, result.stdout
     for line in refusals:
         assert "texsynth_image_io" in line and "numpy array" in line and "Traceback" not in line, line
+
+
+def test_image_io_decodes_once_with_the_encoding_of_the_stored_type(tmp_path):
+    """texsynth_image_io.decode_image gives load_image's pixels and how they are encoded (integer files sRGB,
+    float files linear), which texsynth_native's path arguments take from this one call."""
+    import importlib
+    import numpy as np
+    io = importlib.import_module("texsynth_image_io")
+    png = tmp_path / "s.png"
+    pixels = (np.arange(6 * 5 * 3) % 256).astype(np.uint8).reshape(6, 5, 3)
+    io.write_image_u8(png, pixels)
+    decoded, encoding = io.decode_image(png)
+    assert encoding == "srgb"
+    # OpenImageIO scales by the float reciprocal of 255, not by a division.
+    assert np.array_equal(decoded, pixels.astype(np.float32) * (np.float32(1) / np.float32(255)))
+    # A float EXR: the cache's Gaussianized sample, written by tinyexr.
+    noise = np.random.default_rng(3).random((16, 16, 3), dtype=np.float32)
+    exr = texsynth_native.histogram_transform(noise, cache_dir=tmp_path / "cache", lut_size=64)["gaussian_path"]
+    decoded, encoding = io.decode_image(exr)
+    assert encoding == "linear" and decoded.dtype == np.float32 and decoded.shape == (16, 16, 3)
+    # The encoding reaches the native Image: the same EXR as a path and as a linear array agree.
+    from_path = texsynth_native.histogram_transform(exr)["gaussian"]
+    from_array = texsynth_native.histogram_transform(decoded)["gaussian"]
+    assert np.array_equal(from_path, from_array)

@@ -11,16 +11,6 @@ namespace py = pybind11;
 
 namespace texsynth_python {
 
-std::optional<std::string> as_path(py::handle object) {
-  if (py::isinstance<py::str>(object)) return object.cast<std::string>();
-  if (py::hasattr(object, "__fspath__")) {
-    py::object path = py::module_::import("os").attr("fspath")(object);
-    if (py::isinstance<py::str>(path)) return path.cast<std::string>();
-    throw std::invalid_argument("image path must be text, not bytes");
-  }
-  return std::nullopt;
-}
-
 namespace {
 std::string g_image_io_name = "texsynth_image_io";  // a sibling of this module (set_image_io_package)
 }  // namespace
@@ -48,17 +38,18 @@ namespace {
 
 // What load_image always gave: every channel the file has, 8/16-bit data normalised, sRGB for
 // integer data and linear for float data (the Image is taken as decoded, not re-validated here).
+// One call, so the file is opened once: texsynth_image_io returns the pixels with their encoding.
 texsynth::Image decode_file(const std::string& path) {
-  py::module_ io = image_io();
-  const std::string stored = py::str(io.attr("image_info")(path)["data_type"]);
-  py::array_t<float, py::array::c_style | py::array::forcecast> pixels = io.attr("load_image")(path);
+  py::tuple decoded = image_io().attr("decode_image")(path);
+  auto pixels = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(decoded[0]);
+  if (!pixels) throw std::invalid_argument("image '" + path + "': decoder returned no float array");
+  const std::string encoding = py::str(decoded[1]);
   if (pixels.ndim() != 3) throw std::invalid_argument("image '" + path + "': decoder returned no H×W×C array");
   texsynth::Image image;
   image.height = int(pixels.shape(0));
   image.width = int(pixels.shape(1));
   image.channels = int(pixels.shape(2));
-  image.encoding = (stored == "half" || stored == "float" || stored == "double") ? texsynth::ColorEncoding::kLinear
-                                                                                   : texsynth::ColorEncoding::kSrgb;
+  image.encoding = encoding == "linear" ? texsynth::ColorEncoding::kLinear : texsynth::ColorEncoding::kSrgb;
   image.pixels.assign(pixels.data(), pixels.data() + pixels.size());
   return image;
 }

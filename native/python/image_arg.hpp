@@ -6,12 +6,10 @@
 #include <optional>
 #include <string>
 
+#include "path_arg.hpp"
 #include "texsynth/image/image.hpp"
 
 namespace texsynth_python {
-
-// A str/os.PathLike as a filesystem path, or nullopt when `object` is not path-like.
-std::optional<std::string> as_path(pybind11::handle object);
 
 // The sibling module texsynth_image_io (OpenImageIO), imported on first use; std::invalid_argument naming
 // it where the build has none (packages for blender.org builds). The prefix is the package this module

@@ -4,21 +4,28 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
+#include "../path_arg.hpp"
 #include "texsynth/image_files/image_files.hpp"
 
 namespace py = pybind11;
 
+using texsynth_python::require_path;
+
 namespace {
 
-std::string path_argument(py::handle object, const char* function) {
-  if (py::isinstance<py::str>(object)) return object.cast<std::string>();
-  if (py::hasattr(object, "__fspath__")) {
-    py::object path = py::module_::import("os").attr("fspath")(object);
-    if (py::isinstance<py::str>(path)) return path.cast<std::string>();
-    throw std::invalid_argument("image path must be text, not bytes");
-  }
-  throw std::invalid_argument(std::string(function) + " expects a str or os.PathLike path");
+// Decoded pixels as float32 H×W×C owned by the returned array (no copy).
+py::array_t<float> pixel_array(texsynth::Image& image) {
+  auto* pixels = new std::vector<float>(std::move(image.pixels));
+  py::capsule owner(pixels, [](void* p) { delete static_cast<std::vector<float>*>(p); });
+  return py::array_t<float>({py::ssize_t(image.height), py::ssize_t(image.width), py::ssize_t(image.channels)},
+                            pixels->data(), owner);
+}
+
+texsynth::Image load_released(const std::string& path) {
+  py::gil_scoped_release release;
+  return texsynth::load_image(path);
 }
 
 }  // namespace
@@ -27,24 +34,26 @@ void bind_image_files(py::module_& m) {
   m.def(
       "load_image",
       [](py::object path_like) {
-        const std::string path = path_argument(path_like, "load_image");
-        texsynth::Image image;
-        {
-          py::gil_scoped_release release;
-          image = texsynth::load_image(path);
-        }
-        auto* pixels = new std::vector<float>(std::move(image.pixels));
-        py::capsule owner(pixels, [](void* p) { delete static_cast<std::vector<float>*>(p); });
-        return py::array_t<float>({py::ssize_t(image.height), py::ssize_t(image.width), py::ssize_t(image.channels)},
-                                  pixels->data(), owner);
+        texsynth::Image image = load_released(require_path(path_like, "load_image"));
+        return pixel_array(image);
       },
       py::arg("path"),
       "Decodes an image file (any OpenImageIO format) to float32 H×W×C, values as decoded "
       "(8/16-bit data normalised to [0, 1]), row 0 = top.");
   m.def(
+      "decode_image",
+      [](py::object path_like) {
+        texsynth::Image image = load_released(require_path(path_like, "decode_image"));
+        const char* encoding = image.encoding == texsynth::ColorEncoding::kLinear ? "linear" : "srgb";
+        return py::make_tuple(pixel_array(image), encoding);
+      },
+      py::arg("path"),
+      "load_image plus how the values are encoded: (pixels, \"srgb\" | \"linear\"), integer data being sRGB "
+      "and float data linear; the file is opened once.");
+  m.def(
       "image_info",
       [](py::object path_like) {
-        const std::string path = path_argument(path_like, "image_info");
+        const std::string path = require_path(path_like, "image_info");
         texsynth::ImageInfo info;
         {
           py::gil_scoped_release release;
@@ -62,7 +71,7 @@ void bind_image_files(py::module_& m) {
   m.def(
       "write_image_u8",
       [](py::object path_like, py::array_t<uint8_t, py::array::c_style | py::array::forcecast> pixels) {
-        const std::string path = path_argument(path_like, "write_image_u8");
+        const std::string path = require_path(path_like, "write_image_u8");
         if (pixels.ndim() != 3 || pixels.shape(2) < 1 || pixels.shape(2) > 4 || pixels.shape(0) < 1 ||
             pixels.shape(1) < 1)
           throw std::invalid_argument("write_image_u8 expects an H×W×C uint8 array with C in 1..4");
