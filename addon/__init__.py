@@ -64,6 +64,11 @@ def register():
     warning = compat.untested_version_message(bpy.app.version)
     if warning:
         print("TexSynth: " + warning)
+    # A package for another Python or platform: said once in the console too, not only in the sidebar.
+    from . import native
+    mismatch = native.diagnose()
+    if mismatch:
+        print("TexSynth: " + mismatch)
     unregister()  # twice-safe: a half-registered previous run is cleaned first
     for cls in classes:
         bpy.utils.register_class(cls)

@@ -255,6 +255,27 @@ def test_native_diagnosis_names_the_problem(tmp_path):
     assert native.diagnose(str(tmp_path), suffix, (3, 11)) is None
 
 
+@pytest.mark.parametrize("filename, needs", [
+    ("texsynth_native.cpython-313-x86_64-linux-gnu.so", "Python 3.13 on Linux"),
+    ("texsynth_native.cp311-win_amd64.pyd", "Python 3.11 on Windows"),
+    ("texsynth_native.cpython-311-darwin.so", "Python 3.11 on macOS"),
+])
+def test_a_package_for_another_python_or_platform_names_both(tmp_path, filename, needs):
+    """Issue 31: the sidebar, the console and the CLI say which Python and platform the package was built for
+    and which this Blender runs."""
+    (tmp_path / filename).write_bytes(b"")
+    message = native.diagnose(str(tmp_path), ".cpython-311-x86_64-linux-gnu.so", (3, 11), "linux")
+    assert "built for %s (%s)" % (needs, filename) in message, message
+    assert "runs Python 3.11 on Linux" in message and "\n" not in message
+
+
+def test_a_package_missing_one_of_its_libraries_names_the_file(tmp_path):
+    (tmp_path / "texsynth_native.libs").mkdir()
+    message = native.explain_load_error(ImportError(
+        "libtbb-0a1b2c3d.so.2: cannot open shared object file: No such file or directory"), str(tmp_path))
+    assert "damaged" in message and "texsynth_native.libs/libtbb-0a1b2c3d.so.2" in message, message
+
+
 def test_load_errors_are_explained_in_one_line():
     missing = native.explain_load_error(ImportError(
         "libOpenImageIO.so.2.5: cannot open shared object file: No such file or directory"))

@@ -56,6 +56,38 @@ HIDE_NUMPY = ("import sys\n"
               "    del sys.modules[name]\n")
 
 
+def test_a_package_for_another_python_says_which_in_console_sidebar_and_cli(tmp_path):
+    """Issue 31: a package built for another Python names both versions when enabled (console and sidebar
+    reason) and the CLI exits 1 with that line, never an import traceback."""
+    import re
+    import shutil
+    addons = tmp_path / "scripts" / "addons"
+    shutil.copytree(os.path.join(addon_package.ROOT, "addon"), addons / "texsynth",
+                    ignore=shutil.ignore_patterns("*.so", "__pycache__"))
+    (addons / "texsynth" / "texsynth_native.cpython-399-x86_64-linux-gnu.so").write_bytes(b"\x7fELF")
+    expected = re.compile(r"native module built for another Python: this TexSynth package is built for Python 3\.99 "
+                          r"on Linux \(texsynth_native\.cpython-399-x86_64-linux-gnu\.so\), but this Blender runs "
+                          r"Python 3\.\d+ on Linux")
+    script = ("import addon_utils\n"
+              "mod = addon_utils.enable('texsynth', default_set=True, handle_error=None)\n"
+              "assert mod is not None, 'enable failed'\n"
+              "print('REASON', mod.native.reason())\n")
+    env = {"BLENDER_USER_SCRIPTS": str(tmp_path / "scripts")}
+    process = blender_run.blender("--python-expr", script, env=env)
+    output = process.stdout + process.stderr
+    assert process.returncode == 0, output[-3000:]
+    console = [line for line in output.splitlines() if line.startswith("TexSynth: ")]
+    assert any(expected.search(line) for line in console), output[-3000:]
+    assert any(line.startswith("REASON ") and expected.search(line) for line in output.splitlines()), output[-3000:]
+    bricks = os.path.join(addon_package.ROOT, "blend_samples", "bricks.png")
+    cli = blender_run.blender("--python", str(addons / "texsynth" / "texsynth_cli.py"), "--", "--sample", bricks,
+                              "--object", "Cube",
+                              env=env)
+    cli_output = cli.stdout + cli.stderr
+    assert cli.returncode == 1, cli_output[-3000:]
+    assert expected.search(cli_output) and "Traceback" not in cli_output, cli_output[-3000:]
+
+
 def test_enabling_without_numpy_says_so_in_one_sentence(tmp_path):
     import shutil
     addons = tmp_path / "scripts" / "addons"
