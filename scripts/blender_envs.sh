@@ -6,6 +6,8 @@
 #   trixie          Debian 13: Blender 4.3, Python 3.13, Embree 4, OpenImageIO 2.5  (+ build deps)
 #   sid             Debian sid: Blender 5.2 LTS, Python 3.14, OpenImageIO 3.1, Eigen 5, pybind11 3
 #   <dist>-runtime  bookworm / trixie / sid with only blender (+ python3-numpy): where packages are installed
+#   <dist>-python   bookworm / trixie with only python3 + python3-numpy: a foreign runtime for the
+#                   self-contained blender.org packages (no Blender, Embree, TBB or OpenImageIO)
 #
 # Usage:
 #   scripts/blender_envs.sh create ENV...          make (or reuse) the root filesystems
@@ -13,6 +15,9 @@
 #   scripts/blender_envs.sh run ENV CMD [ARG...]   run a command in ENV, the repository mounted at /src
 #   scripts/blender_envs.sh test ENV               build + ctest, then all of python_tests inside ENV
 #   scripts/blender_envs.sh install-check ENV PKG  install PKG in a *-runtime ENV, Synthesize + render
+#   scripts/blender_envs.sh foreign-check ENV PKG OUT.npz
+#                                                  unpack a blender.org PKG in a *-python ENV, run the native
+#                                                  calls of every method (python_tests/install/native_calls.py)
 #   scripts/blender_envs.sh path ENV               print ENV's root folder
 # Needs root (chroot, mounts). TEXSYNTH_ENVS_DIR overrides the cache folder.
 set -euo pipefail
@@ -29,13 +34,15 @@ BUILD_PACKAGES=(
 )
 # Debian's blender package does not depend on (or recommend) python3-numpy, which TexSynth needs.
 RUNTIME_PACKAGES=(blender python3-numpy)
+PYTHON_PACKAGES=(python3 python3-numpy)
 
 dist_of() {
   case "$1" in
     trixie|trixie-runtime) echo trixie ;;
     sid|sid-runtime) echo sid ;;
-    bookworm-runtime) echo bookworm ;;
-    *) echo "blender_envs: unknown environment '$1' (trixie, sid, bookworm-runtime, trixie-runtime, sid-runtime)" >&2
+    bookworm-runtime|bookworm-python) echo bookworm ;;
+    trixie-python) echo trixie ;;
+    *) echo "blender_envs: unknown environment '$1' (trixie, sid, bookworm-runtime, trixie-runtime, sid-runtime, bookworm-python, trixie-python)" >&2
        exit 2 ;;
   esac
 }
@@ -43,6 +50,7 @@ dist_of() {
 packages_of() {
   case "$1" in
     *-runtime) echo "${RUNTIME_PACKAGES[*]}" ;;
+    *-python) echo "${PYTHON_PACKAGES[*]}" ;;
     *) echo "${BUILD_PACKAGES[*]}" ;;
   esac
 }
@@ -71,7 +79,7 @@ create() {
   rm -rf "$dir" "$dir.partial"
   mkdir -p "$envs_dir"
   case "$env" in
-    *-runtime)
+    *-runtime|*-python)
       ensure_mmdebstrap
       local options=()
       # sid's reachable mirror is a snapshot whose Release file has expired (the option stays in the chroot).
@@ -112,13 +120,13 @@ create_all() {
   local env runtimes=() pids=() failed=0
   for env in "$@"; do
     dist_of "$env" >/dev/null
-    case "$env" in *-runtime) runtimes+=("$env") ;; *) runtimes+=("$env-runtime") ;; esac
+    case "$env" in *-runtime|*-python) runtimes+=("$env") ;; *) runtimes+=("$env-runtime") ;; esac
   done
   for env in $(printf '%s\n' "${runtimes[@]}" | sort -u); do create "$env" & pids+=($!); done
   for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
   [ "$failed" = 0 ] || exit 1
   pids=()
-  for env in "$@"; do case "$env" in *-runtime) ;; *) create "$env" & pids+=($!) ;; esac; done
+  for env in "$@"; do case "$env" in *-runtime|*-python) ;; *) create "$env" & pids+=($!) ;; esac; done
   for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
   [ "$failed" = 0 ] || exit 1
 }
@@ -208,6 +216,33 @@ bpy.ops.wm.save_userpref()" >/tmp/install.log 2>&1 || { cat /tmp/install.log; ex
   return $status
 }
 
+# A self-contained package in a root filesystem with only python3 + numpy (issue 31): nothing it needs may
+# come from the system beyond glibc. Unpacks PKG, checks the environment really lacks the libraries, imports the
+# module the package carries, runs python_tests/install/native_calls.py into OUT.npz, and prints build_info()
+# and the shared objects the process mapped (the bundled TBB, no system Embree/TBB/OpenImageIO).
+foreign_check() {
+  local env="$1" package="$2" out="$3"
+  case "$env" in *-python) ;; *) echo "blender_envs: foreign-check needs a *-python environment" >&2; exit 2 ;; esac
+  [ -f "$package" ] || { echo "blender_envs: no package $package" >&2; exit 1; }
+  local drop status=0
+  drop="$(mktemp -d)"
+  mkdir "$drop/package"
+  unzip -q "$package" -d "$drop/package"
+  cp "$root/python_tests/install/native_calls.py" "$root/python_tests/install/foreign_probe.py" "$drop/"
+  TEXSYNTH_ENV_SRC="$drop" run_in "$env" bash -euc '
+    if command -v cc >/dev/null || command -v c++ >/dev/null; then echo "foreign-check: a compiler is installed" >&2; exit 1; fi
+    dev="$(dpkg-query -W -f "\${Package}\n" | grep -- "-dev$" | grep -vx python3-numpy-dev || true)"
+    if [ -n "$dev" ]; then echo "foreign-check: -dev packages are installed: $dev" >&2; exit 1; fi
+    system="$(ldconfig -p | grep -Ei "embree|libtbb|OpenImageIO" || true)"
+    if [ -n "$system" ]; then echo "foreign-check: the system has $system" >&2; exit 1; fi
+    cd /tmp
+    PYTHONPATH=/src/package python3 /src/native_calls.py run /src/out.npz
+    PYTHONPATH=/src/package python3 /src/foreign_probe.py /src/package' || status=$?
+  [ "$status" = 0 ] && cp "$drop/out.npz" "$out"
+  rm -rf "$drop"
+  return $status
+}
+
 command="${1:-}"
 [ $# -gt 0 ] && shift
 case "$command" in
@@ -216,6 +251,7 @@ case "$command" in
   run) need_root; env="$1"; shift; run_in "$env" "$@" ;;
   test) need_root; test_in "$1" ;;
   install-check) need_root; install_check "$1" "$2" ;;
+  foreign-check) need_root; foreign_check "$1" "$2" "$3" ;;
   path) dist_of "$1" >/dev/null; echo "$envs_dir/$1" ;;
-  *) sed -n '3,18p' "$0" >&2; exit 2 ;;
+  *) sed -n '3,23p' "$0" >&2; exit 2 ;;
 esac

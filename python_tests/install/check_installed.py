@@ -1,10 +1,14 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Run by Blender in a runtime environment (only Debian's blender and python3-numpy, no source tree) after the
-package was installed and enabled: a headless Synthesize through the operator, then a render.
+package was installed and enabled: a headless Synthesize through the operator, a comb stroke of the field
+brushes (rays through Embree), then a render. For a self-contained package (texsynth_native.libs/ beside the
+module) it also shows that the bundled libraries answer: build_info() and /proc/self/maps.
 
 blender -b --python-exit-code 1 --python check_installed.py -- SAMPLE.png OUT.png
 Prints CHECK_INSTALLED ok ... on success; raises (exit code 1) otherwise.
 """
+import importlib
+import os
 import sys
 
 import addon_utils
@@ -43,6 +47,23 @@ uv_names = [layer.name for layer in sphere.data.uv_layers]
 assert "TexSynth" in uv_names, uv_names
 assert sphere.active_material is not None, "no material assigned"
 
+# The field brushes: a comb stroke across the sphere's front casts rays through the module's Embree.
+authoring = importlib.import_module(module_name + ".fields.authoring")
+mesh_state = importlib.import_module(module_name + ".fields.mesh_state")
+field_edits = importlib.import_module(module_name + ".ui.field_edits")
+state = mesh_state.field_state(bpy.context, sphere)
+brush = authoring.CombBrush(state, mesh_state.caster_for(sphere, state.arrays), 0.4)
+for s in np.linspace(0.0, 1.0, 25):
+    brush.dab(np.array([-0.6 + 1.2 * s, -3.0, 0.0]), np.array([0.0, 1.0, 0.0]))
+assert brush.end_stroke(), "the comb stroke hit nothing"
+field_edits.commit_edit(bpy.context, sphere, state)
+combed = sphere.data.attributes.get(authoring.GUIDE_NAME)
+assert combed is not None, "the stroke wrote no guide attribute"
+guide = np.empty(len(sphere.data.vertices) * 3, np.float32)
+combed.data.foreach_get("vector", guide)
+guided = int(np.any(guide.reshape(-1, 3) != 0, axis=1).sum())
+assert guided > 10, "the comb stroke guided %d vertices" % guided
+
 scene = bpy.context.scene
 scene.render.engine = "CYCLES"  # CPU Cycles renders headless on every version
 scene.cycles.device = "CPU"
@@ -64,5 +85,17 @@ sphere_pixels = rgb[np.abs(rgb - rgb[0]).max(axis=1) > 0.02]
 assert len(sphere_pixels) > len(rgb) // 10, "the sphere is not in the render"
 redness = float(np.mean(sphere_pixels[:, 0] - sphere_pixels[:, 2]))
 assert redness > 0.05, "the render shows no brick red (R - B = %.3f): the texture did not show" % redness
-print("CHECK_INSTALLED ok: Blender %s, %s, %d UV maps, render %s (R - B %.3f)" % (
-    bpy.app.version_string, module_name, len(uv_names), out_path, redness), flush=True)
+module = addon.native.get()
+folder = os.path.dirname(os.path.abspath(module.__file__))
+if os.path.isdir(os.path.join(folder, "texsynth_native.libs")):
+    # Blender may have loaded its own TBB and Embree; the module must use the copies it carries.
+    with open("/proc/self/maps") as maps_file:
+        mapped = sorted({line.split()[-1] for line in maps_file if ".so" in line.split()[-1]})
+    tbb = [path for path in mapped if "tbb" in os.path.basename(path)]
+    embree = [path for path in mapped if "embree" in os.path.basename(path)]
+    print("CHECK_INSTALLED maps: TBB %s; Embree %s" % (" ".join(tbb) or "-", " ".join(embree) or "- (static)"))
+    info = module.build_info()
+    print("CHECK_INSTALLED build_info:", info)
+    assert any(path.startswith(folder + "/texsynth_native.libs/") for path in tbb), tbb
+print("CHECK_INSTALLED ok: Blender %s, %s, %d UV maps, %d vertices combed, render %s (R - B %.3f)" % (
+    bpy.app.version_string, module_name, len(uv_names), guided, out_path, redness), flush=True)
