@@ -40,9 +40,22 @@ def particle_cache_seeds(tmp):
     put("fuzz_particle_cache", "valid_raw", b"\x00" + data)
 
 
+def float_exr_seeds(tmp):
+    """The cache's two side files, written by tinyexr: a Gaussianized 12 x 10 RGB sample and its 64-entry
+    look-up table, and a grey + alpha pair. Header bytes: channels - 1, width - 1, height - 1."""
+    rng = np.random.default_rng(5)
+    for name, sample in (("rgb", rng.random((10, 12, 3), dtype=np.float32)),
+                         ("grey_alpha", rng.random((10, 12, 2), dtype=np.float32))):
+        out = texsynth_native.histogram_transform(sample, cache_dir=os.path.join(tmp, name), lut_size=64)
+        channels = sample.shape[2]
+        put("fuzz_float_exr", name + "_gaussian", bytes([channels - 1, 11, 9]) + open(out["gaussian_path"], "rb").read())
+        put("fuzz_float_exr", name + "_lut", bytes([channels - 1, 63, 0]) + open(out["lut_path"], "rb").read())
+
+
 def main():
     tmp = tempfile.mkdtemp()
     particle_cache_seeds(tmp)
+    float_exr_seeds(tmp)
     pixels = make_corpus.sample_pixels(size=8)
     png = os.path.join(tmp, "s.png")
     open(png, "wb").write(make_corpus.png_from_array(pixels))
