@@ -199,7 +199,22 @@ install_check() {
     # python3-numpy depends on python3-numpy-dev (its headers) since Debian 13: not a build package.
     dev="$(dpkg-query -W -f "\${Package}\n" | grep -- "-dev$" | grep -vx python3-numpy-dev || true)"
     if [ -n "$dev" ]; then echo "install-check: -dev packages are installed: $dev" >&2; exit 1; fi
-    if [ "$2" = legacy ]; then
+    kind="$2"
+    # An extension in a Blender older than 4.2 (no extension platform): unpacked by hand into the user
+    # add-ons folder as texsynth/, as an artist would (the blender.org cp311 package in Debian 12 Blender 3.4).
+    if [ "$kind" = extension ]; then
+      platform="$(blender -b --factory-startup --python-expr "import bpy; print(\"EXTENSIONS\", bpy.app.version >= (4, 2, 0))" \
+        2>/dev/null | sed -n "s/^EXTENSIONS //p")"
+      [ "$platform" = True ] || kind=by-hand
+    fi
+    if [ "$kind" = by-hand ]; then
+      blender -b --python-exit-code 1 --python-expr "
+import addon_utils, bpy, os, zipfile
+target = os.path.join(bpy.utils.user_resource(\"SCRIPTS\", path=\"addons\", create=True), \"texsynth\")
+zipfile.ZipFile(\"/src/$1\").extractall(target)
+assert addon_utils.enable(\"texsynth\", default_set=True, handle_error=None) is not None
+bpy.ops.wm.save_userpref()" >/tmp/install.log 2>&1 || { cat /tmp/install.log; exit 1; }
+    elif [ "$kind" = legacy ]; then
       blender -b --python-exit-code 1 --python-expr "
 import addon_utils, bpy
 bpy.ops.preferences.addon_install(filepath=\"/src/$1\")
