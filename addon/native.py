@@ -5,13 +5,14 @@ Imported lazily and never raising: enabling the add-on must not fail when the mo
 built for another Python, or fails to load. `reason()` says why it is unavailable (the panel shows it).
 TEXSYNTH_MODULE_DIR (e.g. a sanitizer build) is searched first, like the tests do.
 
-Self-contained packages (blender.org builds) carry their libraries in texsynth_native.libs/ and are imported
-with RTLD_DEEPBIND, so the module binds to its bundled TBB even where Blender has loaded its own copy
+Self-contained packages (blender.org builds) carry their libraries in texsynth_native.libs/. They are imported
+with the default flags, not RTLD_DEEPBIND: that would bind the module's malloc/free to glibc's while Blender
+allocates with jemalloc (measured: an abort at the first call). Nothing needs it: Embree and the C++ runtime are
+static and hidden, and the bundled TBB 2020 shares no symbol the module uses with Blender's oneTBB
 (docs/dev/blender_org_packages.md).
 """
 import glob
 import importlib
-import importlib.util
 import os
 import re
 import sys
@@ -88,21 +89,6 @@ def explain_load_error(error, folder=_PACKAGE_DIR):
     return "native module failed to load: %s" % text
 
 
-def _import(name, package):
-    spec = importlib.util.find_spec(name, package)
-    folder = os.path.dirname(spec.origin) if spec is not None and spec.origin else None
-    if folder is None or not os.path.isdir(os.path.join(folder, LIBS_DIR_NAME)) or not hasattr(os, "RTLD_DEEPBIND"):
-        return importlib.import_module(name, package)
-    # The module's own dependencies before the global scope: a Blender that loaded its own TBB must
-    # not lend it to the module (renaming the bundled file does not rename its symbols).
-    flags = sys.getdlopenflags()
-    sys.setdlopenflags(flags | os.RTLD_DEEPBIND)
-    try:
-        return importlib.import_module(name, package)
-    finally:
-        sys.setdlopenflags(flags)
-
-
 def _try_import():
     override = os.environ.get("TEXSYNTH_MODULE_DIR")
     if override and os.path.isdir(override):
@@ -111,7 +97,7 @@ def _try_import():
         return importlib.import_module(MODULE_NAME)
     package = __package__ or __name__.rpartition(".")[0]
     if package:
-        return _import("." + MODULE_NAME, package)
+        return importlib.import_module("." + MODULE_NAME, package)
     return importlib.import_module(MODULE_NAME)
 
 

@@ -5,7 +5,12 @@
 #   trixie, sid (scripts/blender_envs.sh, made while the host stages run): build against that
 #         distribution's libraries and Python, ctest, all of python_tests;
 #   packages: one per Blender family (scripts/package_addon.sh), each installed in a runtime environment
-#         holding only Debian's blender and python3-numpy packages, then a headless Synthesize + render.
+#         holding only Debian's blender and python3-numpy packages, then a headless Synthesize, a field-brush
+#         stroke and a render;
+#   blender.org packages: the self-contained cp311/cp313 extensions (built on Debian 11, package_addon.sh
+#         blender-org) run every method's native calls in root filesystems holding only python3 and
+#         python3-numpy, bit for bit against the Debian-built modules; then installed in Debian's Blender 3.4
+#         (by hand) and 4.3 (extension install-file) beside Blender's own TBB and Embree.
 # Prints the wall time of every stage at the end (also in out/test_stage_times.txt).
 # TEXSYNTH_TEST_HOST_ONLY=1 runs the host stages only.
 set -euo pipefail
@@ -27,7 +32,8 @@ envs_pid=""
 if [ "$all_envs" = 1 ]; then
   # Root filesystems for Blender 4.3 and 5.2 (+ runtime-only ones) are mostly download and unpack:
   # made in the background while the host builds and tests.
-  bash scripts/blender_envs.sh create trixie sid bookworm-runtime >out/blender_envs_create.log 2>&1 &
+  bash scripts/blender_envs.sh create trixie sid bookworm-runtime bullseye-build bookworm-python trixie-python \
+    >out/blender_envs_create.log 2>&1 &
   envs_pid=$!
 fi
 
@@ -54,6 +60,28 @@ begin "install checks (runtime-only environments)"
 for pair in bookworm-runtime:py311 trixie-runtime:py313 sid-runtime:py314; do
   env="${pair%%:*}"
   package="$(ls dist/texsynth-*-"${pair#*:}".zip)"
+  echo "-- $env: $(basename "$package")"
+  bash scripts/blender_envs.sh install-check "$env" "$package"
+done
+end
+end
+begin "blender.org packages: build (Debian 11), foreign runtime, Blender 3.4 and 4.3"
+bash scripts/package_addon.sh blender-org
+# What the Debian-built modules compute, for the bit-for-bit comparison.
+PYTHONPATH="$root/addon" /usr/bin/python3.11 python_tests/install/native_calls.py run out/native_calls-debian-cp311.npz >/dev/null
+bash scripts/blender_envs.sh run trixie env PYTHONPATH=/src/addon python3 /src/python_tests/install/native_calls.py \
+  run /src/out/native_calls-debian-cp313.npz >/dev/null
+for pair in bookworm-python:cp311 trixie-python:cp313; do
+  env="${pair%%:*}" tag="${pair#*:}"
+  package="$(ls dist/texsynth-*-linux_x64-"$tag".zip)"
+  echo "-- $env: $(basename "$package")"
+  bash scripts/blender_envs.sh foreign-check "$env" "$package" "out/native_calls-foreign-$tag.npz"
+  /usr/bin/python3.11 python_tests/install/native_calls.py compare "out/native_calls-debian-$tag.npz" \
+    "out/native_calls-foreign-$tag.npz"
+done
+for pair in bookworm-runtime:cp311 trixie-runtime:cp313; do
+  env="${pair%%:*}"
+  package="$(ls dist/texsynth-*-linux_x64-"${pair#*:}".zip)"
   echo "-- $env: $(basename "$package")"
   bash scripts/blender_envs.sh install-check "$env" "$package"
 done
