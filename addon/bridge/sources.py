@@ -6,7 +6,8 @@ import os
 import bpy
 import numpy as np
 
-from .. import native
+from ..core.image_headers import check_sample_file
+from ..core.sample_image import sample_pixels
 from ..core.settings import SettingsError
 from . import mesh_io
 
@@ -24,7 +25,8 @@ class Sample:
         return self.image.name if self.image is not None else (self.path or "<none>")
 
     def native_input(self):
-        """What texsynth_native.preprocess accepts: a path, or the image's pixels as numpy."""
+        """What texsynth_native.preprocess accepts: the sample's pixels as numpy. A file is decoded by
+        Blender (decode_sample_file), never by texsynth_image_io, which blender.org packages do not have."""
         if self.image is not None:
             return mesh_io.read_image_pixels(self.image)
         if not self.path:
@@ -32,7 +34,7 @@ class Sample:
         path = bpy.path.abspath(self.path)
         if not os.path.isfile(path):
             raise SettingsError("sample image not found: %s" % path)
-        return path
+        return decode_sample_file(path)
 
     def shader_image(self):
         """The bpy image the node group samples (loaded once for file samples)."""
@@ -63,6 +65,8 @@ def decode_sample_file(path):
     the stored values needs the Non-Color colour space and the artist's own image must not change."""
     if not os.path.isfile(path):
         raise SettingsError("sample image not found: %s" % path)
+    # Before Blender opens it: Blender's readers trust the header (3.4 hangs on a cut OpenEXR header).
+    header = check_sample_file(path)
     try:
         image = bpy.data.images.load(path, check_existing=False)
     except RuntimeError as error:
@@ -72,6 +76,10 @@ def decode_sample_file(path):
         width, height = int(image.size[0]), int(image.size[1])
         if width == 0 or height == 0 or not image.has_data:
             raise SettingsError("cannot read the sample image %s (unsupported or damaged file)" % path)
+        if (width, height) != (header.width, header.height):  # another reader than the one checked
+            raise SettingsError("cannot read the sample image %s: Blender decoded %dx%d where its %s header "
+                                "says %dx%d (damaged file?)" % (path, width, height, header.format,
+                                                               header.width, header.height))
         stored = int(image.channels)
         pixels = np.empty(width * height * stored, dtype=np.float32)
         image.pixels.foreach_get(pixels)
@@ -104,10 +112,9 @@ def read_sample_pixels(sample):
     if sample.image is not None:
         image = sample.image
         return mesh_io.read_image_pixels(image), (not image.is_float and image.colorspace_settings.name == "sRGB")
-    path = sample.native_input()
-    module = native.require()
-    info = module.image_info(path)
-    return module.load_image(path), str(info.get("data_type", "uint8")) in ("uint8", "uint16")
+    decoded = sample.native_input()
+    # Integer files are display-referred, float files linear: the encoding texsynth_native gives them.
+    return sample_pixels(decoded), decoded.dtype in (np.uint8, np.uint16)
 
 
 def default_cache_dir():

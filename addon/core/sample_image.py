@@ -33,7 +33,12 @@ def load_sample(sample):
     array = np.asarray(sample)
     if array.ndim != 3 or array.shape[0] < 1 or array.shape[1] < 1 or array.shape[2] not in (1, 2, 3, 4):
         raise SettingsError("sample image array must be H x W x C with C in 1..4, got shape %s" % (array.shape,))
-    return np.ascontiguousarray(array, dtype=np.float32) if array.dtype != np.uint8 else np.ascontiguousarray(array)
+    if array.dtype in (np.uint8, np.uint16):  # normalised (and taken as sRGB) by the native side
+        return np.ascontiguousarray(array)
+    return np.ascontiguousarray(array, dtype=np.float32)
+
+
+_INTEGER_SCALES = {np.uint8: np.float32(1.0) / np.float32(255.0), np.uint16: np.float32(1.0) / np.float32(65535.0)}
 
 
 def sample_size(native_input):
@@ -50,8 +55,9 @@ def sample_pixels(native_input):
     if isinstance(native_input, str):
         return native.require().load_image(native_input)
     array = np.asarray(native_input)
-    if array.dtype == np.uint8:
-        return np.ascontiguousarray(array, dtype=np.float32) / np.float32(255.0)
+    if array.dtype.type in _INTEGER_SCALES:
+        # As image_from_pixels: times the float32 reciprocal, not a division, so every value is bit-identical.
+        return array.astype(np.float32, order="C") * _INTEGER_SCALES[array.dtype.type]
     return np.ascontiguousarray(array, dtype=np.float32)
 
 

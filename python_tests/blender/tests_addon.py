@@ -649,8 +649,97 @@ def test_blender_decodes_sample_files_as_openimageio_does():
     damaged = os.path.join(directory, "damaged.png")
     with open(damaged, "wb") as handle:
         handle.write(b"\x89PNG\r\n\x1a\n" + bytes(40))
+    expect_error(lambda: sources.decode_sample_file(damaged), "damaged.png", "corrupt file")  # from its header
+    # A sound header over data Blender cannot decode: Blender's own refusal.
+    _write_grey_alpha_png(damaged, np.zeros((23, 37, 2), np.uint8))
+    with open(damaged, "rb") as handle:
+        data = bytearray(handle.read())
+    data[data.index(b"IDAT") + 4:data.index(b"IDAT") + 12] = b"garbage!"
+    with open(damaged, "wb") as handle:
+        handle.write(bytes(data))
     expect_error(lambda: sources.decode_sample_file(damaged), "cannot read the sample image")
     assert len(bpy.data.images) == images_before
+
+
+def test_a_cut_openexr_header_is_refused_before_blender_opens_it():
+    """Blender 3.4's OpenEXR reader never returns on a 20-byte cut of a valid file (the hostile corpus's
+    truncated_header.exr): the header check must refuse it without any datablock being made."""
+    clean()
+    cut = os.path.join(tempfile.mkdtemp(prefix="texsynth_cut_"), "cut.exr")
+    with open(os.path.join(harness.ROOT, "python_tests", "image_headers", "seeds", "half_zip.exr"), "rb") as handle:
+        data = handle.read()
+    with open(cut, "wb") as handle:
+        handle.write(data[:20])
+    expect_error(lambda: sources.decode_sample_file(cut), "cut.exr", "truncated or corrupt file")
+    expect_error(lambda: sources.Sample(path=cut).native_input(), "truncated or corrupt file")
+    assert len(bpy.data.images) == 0
+
+
+class _PathRefusingNative:
+    """texsynth_native, except that a call given the sample file's path fails: inside Blender the sample
+    must reach the module as pixels (the blender.org package has no texsynth_image_io to decode paths)."""
+
+    def __init__(self, module, path):
+        self._module, self._path, self.calls = module, os.path.abspath(path), []
+
+    def __getattr__(self, name):
+        attribute = getattr(self._module, name)
+        if not callable(attribute) or isinstance(attribute, type):
+            return attribute
+
+        def call(*args, **kwargs):
+            if any(isinstance(a, (str, os.PathLike)) and os.path.abspath(a) == self._path for a in args):
+                raise AssertionError("texsynth_native.%s was given the sample's path" % name)
+            self.calls.append(name)
+            return attribute(*args, **kwargs)
+        return call
+
+
+def test_file_samples_reach_the_native_module_as_pixels():
+    if USE_FAKE:
+        print("SKIP: needs the real texsynth_native")
+        return
+    saved = native._module
+    guard = _PathRefusingNative(saved, BRICKS)
+    try:
+        native._module = guard
+        clean()
+        for method, extra in (("JUMPMAP", dict(blend_mode="HISTOGRAM")), ("TEXTON", {})):
+            obj = harness.add_primitive("cube", "Cube " + method)
+            synthesize_one(obj, method=method, **extra)
+            assert "TexSynth" in obj.data.uv_layers, method
+        pixels, srgb = sources.read_sample_pixels(sources.Sample(path=BRICKS))
+        assert pixels.dtype == np.float32 and srgb
+    finally:
+        native._module = saved
+    assert {"preprocess", "histogram_transform", "synthesize_jumpmap", "synthesize_texton"} <= set(guard.calls)
+
+
+def test_repository_samples_decode_bit_identical_to_openimageio():
+    """Blender's decoding of blend_samples/*.png gives the same floats, encoding and cache key as the
+    OpenImageIO path it replaces, so caches and reference renders stay as they were."""
+    if USE_FAKE:
+        print("SKIP: needs the real texsynth_native (load_image)")
+        return
+    module = native.require()
+    params = core_settings.Settings().validate().preprocess_params()
+    cache = tempfile.mkdtemp(prefix="texsynth_identical_")
+    names = sorted(n for n in os.listdir(harness.SAMPLES_DIR) if n.endswith(".png"))
+    values = 0
+    for name in names:
+        path = os.path.join(harness.SAMPLES_DIR, name)
+        decoded = sources.Sample(path=path).native_input()
+        expected = module.load_image(path)
+        pixels, srgb = sources.read_sample_pixels(sources.Sample(path=path))
+        assert pixels.shape == expected.shape and pixels.dtype == np.float32, (name, pixels.shape, expected.shape)
+        assert np.array_equal(pixels.view(np.uint32), expected.view(np.uint32)), name
+        assert srgb == (module.image_info(path)["data_type"] in ("uint8", "uint16")), name
+        # The key hashes the floats, size and encoding the module made of each input.
+        assert module.cache_file_path(decoded, cache_dir=cache, **params) == \
+            module.cache_file_path(path, cache_dir=cache, **params), name
+        values += expected.size
+    assert len(names) >= 4
+    print("BIT_IDENTICAL files=%d values=%d" % (len(names), values))
 
 
 def test_preprocess_and_cache_check_operators():

@@ -164,7 +164,8 @@ def run_case(corpus, case):
     configure(corpus, settings)
     if case.get("corrupt_cache"):
         props = bpy.context.scene.texsynth
-        path = native.get().cache_file_path(props.sample_path, cache_dir=CACHE_DIR,
+        # Keyed on the pixels the add-on hands over (Blender's decoding of the sample).
+        path = native.get().cache_file_path(sources.Sample(path=props.sample_path).native_input(), cache_dir=CACHE_DIR,
                                             **props.to_settings().preprocess_params())
         shutil.copyfile(os.path.join(corpus, case["corrupt_cache"]), path)
     if case.get("fail_at"):

@@ -1,0 +1,43 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""core/sample_image under plain pytest: integer samples (what Blender's decoding gives for 8- and 16-bit
+files, issue 31) become exactly the floats texsynth_native and OpenImageIO make of them, bit for bit, so
+caches and renders do not change when Blender decodes the sample instead of OpenImageIO."""
+import os
+import sys
+
+import numpy as np
+import pytest
+
+import addon_package
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SEED = os.path.join(HERE, "image_headers", "seeds", "rgb8.png")
+sample_image = addon_package.load("core.sample_image")
+
+
+def test_integer_pixels_become_the_floats_texsynth_native_makes(tmp_path):
+    native = pytest.importorskip("texsynth_native")
+    for dtype, top in ((np.uint8, 255), (np.uint16, 65535)):
+        values = np.arange(top + 1, dtype=dtype).reshape(-1, 256, 1)  # every value the type holds
+        floats = sample_image.sample_pixels(values)
+        assert floats.dtype == np.float32 and floats.shape == values.shape and floats.flags.c_contiguous
+        # The cache key hashes the float pixels image_from_pixels made: equal keys, equal bits.
+        key = lambda image: native.cache_file_path(image, cache_dir=str(tmp_path), color_space="srgb")  # noqa: E731
+        assert key(floats) == key(values), dtype
+        assert sample_image.load_sample(values).dtype == dtype  # normalised by the native side, not here
+
+
+def test_integer_pixels_become_the_floats_openimageio_decodes(tmp_path):
+    native = pytest.importorskip("texsynth_native")
+    try:
+        native.image_info(SEED)
+    except ValueError as error:
+        pytest.skip("no texsynth_image_io in this build: %s" % error)
+    sys.path.insert(0, os.path.join(HERE, "hostile"))
+    import make_corpus
+    for dtype, top in ((np.uint8, 255), (np.uint16, 65535)):
+        values = np.arange(top + 1, dtype=dtype).reshape(-1, 256, 1)
+        path = tmp_path / ("all_%d.png" % top)
+        path.write_bytes(make_corpus.png_from_array(values))
+        decoded = native.load_image(str(path))
+        assert np.array_equal(sample_image.sample_pixels(values).view(np.uint32), decoded.view(np.uint32)), dtype
