@@ -10,10 +10,11 @@ struct BuildInfo {
   std::string embree_version;          // from the running Embree device (rtcGetDeviceProperty)
   std::string embree_header_version;   // the headers compiled against
   std::string embree_library;          // file that holds the rtc* code called (the module when static)
-  std::string tbb_version;             // runtime version ("2021.8.0"; TBB 2020 has only an interface version)
-  int tbb_interface_version = 0;       // TBB_runtime_interface_version() of the loaded TBB
+  // The TBB that this module's own dependencies resolve to (build_info.cpp says why not a plain call).
+  std::string tbb_version;             // "2021.8" (TBB_runtime_version), "2020.3" (from the interface version)
+  int tbb_interface_version = 0;       // its TBB_runtime_interface_version()
   int tbb_header_interface_version = 0;
-  std::string tbb_library;             // file that holds the TBB code called
+  std::string tbb_library;             // the file it was loaded from
   bool self_contained = false;         // TEXSYNTH_SELF_CONTAINED: static Embree/libstdc++, bundled TBB
   bool image_files = false;            // TEXSYNTH_IMAGE_FILES: texsynth_image_io built alongside
   std::string compiler;
