@@ -72,10 +72,12 @@ needs_max() { objdump -T "$1" | awk '/\*UND\*/' | { grep -oE "\\b$2_[0-9][0-9.]*
 above() { [ -n "$1" ] && [ "$1" != "$2" ] && [ "$(printf '%s\n%s\n' "$1" "$2" | sort -V | tail -1)" = "$1" ]; }
 
 inside_bundle_and_check() {
-  local abi="$1" out="$2" report="$3"
+  local abi="$1" linked="$2" out="$3" report="$4"
   local module="$out/texsynth_native$(abi_suffix "$abi")" libs="$out/texsynth_native.libs"
-  rm -rf "$libs"
+  # A fresh copy of the linked module each time: patchelf on an already patched file grows it.
+  rm -rf "$out"
   mkdir -p "$libs"
+  cp "$linked/texsynth_native$(abi_suffix "$abi")" "$module"
   # auditwheel's repair: copy, rename with a content hash (two add-ons' TBBs never share a file name),
   # point the module's NEEDED at the new name, and find it through RPATH.
   local tbb=/usr/lib/x86_64-linux-gnu/libtbb.so.2 hash name
@@ -206,13 +208,13 @@ for abi in "${abis[@]}"; do
     cd /src
     mkdir -p "$1"
     cmake -S /src -B "$1" -DCMAKE_BUILD_TYPE=Release -DTEXSYNTH_SELF_CONTAINED=ON -DTEXSYNTH_IMAGE_FILES=OFF \
-      -DTEXSYNTH_BUILD_TESTS=OFF -DTEXSYNTH_BUILD_BENCHMARKS=OFF -DTEXSYNTH_MODULE_OUTPUT_DIR="/src/$1/out" \
+      -DTEXSYNTH_BUILD_TESTS=OFF -DTEXSYNTH_BUILD_BENCHMARKS=OFF -DTEXSYNTH_MODULE_OUTPUT_DIR="/src/$1/linked" \
       -DTEXSYNTH_PYTHON_INCLUDE_DIRS="$2" -DTEXSYNTH_PYTHON_EXT_SUFFIX="$3" \
       -DCMAKE_PREFIX_PATH="$4" \
       -DZLIB_LIBRARY=/usr/lib/x86_64-linux-gnu/libz.a >"$1/configure.log" 2>&1 || { cat "$1/configure.log"; exit 1; }
     grep "^-- TexSynth:" "$1/configure.log"
     cmake --build "$1" -j"$5" >"$1/build.log" 2>&1 || { grep -B2 -A12 -m3 "error" "$1/build.log"; tail -20 "$1/build.log"; exit 1; }
-    bash /src/scripts/build_blender_org.sh --inside-bundle "$6" "/src/$1/out" "/src/$1/report.txt"
+    bash /src/scripts/build_blender_org.sh --inside-bundle "$6" "/src/$1/linked" "/src/$1/out" "/src/$1/report.txt"
   ' _ "$build" "$(abi_headers "$abi")" "$(abi_suffix "$abi")" "$env_embree" "$jobs" "$abi"
   echo "build_blender_org: $abi built in $((SECONDS - start)) s: $root/$build/out"
 done
