@@ -10,7 +10,7 @@
 #                   self-contained blender.org packages (no Blender, Embree, TBB or OpenImageIO)
 #   bullseye-build  Debian 11 (glibc 2.31, gcc 10, TBB 2020.3), no Blender: builds the self-contained
 #                   modules for blender.org builds (scripts/build_blender_org.sh); Python 3.11/3.13,
-#                   pybind11 and hnswlib headers are copied in (see BULLSEYE_COPIED_HEADERS)
+#                   pybind11, Eigen and hnswlib headers are copied in (see BULLSEYE_COPIED_HEADERS)
 #
 # Usage:
 #   scripts/blender_envs.sh create ENV...          make (or reuse) the root filesystems
@@ -42,13 +42,16 @@ PYTHON_PACKAGES=(python3 python3-numpy)
 # manylinux_2_28 (docs/dev/blender_org_packages.md). xz-utils unpacks Embree's source tarball.
 BULLSEYE_BUILD_PACKAGES=(
   g++ cmake make pkg-config patchelf binutils xz-utils
-  libtbb-dev libtinyexr-dev zlib1g-dev libeigen3-dev
+  libtbb-dev libtinyexr-dev zlib1g-dev
 )
 # Headers bullseye lacks (Python 3.11 and 3.13) or has too old (pybind11 2.6, hnswlib 0.4), copied
 # from this host (Debian 12) and the trixie environment at creation: "<source> <path>", one a line.
+# Eigen 3.4 as the Debian builds use: with bullseye's 3.3.9 the textons already differ in the last bits.
 BULLSEYE_COPIED_HEADERS=(
   "host /usr/include/python3.11"
   "host /usr/include/x86_64-linux-gnu/python3.11"
+  "host /usr/include/eigen3"
+  "host /usr/share/eigen3"
   "trixie /usr/include/python3.13"
   "trixie /usr/include/x86_64-linux-gnu/python3.13"
   "trixie /usr/include/pybind11"
