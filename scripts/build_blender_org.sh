@@ -201,9 +201,17 @@ if [ ! -d "$envs_dir/bullseye-build$env_embree" ]; then
   cp -a "$embree_cache" "$envs_dir/bullseye-build$env_embree"
 fi
 
+env_stamp="$(sha256sum <"$envs_dir/bullseye-build/.texsynth-env" | cut -c1-12)-$embree_key"
 for abi in "${abis[@]}"; do
   build="build-blender-org/$abi"
   start=$SECONDS
+  # A remade environment copies headers with their old dates: make would keep objects built against the
+  # previous ones, so a build folder from another environment or Embree starts afresh.
+  if [ "$(cat "$root/$build/.env-stamp" 2>/dev/null)" != "$env_stamp" ]; then
+    rm -rf "${root:?}/$build"
+    mkdir -p "$root/$build"
+    echo "$env_stamp" >"$root/$build/.env-stamp"
+  fi
   bash "$envs" run bullseye-build bash -euc '
     cd /src
     mkdir -p "$1"
