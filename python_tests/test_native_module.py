@@ -83,3 +83,55 @@ def test_image_io_decodes_once_with_the_encoding_of_the_stored_type(tmp_path):
     from_path = texsynth_native.histogram_transform(exr)["gaussian"]
     from_array = texsynth_native.histogram_transform(decoded)["gaussian"]
     assert np.array_equal(from_path, from_array)
+
+
+def _upstream_version(debian_version):
+    """'1:2021.8.0-2' or '3.13.5+dfsg-2' -> the upstream version, as the library itself reports it."""
+    import re
+    return re.split(r"[+~-]", debian_version.split(":", 1)[-1])[0]
+
+
+def _package_version_of(path):
+    import subprocess
+    owner = subprocess.run(["dpkg", "-S", path], capture_output=True, text=True)
+    assert owner.returncode == 0, "no Debian package owns %s: %s" % (path, owner.stderr)
+    package = owner.stdout.split(": ", 1)[0]  # "libtbb12:amd64"
+    version = subprocess.run(["dpkg-query", "-W", "-f", "${Version}", package], capture_output=True, text=True,
+                             check=True).stdout
+    return package, _upstream_version(version)
+
+
+def test_build_info_names_the_embree_and_tbb_this_debian_build_links():
+    """Issue 31: build_info() asks the Embree device and the TBB runtime that answer; on a Debian build
+    they are the system packages' libraries, so their versions must be the packages' versions."""
+    import shutil
+    import pytest
+    info = texsynth_native.build_info()
+    if info["self_contained"]:
+        pytest.skip("a self-contained build links no Debian packages (test_self_contained_build_info)")
+    if not shutil.which("dpkg"):
+        pytest.skip("not a Debian system")
+    assert info["image_files"] is True and info["compiler"].split()[0] in ("gcc", "clang"), info
+    embree_package, embree_version = _package_version_of(info["embree_library"])
+    assert embree_package.startswith("libembree") and info["embree_version"] == embree_version, (info, embree_package)
+    assert info["embree_header_version"] == info["embree_version"], info
+    tbb_package, tbb_version = _package_version_of(info["tbb_library"])
+    # oneTBB says "2021.8" for Debian's 2021.8.0.
+    same = [int(part) for part in info["tbb_version"].split(".")] + [0] * 3
+    assert tbb_package.startswith("libtbb") and same[:3] == [int(part) for part in tbb_version.split(".")][:3], (
+        info, tbb_package, tbb_version)
+    assert info["tbb_interface_version"] == info["tbb_header_interface_version"], info
+
+
+def test_self_contained_build_info():
+    """The blender.org package: Embree is inside the module, TBB is the bundled copy next to it."""
+    import os
+    import pytest
+    info = texsynth_native.build_info()
+    if not info["self_contained"]:
+        pytest.skip("a Debian build (test_build_info_names_the_embree_and_tbb_this_debian_build_links)")
+    module = os.path.realpath(texsynth_native.__file__)
+    assert info["embree_library"] == module and info["embree_version"] == info["embree_header_version"], info
+    assert os.path.dirname(info["tbb_library"]) == os.path.join(os.path.dirname(module), "texsynth_native.libs"), info
+    assert info["tbb_interface_version"] == info["tbb_header_interface_version"], info
+    assert info["image_files"] is False, info

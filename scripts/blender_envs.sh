@@ -8,6 +8,9 @@
 #   <dist>-runtime  bookworm / trixie / sid with only blender (+ python3-numpy): where packages are installed
 #   <dist>-python   bookworm / trixie with only python3 + python3-numpy: a foreign runtime for the
 #                   self-contained blender.org packages (no Blender, Embree, TBB or OpenImageIO)
+#   bullseye-build  Debian 11 (glibc 2.31, gcc 10, TBB 2020.3), no Blender: builds the self-contained
+#                   modules for blender.org builds (scripts/build_blender_org.sh); Python 3.11/3.13,
+#                   pybind11, Eigen and hnswlib headers are copied in (see BULLSEYE_COPIED_HEADERS)
 #
 # Usage:
 #   scripts/blender_envs.sh create ENV...          make (or reuse) the root filesystems
@@ -35,6 +38,26 @@ BUILD_PACKAGES=(
 # Debian's blender package does not depend on (or recommend) python3-numpy, which TexSynth needs.
 RUNTIME_PACKAGES=(blender python3-numpy)
 PYTHON_PACKAGES=(python3 python3-numpy)
+# Debian 11 is the oldest release reachable here: building against glibc 2.31 keeps the module near
+# manylinux_2_28 (docs/dev/blender_org_packages.md). xz-utils unpacks Embree's source tarball.
+BULLSEYE_BUILD_PACKAGES=(
+  g++ cmake make pkg-config patchelf binutils xz-utils
+  libtbb-dev libtinyexr-dev zlib1g-dev
+)
+# Headers bullseye lacks (Python 3.11 and 3.13) or has too old (pybind11 2.6, hnswlib 0.4), copied
+# from this host (Debian 12) and the trixie environment at creation: "<source> <path>", one a line.
+# Eigen 3.4 as the Debian builds use: with bullseye's 3.3.9 the textons already differ in the last bits.
+BULLSEYE_COPIED_HEADERS=(
+  "host /usr/include/python3.11"
+  "host /usr/include/x86_64-linux-gnu/python3.11"
+  "host /usr/include/eigen3"
+  "host /usr/share/eigen3"
+  "trixie /usr/include/python3.13"
+  "trixie /usr/include/x86_64-linux-gnu/python3.13"
+  "trixie /usr/include/pybind11"
+  "trixie /usr/lib/cmake/pybind11"
+  "trixie /usr/include/hnswlib"
+)
 
 dist_of() {
   case "$1" in
@@ -42,7 +65,8 @@ dist_of() {
     sid|sid-runtime) echo sid ;;
     bookworm-runtime|bookworm-python) echo bookworm ;;
     trixie-python) echo trixie ;;
-    *) echo "blender_envs: unknown environment '$1' (trixie, sid, bookworm-runtime, trixie-runtime, sid-runtime, bookworm-python, trixie-python)" >&2
+    bullseye-build) echo bullseye ;;
+    *) echo "blender_envs: unknown environment '$1' (trixie, sid, bullseye-build, bookworm-runtime, trixie-runtime, sid-runtime, bookworm-python, trixie-python)" >&2
        exit 2 ;;
   esac
 }
@@ -51,6 +75,7 @@ packages_of() {
   case "$1" in
     *-runtime) echo "${RUNTIME_PACKAGES[*]}" ;;
     *-python) echo "${PYTHON_PACKAGES[*]}" ;;
+    bullseye-build) echo "${BULLSEYE_BUILD_PACKAGES[*]}" ;;
     *) echo "${BUILD_PACKAGES[*]}" ;;
   esac
 }
@@ -66,7 +91,24 @@ ensure_mmdebstrap() {
 }
 
 # The stamp records what an environment was made with; a different list means it is remade.
-stamp_text() { printf 'dist=%s\npackages=%s\n' "$(dist_of "$1")" "$(packages_of "$1")"; }
+stamp_text() {
+  printf 'dist=%s\npackages=%s\n' "$(dist_of "$1")" "$(packages_of "$1")"
+  if [ "$1" = bullseye-build ]; then printf 'copied=%s\n' "${BULLSEYE_COPIED_HEADERS[@]}"; fi
+}
+
+# Copies BULLSEYE_COPIED_HEADERS into a new bullseye root (the trixie environment is made if missing).
+copy_headers() {
+  local dir="$1" line from path source_root
+  for line in "${BULLSEYE_COPIED_HEADERS[@]}"; do
+    read -r from path <<<"$line"
+    if [ "$from" = host ]; then source_root=""; else
+      [ -f "$envs_dir/$from/.texsynth-env" ] || create "$from"; source_root="$envs_dir/$from"; fi
+    [ -e "$source_root$path" ] || { echo "blender_envs: bullseye-build: $from has no $path" >&2; exit 1; }
+    mkdir -p "$dir$(dirname "$path")"
+    rm -rf "${dir:?}$path"
+    cp -a "$source_root$path" "$dir$path"
+  done
+}
 
 create() {
   local env="$1" dir="$envs_dir/$1"
@@ -79,7 +121,7 @@ create() {
   rm -rf "$dir" "$dir.partial"
   mkdir -p "$envs_dir"
   case "$env" in
-    *-runtime|*-python)
+    *-runtime|*-python|bullseye-build)
       ensure_mmdebstrap
       local options=()
       # sid's reachable mirror is a snapshot whose Release file has expired (the option stays in the chroot).
@@ -97,6 +139,7 @@ create() {
         echo "blender_envs: $env: mmdebstrap failed, attempt $attempt of 2 (log: $envs_dir/$env.log)" >&2
         [ "$attempt" = 2 ] && exit 1
       done
+      if [ "$env" = bullseye-build ]; then copy_headers "$dir.partial"; fi
       ;;
     *)
       # A build environment is its runtime environment plus the build packages: Blender is unpacked once.
@@ -120,13 +163,13 @@ create_all() {
   local env runtimes=() pids=() failed=0
   for env in "$@"; do
     dist_of "$env" >/dev/null
-    case "$env" in *-runtime|*-python) runtimes+=("$env") ;; *) runtimes+=("$env-runtime") ;; esac
+    case "$env" in *-runtime|*-python|bullseye-build) runtimes+=("$env") ;; *) runtimes+=("$env-runtime") ;; esac
   done
   for env in $(printf '%s\n' "${runtimes[@]}" | sort -u); do create "$env" & pids+=($!); done
   for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
   [ "$failed" = 0 ] || exit 1
   pids=()
-  for env in "$@"; do case "$env" in *-runtime|*-python) ;; *) create "$env" & pids+=($!) ;; esac; done
+  for env in "$@"; do case "$env" in *-runtime|*-python|bullseye-build) ;; *) create "$env" & pids+=($!) ;; esac; done
   for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
   [ "$failed" = 0 ] || exit 1
 }
@@ -157,7 +200,10 @@ run_in() {
 
 build_in() {
   local env="$1"
-  case "$env" in *-runtime) echo "blender_envs: $env is a runtime environment (no compiler)" >&2; exit 2 ;; esac
+  case "$env" in
+    *-runtime) echo "blender_envs: $env is a runtime environment (no compiler)" >&2; exit 2 ;;
+    bullseye-build) echo "blender_envs: bullseye-build has no Blender: scripts/build_blender_org.sh builds there" >&2; exit 2 ;;
+  esac
   # The build asks the environment's Blender for its Python; cpp tests run with ctest.
   run_in "$env" bash -euc '
     cd /src
@@ -268,5 +314,5 @@ case "$command" in
   install-check) need_root; install_check "$1" "$2" ;;
   foreign-check) need_root; foreign_check "$1" "$2" "$3" ;;
   path) dist_of "$1" >/dev/null; echo "$envs_dir/$1" ;;
-  *) sed -n '3,23p' "$0" >&2; exit 2 ;;
+  *) sed -n '3,25p' "$0" >&2; exit 2 ;;
 esac

@@ -26,6 +26,7 @@ void bind_particles(py::module_& m);
 void bind_particles_walk(py::module_& m);
 void bind_particles_place(py::module_& m);
 void bind_particles_decals(py::module_& m);
+void bind_build_info(py::module_& m);
 
 PYBIND11_MODULE(texsynth_native, m) {
   m.doc() = "TexSynth native core: sample preprocessing and texture synthesis on meshes.";
@@ -69,4 +70,5 @@ PYBIND11_MODULE(texsynth_native, m) {
   bind_particles_walk(m);
   bind_particles_place(m);
   bind_particles_decals(m);
+  bind_build_info(m);
 }

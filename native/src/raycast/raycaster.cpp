@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 #include "texsynth/raycast/raycaster.hpp"
 
+#include "texsynth/common/build_info.hpp"
+
 #include "embree_compat.hpp"
 
 #include <tbb/blocked_range.h>
@@ -267,5 +269,11 @@ void RayCaster::vertices_within(const float point[3], float radius, std::vector<
   ids.swap(sorted_ids);
   distances.swap(sorted_distances);
 }
+
+int embree_runtime_version() {
+  return int(rtcGetDeviceProperty(shared_device(), RTC_DEVICE_PROPERTY_VERSION));
+}
+
+std::string embree_library_file() { return file_holding(reinterpret_cast<const void*>(&rtcNewDevice)); }
 
 }  // namespace texsynth
