@@ -160,10 +160,14 @@ create() {
 
 # Runtime environments first, in parallel (mostly download and unpack), then the build environments.
 create_all() {
-  local env runtimes=() pids=() failed=0
+  local env runtimes=() pids=() failed=0 bullseye=0
   for env in "$@"; do
     dist_of "$env" >/dev/null
-    case "$env" in *-runtime|*-python|bullseye-build) runtimes+=("$env") ;; *) runtimes+=("$env-runtime") ;; esac
+    case "$env" in
+      bullseye-build) bullseye=1 ;;
+      *-runtime|*-python) runtimes+=("$env") ;;
+      *) runtimes+=("$env-runtime") ;;
+    esac
   done
   for env in $(printf '%s\n' "${runtimes[@]}" | sort -u); do create "$env" & pids+=($!); done
   for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
@@ -172,6 +176,8 @@ create_all() {
   for env in "$@"; do case "$env" in *-runtime|*-python|bullseye-build) ;; *) create "$env" & pids+=($!) ;; esac; done
   for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
   [ "$failed" = 0 ] || exit 1
+  # Last: bullseye-build copies headers out of trixie, which must not be made twice at once.
+  [ "$bullseye" = 0 ] || create bullseye-build
 }
 
 # Runs a command chrooted in ENV inside a private mount namespace: the bind mounts vanish with it,
