@@ -86,6 +86,20 @@ def test_compare_fails_on_one_changed_value_unless_the_key_is_tolerated(runs, tm
     assert process.returncode == 1
 
 
+def test_a_tolerance_bounds_the_difference_and_leaves_other_keys_exact(runs, tmp_path):
+    """How the blender.org stage compares ray casts (Embree's SSE2 kernels round differently): a tolerated key
+    passes within its bound and fails above it; every other key stays exact."""
+    a, _ = runs
+    changed = tmp_path / "changed.npz"
+    perturbed(a, changed, "round.colour", one_ulp)
+    within = script("compare", a, changed, "--tolerance", "round.=1e-3")
+    assert within.returncode == 0 and "(within 0.001)" in within.stdout, within.stdout[-3000:]
+    above = script("compare", a, changed, "--tolerance", "round.=1e-12")
+    assert above.returncode == 1 and "(ABOVE 1e-12)" in above.stdout, above.stdout[-3000:]
+    elsewhere = script("compare", a, changed, "--tolerance", "raycast.=1e-3")
+    assert elsewhere.returncode == 1, elsewhere.stdout[-3000:]
+
+
 @pytest.mark.parametrize("change", ["missing", "dtype"])
 def test_compare_fails_on_a_missing_key_or_another_dtype(runs, tmp_path, change):
     a, _ = runs

@@ -369,11 +369,16 @@ def max_abs_difference(a, b, mask):
     return float(np.max(np.abs(x[finite] - y[finite])))
 
 
-def compare(path_a, path_b, exact_prefixes=None):
+def compare(path_a, path_b, exact_prefixes=None, tolerances=None):
+    """Exit status 0 when every key is equal bit for bit, except keys under a `tolerances` prefix (floats
+    within that absolute difference) or, when `exact_prefixes` is given, keys outside it (reported only)."""
+    tolerances = tolerances or {}
     with np.load(path_a, allow_pickle=False) as fa, np.load(path_b, allow_pickle=False) as fb:
         a = {k: fa[k] for k in fa.files}
         b = {k: fb[k] for k in fb.files}
-    exact = lambda key: exact_prefixes is None or any(key.startswith(p) for p in exact_prefixes)
+    tolerance_of = lambda key: next((t for p, t in tolerances.items() if key.startswith(p)), None)
+    exact = lambda key: tolerance_of(key) is None and (
+        exact_prefixes is None or any(key.startswith(p) for p in exact_prefixes))
     keys = sorted(set(a) | set(b))
     equal = differ = 0
     failed = []
@@ -397,9 +402,13 @@ def compare(path_a, path_b, exact_prefixes=None):
             continue
         differ += 1
         diff = max_abs_difference(x, y, mask)
+        tolerance = tolerance_of(key)
+        within = tolerance is not None and diff is not None and diff <= tolerance
+        note = "" if exact(key) else " (within %g)" % tolerance if within else \
+            " (ABOVE %g)" % tolerance if tolerance is not None else " (tolerated)"
         print("%-48s max abs difference %s, %d of %d values differ%s" % (
-            key, "n/a" if diff is None else "%.6g" % diff, count, x.size, "" if exact(key) else " (tolerated)"))
-        if exact(key):
+            key, "n/a" if diff is None else "%.6g" % diff, count, x.size, note))
+        if exact(key) or (tolerance is not None and not within):
             failed.append(key)
     print("native_calls: %d keys, %d equal, %d differ" % (len(keys), equal, differ))
     return 1 if failed else 0
@@ -416,13 +425,22 @@ def main(argv=None):
     compare_parser.add_argument("b")
     compare_parser.add_argument("--exact", nargs="+", metavar="KEY_PREFIX", default=None,
                                 help="keys that must be equal bit for bit (default: all)")
+    compare_parser.add_argument("--tolerance", action="append", default=[], metavar="KEY_PREFIX=ABS",
+                                help="keys that may differ by at most ABS (repeatable); all others stay exact")
     args = parser.parse_args(argv)
     if args.command == "run":
         if args.cpus is not None and args.cpus < 1:
             parser.error("--cpus must be at least 1")
         run(args.out, args.cpus)
         return 0
-    return compare(args.a, args.b, args.exact)
+    tolerances = {}
+    for item in args.tolerance:
+        prefix, _, value = item.partition("=")
+        try:
+            tolerances[prefix] = float(value)
+        except ValueError:
+            parser.error("--tolerance takes KEY_PREFIX=ABS, got %r" % item)
+    return compare(args.a, args.b, args.exact, tolerances)
 
 
 if __name__ == "__main__":
