@@ -264,6 +264,7 @@ install_check() {
 import addon_utils, bpy, os, zipfile
 target = os.path.join(bpy.utils.user_resource(\"SCRIPTS\", path=\"addons\", create=True), \"texsynth\")
 zipfile.ZipFile(\"/src/$1\").extractall(target)
+bpy.utils.refresh_script_paths()  # the user add-ons folder did not exist when Blender started
 assert addon_utils.enable(\"texsynth\", default_set=True, handle_error=None) is not None
 bpy.ops.wm.save_userpref()" >/tmp/install.log 2>&1 || { cat /tmp/install.log; exit 1; }
     elif [ "$kind" = legacy ]; then

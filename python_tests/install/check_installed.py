@@ -97,5 +97,8 @@ if os.path.isdir(os.path.join(folder, "texsynth_native.libs")):
     info = module.build_info()
     print("CHECK_INSTALLED build_info:", info)
     assert any(path.startswith(folder + "/texsynth_native.libs/") for path in tbb), tbb
+    # The copies that answer the module's calls, whatever else Blender has loaded.
+    assert info["self_contained"] and info["embree_library"] == os.path.realpath(module.__file__), info
+    assert info["tbb_library"].startswith(folder + "/texsynth_native.libs/"), info
 print("CHECK_INSTALLED ok: Blender %s, %s, %d UV maps, %d vertices combed, render %s (R - B %.3f)" % (
     bpy.app.version_string, module_name, len(uv_names), guided, out_path, redness), flush=True)
