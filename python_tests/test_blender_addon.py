@@ -85,7 +85,9 @@ def test_a_package_for_another_python_says_which_in_console_sidebar_and_cli(tmp_
                               env=env)
     cli_output = cli.stdout + cli.stderr
     assert cli.returncode == 1, cli_output[-3000:]
-    assert expected.search(cli_output) and "Traceback" not in cli_output, cli_output[-3000:]
+    # No TexSynth frame in any traceback (sid's Blender 5.2 prints one of its own: bl_pkg lacks cattrs there).
+    assert expected.search(cli_output), cli_output[-3000:]
+    assert not re.search(r'File "[^"]*texsynth[^"]*", line', cli_output), cli_output[-3000:]
 
 
 def test_enabling_without_numpy_says_so_in_one_sentence(tmp_path):
