@@ -56,14 +56,18 @@ for env in trixie sid; do
   begin "$env: build, ctest, Blender-side suites"; bash scripts/blender_envs.sh test "$env"; end
 done
 begin "packages (3.x zip, 4.2+ extensions)"; bash scripts/package_addon.sh host trixie sid; end
+# Installs each package in the runtime-only environment named beside its tag: install_in_runtimes GLOB ENV:TAG...
+install_in_runtimes() {
+  local glob="$1" pair env package; shift
+  for pair in "$@"; do
+    env="${pair%%:*}"
+    package="$(ls dist/texsynth-*-"${glob}${pair#*:}".zip)"
+    echo "-- $env: $(basename "$package")"
+    bash scripts/blender_envs.sh install-check "$env" "$package"
+  done
+}
 begin "install checks (runtime-only environments)"
-for pair in bookworm-runtime:py311 trixie-runtime:py313 sid-runtime:py314; do
-  env="${pair%%:*}"
-  package="$(ls dist/texsynth-*-"${pair#*:}".zip)"
-  echo "-- $env: $(basename "$package")"
-  bash scripts/blender_envs.sh install-check "$env" "$package"
-done
-end
+install_in_runtimes "" bookworm-runtime:py311 trixie-runtime:py313 sid-runtime:py314
 end
 begin "blender.org packages: build (Debian 11), foreign runtime, Blender 3.4 and 4.3"
 bash scripts/package_addon.sh blender-org
@@ -81,10 +85,5 @@ for pair in bookworm-python:cp311 trixie-python:cp313; do
     "out/native_calls-foreign-$tag.npz" --tolerance raycast.barycentrics=1e-6 --tolerance raycast.distance=1e-6 \
     | grep -v " equal$"
 done
-for pair in bookworm-runtime:cp311 trixie-runtime:cp313; do
-  env="${pair%%:*}"
-  package="$(ls dist/texsynth-*-linux_x64-"${pair#*:}".zip)"
-  echo "-- $env: $(basename "$package")"
-  bash scripts/blender_envs.sh install-check "$env" "$package"
-done
+install_in_runtimes "linux_x64-" bookworm-runtime:cp311 trixie-runtime:cp313
 end

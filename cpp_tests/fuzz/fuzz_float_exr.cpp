@@ -2,21 +2,13 @@
 // The cache's EXR side files (common/float_exr, tinyexr): any byte string read as a float EXR of the layout
 // the caller expects must give exactly that many finite values or nullopt, never a crash, a hang or a
 // read outside the file; what reads must write back and read again unchanged.
-// Input: byte 0 = channel count - 1 (mod 4: Y, YA, RGB, RGBA as the cache names them), bytes 1 and 2 =
+// Input: byte 0 = channel count - 1 (mod 4: Y, YA, RGB, RGBA, from histogram_channel_names), bytes 1 and 2 =
 // width - 1 and height - 1 (mod 64); the rest = the file.
 #include "fuzz_common.hpp"
 #include "texsynth/common/float_exr.hpp"
+#include "texsynth/preprocess/gaussianize.hpp"
 
 namespace {
-
-std::vector<std::string> channel_names(int channels) {
-  switch (channels) {
-    case 1: return {"Y"};
-    case 2: return {"Y", "A"};
-    case 3: return {"R", "G", "B"};
-    default: return {"R", "G", "B", "A"};
-  }
-}
 
 // Tags as write_float_exr stores them (it leaves empty strings out).
 texsynth::FloatExrTags written_form(texsynth::FloatExrTags tags) {
@@ -29,7 +21,7 @@ texsynth::FloatExrTags written_form(texsynth::FloatExrTags tags) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 3) return 0;
   const int channels = data[0] % 4 + 1, width = data[1] % 64 + 1, height = data[2] % 64 + 1;
-  const std::vector<std::string> names = channel_names(channels);
+  const std::vector<std::string> names = texsynth::histogram_channel_names(channels);
   const std::string& path = fuzz::scratch_path(".exr");
   fuzz::write_file(path, data + 3, size - 3);
   std::optional<texsynth::FloatExr> file = texsynth::read_float_exr(path, width, height, names);

@@ -186,7 +186,9 @@ ChannelResult transform_channel(const Image& image, int c, int lut_size, int min
 
 bool has_alpha(int channels) { return channels == 2 || channels == 4; }
 
-std::vector<std::string> channel_names(int channels) {
+}  // namespace
+
+std::vector<std::string> histogram_channel_names(int channels) {
   switch (channels) {
     case 1: return {"Y"};
     case 2: return {"Y", "A"};
@@ -194,6 +196,8 @@ std::vector<std::string> channel_names(int channels) {
     default: return {"R", "G", "B", "A"};
   }
 }
+
+namespace {
 
 // What both cache files carry; a pair whose tags differ was not written together.
 struct FileTags {
@@ -231,7 +235,7 @@ void write_exr(const std::string& path, const std::vector<float>& data, int widt
   const fs::path temp = target.parent_path() / ("." + target.filename().string() + ".tmp." +
                                                 std::to_string(::getpid()) + "." + std::to_string(counter++) + ".exr");
   try {
-    write_float_exr(temp.string(), data, width, height, channel_names(channels), exr_tags(tags));
+    write_float_exr(temp.string(), data, width, height, histogram_channel_names(channels), exr_tags(tags));
   } catch (const std::exception& error) {
     std::error_code ec;
     fs::remove(temp, ec);
@@ -251,7 +255,7 @@ std::optional<std::vector<float>> read_exr(const std::string& path, int width, i
                                            FileTags& tags) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) return std::nullopt;
-  std::optional<FloatExr> file = read_float_exr(path, width, height, channel_names(channels));
+  std::optional<FloatExr> file = read_float_exr(path, width, height, histogram_channel_names(channels));
   if (!file) return std::nullopt;
   tags.version = int_tag(file->tags, "texsynth:histogram_version", 0);
   tags.ok = int_tag(file->tags, "texsynth:ok", -1);

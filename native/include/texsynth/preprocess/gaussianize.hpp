@@ -59,6 +59,9 @@ double normal_quantile(double p);
 // Channels that get Gaussianized for an image with `channels` channels (see above).
 int histogram_colour_channels(int channels);
 
+// The EXR channel names the cache files use for an image with `channels` channels: Y, YA, RGB or RGBA.
+std::vector<std::string> histogram_channel_names(int channels);
+
 // Throws std::invalid_argument for lut_size outside [16, 65536], min_distinct_values outside [2, 65536],
 // or an invalid image (size, NaN/Inf: validate_image). Memory: O(pixels) per channel, one channel at a time.
 HistogramTransform gaussianize(const Image& image, int lut_size = 1024, int min_distinct_values = 16);
