@@ -47,3 +47,12 @@ _BLENDER_OWN_NOISE = re.compile(r"Traceback \(most recent call last\):\n(?:[ \t]
 def without_blender_noise(output):
     """Blender's output without the tracebacks Blender itself prints on some distributions."""
     return _BLENDER_OWN_NOISE.sub("", output)
+
+
+def run_failing(*args, code, fragment):
+    """Runs the CLI with args; asserts the exit code and one error line containing fragment, and returns it."""
+    process = cli(*args)
+    lines = error_lines(process)
+    assert process.returncode == code, process.stdout[-2000:] + process.stderr[-2000:]
+    assert len(lines) == 1 and fragment.lower() in lines[0].lower(), lines
+    return lines[0]

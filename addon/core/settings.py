@@ -19,7 +19,7 @@ ROUND_LEVEL_RANGE, ROUND_RING_RANGE, ROUND_CANDIDATE_RANGE = (1, 6), (1, 6), (0,
 ROUND_RESOLUTIONS = ("AUTO", "FULL")
 # Vector-field patches (patches/patch_synth.hpp): SAMPLING pastes matched patches (paper §5), OPTIMISATION
 # refines that result by texture optimisation (§4.3). Sizes in sample pixels. The UI properties take their
-# ranges from here, before the native module is loaded; python_tests/test_native_module.py checks them
+# ranges from here, before the native module is loaded; python_tests/native/test_native_module.py checks them
 # against the module's PATCH_SIZE_RANGE. The boundary width is 1 .. half the patch size of every exemplar
 # the synthesis analyses: the module's patch_level_sizes gives that plan (smaller patches for a small
 # sample and for optimisation's coarser levels), and check_patch_boundary refuses before any analysis.

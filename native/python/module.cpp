@@ -46,7 +46,7 @@ PYBIND11_MODULE(texsynth_native, m) {
     }
   });
 
-  // For the cross-CPU test only (python_tests/test_cross_cpu.py): the cache sizes Eigen reads with cpuid
+  // For the cross-CPU test only (python_tests/blender/test_cross_cpu.py): the cache sizes Eigen reads with cpuid
   // and sizes its matrix-product blocks from, set as another CPU would report them.
   m.def("_set_matrix_cache_sizes", [](std::ptrdiff_t l1, std::ptrdiff_t l2, std::ptrdiff_t l3) {
     if (l1 < 1024 || l2 < l1 || l3 < l2) throw std::invalid_argument("cache sizes must be l1 >= 1024 <= l2 <= l3 bytes");

@@ -20,7 +20,7 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.path.dirname(HERE))
-from test_blender_bake import write_grid_obj  # noqa: E402
+from scene_files import write_grid_obj  # noqa: E402
 
 BATCH = os.path.join(ROOT, "addon", "texsynth_batch.py")
 CLI = os.path.join(ROOT, "addon", "texsynth_cli.py")

@@ -6,7 +6,7 @@ and their transforms). Preprocessing caches go to a fresh folder, so every run c
   blender -b --factory-startup --python-exit-code 1 --python python_tests/blender/output_digest.py \
       [-- [METHOD ...] [--cache-sizes L1 L2 L3]]
 
-Prints `DIGEST {"jumpmap": "...", ...}`. python_tests/test_cross_cpu.py compares the digests under
+Prints `DIGEST {"jumpmap": "...", ...}`. python_tests/blender/test_cross_cpu.py compares the digests under
 every run-time dispatch it can vary (docs/dev/determinism.md)."""
 import hashlib
 import json

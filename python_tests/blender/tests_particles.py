@@ -5,7 +5,7 @@
 
 The analysis view and the outputs' Blender side (decal objects, atlas, material, points, Geometry Nodes,
 Clear, atomic failure) run on any build; the end-to-end runs (FULL_RUN_TESTS) need the native
-place_particles and decal_mesh and are selected by python_tests/test_blender_particles.py only when the
+place_particles and decal_mesh and are selected by python_tests/blender/test_blender_particles.py only when the
 module has them. Expected values come from the drawn sample and the hand-made geometry, not from the add-on.
 """
 import os

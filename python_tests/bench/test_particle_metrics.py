@@ -2,12 +2,12 @@
 """The arrangement statistics of the particle benchmark (bench/particle_metrics.py): gaps worked out by hand on
 a square grid, invariance to the chart's placement in space, and the distribution distances' extremes."""
 import math
-import os
 import sys
 
 import numpy as np
+import paths
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "bench"))
+sys.path.insert(0, paths.BENCH)
 import particle_metrics as pm  # noqa: E402
 
 

@@ -8,7 +8,7 @@ import os
 import numpy as np
 import pytest
 
-from test_neighbourhood_binding import plane
+from mesh_arrays import jittered_plane
 
 tn = pytest.importorskip("texsynth_native")
 
@@ -49,7 +49,7 @@ def test_grid_points_rebuilt_from_faces_match_positions_and_follow_the_field():
 
 
 def test_density_halves_the_step():
-    pos, tris = plane()
+    pos, tris = jittered_plane()
     dirs = np.tile([0.0, 1.0, 0.0], (len(pos), 1))
     field = tn.patch_field(pos, tris, dirs, spacing=0.02, density=np.full(len(pos), 2.0))
     np.testing.assert_allclose(field.scale, 0.5)
@@ -78,7 +78,7 @@ def test_a_field_on_the_same_mesh_reuses_its_walk_mesh_and_traces_the_same():
 
 
 def test_shapes_and_values_are_checked_at_the_boundary():
-    pos, tris = plane(n=4)
+    pos, tris = jittered_plane(n=4)
     dirs = np.tile([0.0, 1.0, 0.0], (len(pos), 1))
     with pytest.raises(ValueError, match="directions"):
         tn.patch_field(pos, tris, dirs[:-1], spacing=0.1)
@@ -98,7 +98,7 @@ def test_shapes_and_values_are_checked_at_the_boundary():
 
 
 def test_raised_token_stops_tracing():
-    pos, tris = plane(n=4)
+    pos, tris = jittered_plane(n=4)
     field = tn.patch_field(pos, tris, np.tile([0.0, 1.0, 0.0], (len(pos), 1)), spacing=0.1)
     token = tn.CancelToken()
     token.cancel()
@@ -107,7 +107,7 @@ def test_raised_token_stops_tracing():
 
 
 def lattice_samples(pos, tris, res):
-    """Texel-like samples at the centres of a res² lattice over the plane(n=4) fixture's square."""
+    """Texel-like samples at the centres of a res² lattice over the jittered_plane(n=4) fixture's square."""
     lo, hi = pos[:, :2].min(axis=0), pos[:, :2].max(axis=0)
     ys, xs = np.mgrid[0:res, 0:res]
     pts = np.stack([lo[0] + (xs.ravel() + 0.5) * (hi[0] - lo[0]) / res,
@@ -154,7 +154,7 @@ def test_exemplar_and_synthesis_round_trip_through_numpy_and_a_cache_file(tmp_pa
         handle.write(b"\0" * 32)
     with pytest.raises(tn.CacheError):
         tn.load_patch_exemplar(path)
-    pos, tris = plane(n=4, spacing=0.25, jitter=0.0)
+    pos, tris = jittered_plane(n=4, spacing=0.25, jitter=0.0)
     positions, tri, bary = lattice_samples(pos, tris, 32)
     field = tn.patch_field(pos, tris, np.tile([0.0, 1.0, 0.0], (len(pos), 1)), spacing=1.0 / 32)
     # W_E 2: thin cross-fade zones, so most samples show one patch alone.

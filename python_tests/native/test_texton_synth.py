@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import texsynth_native as ts
-from test_synth import grid, pack
+from mesh_arrays import polygon_grid
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +63,7 @@ def direct_edge_error(img, pos, corner_verts, starts, sizes, uv, tileable=False)
 
 
 def test_output_matches_the_jumpmap_contract(pre, sample):
-    mesh = grid(6, 0.2, triangles=False, jitter=0.3)
+    mesh = polygon_grid(6, 0.2, triangles=False, jitter=0.3)
     out = ts.synthesize_texton(pre, sample, *mesh, scale=12.0, seed=1)
     ref = ts.synthesize_jumpmap(pre, *mesh, scale=12.0, seed=1)
     for key in ("base_uv", "blend_uv", "blend_weights", "num_blend_sets", "stats"):
@@ -86,7 +86,7 @@ def test_output_matches_the_jumpmap_contract(pre, sample):
 
 
 def test_edge_error_equals_a_direct_evaluation(pre, sample):
-    mesh = grid(5, 0.25, triangles=True, jitter=0.4)
+    mesh = polygon_grid(5, 0.25, triangles=True, jitter=0.4)
     # Voting (no coherent continuations) so that E_t is not almost zero everywhere on this flat grid.
     out = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=2, coherence_threshold=0.0)
     edges, err = direct_edge_error(sample, *mesh, out["base_uv"])
@@ -108,7 +108,7 @@ def test_edge_error_equals_a_direct_evaluation(pre, sample):
 
 
 def test_phi_threshold_blends_exactly_the_edges_above_it(pre, sample):
-    mesh = grid(8, 0.2, triangles=True, jitter=0.3)
+    mesh = polygon_grid(8, 0.2, triangles=True, jitter=0.3)
     pos, cv, starts, sizes = mesh
     camera = np.array([0.3, -1.0, 2.0])
     free = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=5, camera_position=camera, lambda_=2.5)
@@ -149,7 +149,7 @@ def test_phi_threshold_blends_exactly_the_edges_above_it(pre, sample):
 
 
 def test_bad_input_raises_value_error(pre, sample):
-    mesh = grid(3, 0.2)
+    mesh = polygon_grid(3, 0.2)
     with pytest.raises(ValueError, match="sample_pixels"):
         ts.synthesize_texton(pre, sample[:, :-1], *mesh, scale=10.0)
     with pytest.raises(ValueError, match="camera"):
@@ -171,7 +171,7 @@ def test_bad_input_raises_value_error(pre, sample):
 
 
 def test_deterministic_and_seed_dependent(pre, sample):
-    mesh = grid(6, 0.2)
+    mesh = polygon_grid(6, 0.2)
     a = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=9)
     b = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=9)
     c = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=10)
@@ -180,7 +180,7 @@ def test_deterministic_and_seed_dependent(pre, sample):
 
 
 def test_packed_set_pairs_hold_the_same_sets_as_blend_uv(pre, sample):
-    mesh = grid(6, 0.2, triangles=True, jitter=0.3)
+    mesh = polygon_grid(6, 0.2, triangles=True, jitter=0.3)
     plain = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=2)
     packed = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=2, pack_sets=True)
     assert "blend_uv" not in packed
@@ -192,7 +192,7 @@ def test_packed_set_pairs_hold_the_same_sets_as_blend_uv(pre, sample):
 
 
 def test_growth_parameters_reach_the_native_call(pre, sample):
-    mesh = grid(30, 0.05, triangles=True, jitter=0.3)  # 1800 triangles: up to 7 regions of 256 faces
+    mesh = polygon_grid(30, 0.05, triangles=True, jitter=0.3)  # 1800 triangles: up to 7 regions of 256 faces
     old = ts.synthesize_texton(pre, sample, *mesh, scale=10.0, seed=4, coherence_threshold=0.0, seeds_per_component=1)
     assert old["stats"]["regions"] == 1 and old["stats"]["coherent_faces"] == 0 and old["stats"]["border_faces"] == 0
     np.testing.assert_array_equal(old["face_region"], np.zeros(1800, np.int32))
@@ -215,7 +215,7 @@ def test_growth_parameters_reach_the_native_call(pre, sample):
 def test_default_growth_keeps_the_seam_error_of_the_original_path(pre, sample):
     # Defaults (coherent candidates) and 12 regions against the original path: mean E_t within +10%
     # (measured lower: continuations match exactly where voting picks near misses).
-    mesh = grid(40, 0.05, triangles=True, jitter=0.3)  # 3200 triangles: 12 regions
+    mesh = polygon_grid(40, 0.05, triangles=True, jitter=0.3)  # 3200 triangles: 12 regions
     interior = None
     means = []
     for kwargs in ({"coherence_threshold": 0.0, "seeds_per_component": 1}, {}, {"seeds_per_component": 16}):

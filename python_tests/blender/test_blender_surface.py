@@ -6,25 +6,24 @@ import os
 
 import pytest
 
-import addon_package
 import blender_run
 import blender_suite
-from test_blender_bake import png_size, run_failing, write_grid_obj
+from blender_run import run_failing
+from scene_files import png_size, write_grid_obj
 
 BRICKS = os.path.join(blender_run.SAMPLES, "bricks.png")
-needs_native = pytest.mark.skipif(not addon_package.real_synthesizer_available(), reason="texsynth_native not built")
 
 
 SURFACE_SUITE = os.path.join(blender_run.BLENDER_TESTS, "tests_surface.py")
 
 
-@needs_native
+@pytest.mark.needs_native
 @pytest.mark.parametrize("check", blender_suite.check_names(SURFACE_SUITE))
 def test_surface_check_inside_blender(check):
     blender_suite.assert_check(SURFACE_SUITE, check)
 
 
-@needs_native
+@pytest.mark.needs_native
 def test_cli_round_writes_the_image_the_material_and_native_seconds(tmp_path):
     mesh = write_grid_obj(tmp_path / "grid.obj")
     out, stats_path, saved = tmp_path / "round.png", tmp_path / "stats.json", tmp_path / "round.blend"
@@ -45,7 +44,7 @@ def test_cli_round_writes_the_image_the_material_and_native_seconds(tmp_path):
     assert reopened.returncode == 0, reopened.stdout[-2000:] + reopened.stderr[-2000:]
 
 
-@needs_native
+@pytest.mark.needs_native
 def test_cli_round_vertex_target(tmp_path):
     mesh = write_grid_obj(tmp_path / "grid.obj", cells=40)
     stats_path = tmp_path / "stats.json"
@@ -68,7 +67,7 @@ def test_cli_bad_round_arguments_exit_2_with_one_line(tmp_path, extra, fragment)
     assert not (tmp_path / "out.png").exists()
 
 
-@needs_native
+@pytest.mark.needs_native
 @pytest.mark.parametrize("extra, fragment", [
     (("--levels", "9"), "round levels must be an integer in [1, 6]"),
     (("--bake-size", "8192"), "MB"),

@@ -8,12 +8,11 @@ import os
 import numpy as np
 import pytest
 
-import addon_package
 import blender_run
 import blender_suite
-from test_blender_bake import run_failing, write_grid_obj
+from blender_run import run_failing
+from scene_files import pebbles_png, write_grid_obj
 
-needs_native = pytest.mark.skipif(not addon_package.real_synthesizer_available(), reason="texsynth_native not built")
 
 
 def _has(*names):
@@ -34,44 +33,17 @@ FULL_RUN = tuple(blender_suite.module_constant(SUITE, "FULL_RUN_TESTS"))
 VIEW_AND_OUTPUTS = tuple(name for name in ALL_TESTS if name not in FULL_RUN)
 
 
-@needs_native
+@pytest.mark.needs_native
 @pytest.mark.parametrize("check", VIEW_AND_OUTPUTS)
 def test_particles_view_and_outputs_inside_blender(check):
     blender_suite.assert_check(SUITE, check, *VIEW_AND_OUTPUTS)
 
 
-@needs_native
+@pytest.mark.needs_native
 @needs_placement
 @pytest.mark.parametrize("check", FULL_RUN)
 def test_particles_end_to_end_inside_blender(check):
     blender_suite.assert_check(SUITE, check, *FULL_RUN)
-
-
-def write_png(path, pixels):
-    """An 8-bit RGB PNG of (H, W, 3) uint8 pixels (row 0 = top), written with zlib (no bpy here)."""
-    import struct
-    import zlib
-    raw = b"".join(b"\x00" + row.tobytes() for row in pixels)
-
-    def chunk(kind, data):
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xffffffff)
-    height, width = pixels.shape[:2]
-    with open(path, "wb") as handle:
-        handle.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
-                     + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
-    return str(path)
-
-
-def pebbles_png(path, flat=False):
-    """Ground with 4 stones and 2 leaves (or the ground alone)."""
-    pixels = np.zeros((64, 96, 3), np.uint8)
-    pixels[:] = (51, 77, 64)
-    if not flat:
-        for x0, y0 in [(8, 8), (40, 8), (70, 30), (20, 40)]:
-            pixels[y0:y0 + 10, x0:x0 + 10] = (230, 51, 25)
-        for x0, y0 in [(55, 6), (82, 40)]:
-            pixels[y0:y0 + 14, x0:x0 + 6] = (25, 153, 25)
-    return write_png(path, pixels)
 
 
 def cli_particles(tmp_path, *extra):
@@ -85,7 +57,7 @@ def cli_particles(tmp_path, *extra):
     return json.loads(stats_path.read_text())
 
 
-@needs_native
+@pytest.mark.needs_native
 @needs_placement
 def test_cli_particles_writes_decals_and_stats(tmp_path):
     blend = tmp_path / "out.blend"
@@ -99,10 +71,10 @@ def test_cli_particles_writes_decals_and_stats(tmp_path):
     assert blend.is_file() and any(f.startswith("particles-") for f in os.listdir(tmp_path / "cache"))
 
 
-@needs_native
+@pytest.mark.needs_native
 @needs_placement
 def test_cli_particles_bake_composites_the_decals_into_the_image(tmp_path):
-    from test_blender_bake import png_size
+    from scene_files import png_size
     baked = tmp_path / "baked.png"
     stats = cli_particles(tmp_path, "--bake", str(baked), "--bake-size", "128")
     layers = sum(1 for count in stats["native"][stats["objects"][0]]["per_class"].values() if count)
@@ -110,7 +82,7 @@ def test_cli_particles_bake_composites_the_decals_into_the_image(tmp_path):
         stats["bake"]
     assert png_size(baked) == (128, 128)
 
-@needs_native
+@pytest.mark.needs_native
 @needs_placement
 def test_cli_write_labels_writes_the_segmentation_and_labels_reads_it_back(tmp_path):
     import texsynth_native
@@ -142,7 +114,7 @@ def test_cli_particles_bad_arguments_exit_with_one_line(tmp_path, extra, code, f
                 code=code, fragment=fragment)
 
 
-@needs_native
+@pytest.mark.needs_native
 def test_cli_particles_over_the_cap_are_refused_before_placement(tmp_path):
     # A 2 x 2 grid under a sample 1 mm wide: hundreds of millions of particles. Refused with the scale that fits.
     mesh = write_grid_obj(tmp_path / "grid.obj")
@@ -150,7 +122,7 @@ def test_cli_particles_over_the_cap_are_refused_before_placement(tmp_path):
                 "--scale", "0.001", code=1, fragment="raise Scale (CLI --scale) to at least")
 
 
-@needs_native
+@pytest.mark.needs_native
 def test_cli_particles_one_colour_sample_fails_clearly(tmp_path):
     mesh = write_grid_obj(tmp_path / "grid.obj")
     run_failing("--sample", pebbles_png(tmp_path / "flat.png", flat=True), "--mesh", str(mesh),

@@ -8,7 +8,7 @@ import pytest
 
 import addon_package
 import texsynth_native as ts
-from test_synth import face_jacobians, grid, pack
+from mesh_arrays import face_jacobians, pack, polygon_grid
 
 authoring = addon_package.load("fields.authoring")
 core_layers = addon_package.load("core.layers")
@@ -67,7 +67,7 @@ def brute_force_cast(pos, corner_verts, starts, sizes, origins, directions):
 
 
 def test_raycast_matches_brute_force_on_a_bumpy_quad_grid():
-    pos, cv, st, sz = grid(20, 0.1, triangles=False, jitter=0.3)
+    pos, cv, st, sz = polygon_grid(20, 0.1, triangles=False, jitter=0.3)
     rng = np.random.default_rng(4)
     pos = pos.copy()
     pos[:, 2] = 0.05 * np.sin(pos[:, 0] * 9) * np.cos(pos[:, 1] * 7)  # non-planar quads
@@ -90,7 +90,7 @@ def test_raycast_matches_brute_force_on_a_bumpy_quad_grid():
 
 
 def test_raycast_rejects_bad_input_with_value_errors():
-    pos, cv, st, sz = grid(2, 1.0)
+    pos, cv, st, sz = polygon_grid(2, 1.0)
     with pytest.raises(ValueError, match="corner_verts"):
         ts.RayCaster(pos, cv + 100, st, sz)
     bad = pos.copy()
@@ -117,7 +117,7 @@ def newell_vertex_normals(pos, corner_verts, starts, sizes):
 
 
 def test_vertex_normals_match_newell_area_weighting():
-    pos, cv, st, sz = grid(12, 0.1, triangles=False, jitter=0.3)
+    pos, cv, st, sz = polygon_grid(12, 0.1, triangles=False, jitter=0.3)
     pos = pos.copy()
     pos[:, 2] = 0.3 * np.sin(pos[:, 0] * 5) * np.cos(pos[:, 1] * 4)
     got = authoring.vertex_normals(mesh_arrays(pos, cv, st, sz))
@@ -125,7 +125,7 @@ def test_vertex_normals_match_newell_area_weighting():
 
 
 def test_field_mesh_gives_the_same_field_and_normals_as_the_one_shot_calls():
-    pos, cv, st, sz = grid(20, 0.05, jitter=0.3)
+    pos, cv, st, sz = polygon_grid(20, 0.05, jitter=0.3)
     pos = pos.copy()
     pos[:, 2] = 0.1 * np.sin(pos[:, 0] * 6)
     guide = np.zeros_like(pos)
@@ -142,7 +142,7 @@ def test_field_mesh_gives_the_same_field_and_normals_as_the_one_shot_calls():
 # Comb brush
 
 def test_synthetic_stroke_on_a_plane_sets_directions_under_the_brush_and_a_smooth_field_elsewhere():
-    pos, cv, st, sz = grid(60, 1.0 / 60)  # unit square, triangles
+    pos, cv, st, sz = polygon_grid(60, 1.0 / 60)  # unit square, triangles
     arrays = mesh_arrays(pos, cv, st, sz)
     state = new_state(arrays, axis=(0.0, 1.0, 0.0))  # before: +Y everywhere
     caster = authoring.ray_caster(arrays)
@@ -174,7 +174,7 @@ def test_synthetic_stroke_on_a_plane_sets_directions_under_the_brush_and_a_smoot
 
 
 def test_erase_removes_anchors_under_the_brush_only():
-    pos, cv, st, sz = grid(40, 1.0 / 40)
+    pos, cv, st, sz = polygon_grid(40, 1.0 / 40)
     arrays = mesh_arrays(pos, cv, st, sz)
     state = new_state(arrays)
     state.guide[:] = (1.0, 0.0, 0.0)
@@ -187,7 +187,7 @@ def test_erase_removes_anchors_under_the_brush_only():
 
 
 def test_brush_never_paints_the_far_side_of_a_thin_slab():
-    top = grid(10, 0.1)
+    top = polygon_grid(10, 0.1)
     bottom_pos = top[0].copy()
     bottom_pos[:, 2] = -0.01
     n = len(top[0])
@@ -207,7 +207,7 @@ def test_brush_never_paints_the_far_side_of_a_thin_slab():
 
 @pytest.mark.parametrize("kind", [authoring.SOURCE, authoring.SINK])
 def test_sources_point_away_and_sinks_point_toward(kind):
-    pos, cv, st, sz = grid(40, 1.0 / 40, jitter=0.2)
+    pos, cv, st, sz = polygon_grid(40, 1.0 / 40, jitter=0.2)
     arrays = mesh_arrays(pos, cv, st, sz)
     state = new_state(arrays)
     centre = int(np.argmin(np.linalg.norm(pos[:, :2] - 0.5, axis=1)))
@@ -240,7 +240,7 @@ def test_curvature_preset_follows_a_cylinder_axis():
 
 
 def test_smooth_preset_reduces_roughness_and_axis_preset_clears_the_guide():
-    pos, cv, st, sz = grid(30, 1.0 / 30)
+    pos, cv, st, sz = polygon_grid(30, 1.0 / 30)
     arrays = mesh_arrays(pos, cv, st, sz)
     state = new_state(arrays)
     rng = np.random.default_rng(2)
@@ -258,7 +258,7 @@ def test_smooth_preset_reduces_roughness_and_axis_preset_clears_the_guide():
 
 
 def test_strokes_become_anchors_along_their_tangent():
-    pos, cv, st, sz = grid(40, 1.0 / 40)
+    pos, cv, st, sz = polygon_grid(40, 1.0 / 40)
     arrays = mesh_arrays(pos, cv, st, sz)
     state = new_state(arrays)
     t = np.linspace(0, 1, 40)
@@ -296,7 +296,7 @@ def per_face_frames(pos, cv, st, uv, pre):
 
 
 def test_synthesized_rotation_follows_a_swirling_field(pre):
-    pos, cv, st, sz = grid(40, 0.05, jitter=0.2)
+    pos, cv, st, sz = polygon_grid(40, 0.05, jitter=0.2)
     centre = pos[:, :2].mean(0)
     angle = 2.0 * np.linalg.norm(pos[:, :2] - centre, axis=1)  # rotation grows with the radius
     field = np.column_stack([-np.sin(angle), np.cos(angle), np.zeros_like(angle)]).astype(np.float32)
@@ -312,7 +312,7 @@ def test_synthesized_rotation_follows_a_swirling_field(pre):
 
 
 def test_synthesized_scale_follows_the_multiplier(pre):
-    pos, cv, st, sz = grid(40, 0.025, jitter=0.2)
+    pos, cv, st, sz = polygon_grid(40, 0.025, jitter=0.2)
     multiplier = (0.5 + 1.5 * pos[:, 0] / pos[:, 0].max()).astype(np.float32)  # 0.5 .. 2 along x
     scale = 30.0
     out = ts.synthesize_jumpmap(pre, pos, cv, st, sz, scale=scale, scale_multiplier=multiplier, blend=False)
@@ -323,7 +323,7 @@ def test_synthesized_scale_follows_the_multiplier(pre):
 
 
 def test_combing_over_anchors_blends_with_the_falloff():
-    pos, cv, st, sz = grid(40, 1.0 / 40)
+    pos, cv, st, sz = polygon_grid(40, 1.0 / 40)
     arrays = mesh_arrays(pos, cv, st, sz)
     state = new_state(arrays)
     state.guide[:] = (0.0, 1.0, 0.0)

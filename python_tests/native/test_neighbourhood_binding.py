@@ -8,22 +8,7 @@ import numpy as np
 import pytest
 
 import texsynth_native as ts
-
-
-def plane(n=30, spacing=0.1, jitter=0.3, seed=1):
-    """(n+1)^2 vertices on z = 0, two counter-clockwise triangles per cell, jittered in x and y."""
-    rng = np.random.default_rng(seed)
-    ys, xs = np.mgrid[0:n + 1, 0:n + 1]
-    xy = np.stack([xs.ravel(), ys.ravel()], axis=1).astype(np.float64)
-    xy += jitter * (rng.random(xy.shape) - 0.5)
-    pos = np.zeros(((n + 1) ** 2, 3), np.float32)
-    pos[:, :2] = xy * spacing
-    tris = []
-    for y in range(n):
-        for x in range(n):
-            a, b, c, d = y * (n + 1) + x, y * (n + 1) + x + 1, (y + 1) * (n + 1) + x + 1, (y + 1) * (n + 1) + x
-            tris += [(a, b, c), (a, c, d)]
-    return pos, np.array(tris, np.int32)
+from mesh_arrays import jittered_plane
 
 
 def points_in(pos, tris, lo, hi, count, seed=2):
@@ -57,7 +42,7 @@ def ring_positions(pos, tris, result):
 
 
 def test_plane_ring_points_at_radius_and_template_angle():
-    pos, tris = plane()
+    pos, tris = jittered_plane()
     r = 0.12
     pt, bary = points_in(pos, tris, 1.0, 2.0, 200)  # K*r = 0.48 fits inside the 3 x 3 plane
     out = ts.round_rings(pos, tris, pt, bary, np.full(len(pt), r, np.float32))
@@ -93,7 +78,7 @@ def test_plane_ring_points_at_radius_and_template_angle():
 
 
 def test_border_points_are_invalid_and_counted():
-    pos, tris = plane(n=10, jitter=0.0)  # [0, 1]^2
+    pos, tris = jittered_plane(n=10, jitter=0.0)  # [0, 1]^2
     pt = np.array([0, 0], np.int32)
     bary = np.array([[0.2, 0.1], [0.3, 0.3]], np.float32)
     out = ts.round_rings(pos, tris, pt, bary, 0.2, rings=2)  # scalar radius: every point
@@ -109,7 +94,7 @@ def test_border_points_are_invalid_and_counted():
 
 
 def test_views_outlive_the_result_dict():
-    pos, tris = plane(n=8)
+    pos, tris = jittered_plane(n=8)
     pt, bary = points_in(pos, tris, 0.3, 0.5, 5)
     out = ts.round_rings(pos, tris, pt, bary, 0.05, rings=1)
     tri, expected = out["triangle"], out["triangle"].copy()
@@ -132,7 +117,7 @@ def test_views_outlive_the_result_dict():
     ("point_triangles", np.array([0, 1, 99], np.int32), "triangle 99"),
 ])
 def test_bad_arguments_raise_value_error_naming_them(arg, value, name):
-    pos, tris = plane(n=2)
+    pos, tris = jittered_plane(n=2)
     args = dict(positions=pos, triangles=tris, point_triangles=np.zeros(3, np.int32),
                 point_barycentrics=np.full((3, 2), 0.25, np.float32), point_radius=np.full(3, 0.1, np.float32))
     ts.round_rings(**args)  # the unmodified arguments are fine
@@ -142,7 +127,7 @@ def test_bad_arguments_raise_value_error_naming_them(arg, value, name):
 
 
 def test_bad_options_and_memory_limit():
-    pos, tris = plane(n=2)
+    pos, tris = jittered_plane(n=2)
     pt, bary = np.zeros(3, np.int32), np.full((3, 2), 0.25, np.float32)
     for rings in (0, 7):
         with pytest.raises(ValueError, match="rings"):

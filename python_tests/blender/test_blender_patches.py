@@ -6,25 +6,24 @@ import os
 
 import pytest
 
-import addon_package
 import blender_run
 import blender_suite
-from test_blender_bake import png_size, run_failing, write_grid_obj
+from blender_run import run_failing
+from scene_files import png_size, write_grid_obj
 
 BRICKS = os.path.join(blender_run.SAMPLES, "bricks.png")
-needs_native = pytest.mark.skipif(not addon_package.real_synthesizer_available(), reason="texsynth_native not built")
 
 
 PATCHES_SUITE = os.path.join(blender_run.BLENDER_TESTS, "tests_patches.py")
 
 
-@needs_native
+@pytest.mark.needs_native
 @pytest.mark.parametrize("check", blender_suite.check_names(PATCHES_SUITE))
 def test_patches_check_inside_blender(check):
     blender_suite.assert_check(PATCHES_SUITE, check)
 
 
-@needs_native
+@pytest.mark.needs_native
 @pytest.mark.parametrize("mode", ["sampling", "optimisation"])
 def test_cli_patches_writes_the_image_and_native_seconds(tmp_path, mode):
     mesh = write_grid_obj(tmp_path / "grid.obj")
@@ -44,7 +43,7 @@ def test_cli_patches_writes_the_image_and_native_seconds(tmp_path, mode):
     assert any(f.startswith("patches-") for f in os.listdir(tmp_path / "cache")), "analysed sample cached"
 
 
-@needs_native
+@pytest.mark.needs_native
 def test_cli_patches_vertex_target(tmp_path):
     mesh = write_grid_obj(tmp_path / "grid.obj", cells=40)
     stats_path = tmp_path / "stats.json"

@@ -2,13 +2,13 @@
 """The vector-field-patch quality measures of python_tests/bench/bench_patches_quality.py on images whose
 answers are known by construction (no Blender; numpy only, plus the plane lattice checked against the native
 module's conventions)."""
-import os
 import sys
 
 import numpy as np
 import pytest
+import paths
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "bench"))
+sys.path.insert(0, paths.BENCH)
 import bench_patches_quality as bpq  # noqa: E402
 
 

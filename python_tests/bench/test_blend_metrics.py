@@ -1,12 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The blending-quality measures of python_tests/bench/blend_metrics.py on images whose answers are
 known by construction."""
-import os
 import sys
 
 import numpy as np
+import paths
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "bench"))
+sys.path.insert(0, paths.BENCH)
 import blend_metrics  # noqa: E402
 
 

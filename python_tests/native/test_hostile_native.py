@@ -7,9 +7,9 @@ import os
 import sys
 
 import pytest
+import paths
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "hostile"))
+sys.path.insert(0, paths.HOSTILE)
 
 import make_corpus  # noqa: E402
 import run_hostile  # noqa: E402

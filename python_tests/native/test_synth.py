@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import texsynth_native as ts
-from uv_jacobians import triangle_jacobians
+from mesh_arrays import face_jacobians, pack, polygon_grid
 
 
 @pytest.fixture(scope="module")
@@ -15,42 +15,8 @@ def pre():
     return ts.preprocess(rng.random((64, 64, 3), dtype=np.float32), jump_candidates=4)
 
 
-def grid(n, spacing, triangles=True, jitter=0.0, seed=1):
-    rng = np.random.default_rng(seed)
-    ys, xs = np.mgrid[0:n + 1, 0:n + 1]
-    pos = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], 1).astype(np.float64)
-    pos[:, :2] += jitter * (rng.random((xs.size, 2)) - 0.5)
-    pos = (pos * spacing).astype(np.float32)
-    idx = lambda x, y: y * (n + 1) + x
-    polys = []
-    for y in range(n):
-        for x in range(n):
-            if triangles:
-                polys += [[idx(x, y), idx(x + 1, y), idx(x + 1, y + 1)], [idx(x, y), idx(x + 1, y + 1), idx(x, y + 1)]]
-            else:
-                polys.append([idx(x, y), idx(x + 1, y), idx(x + 1, y + 1), idx(x, y + 1)])
-    return pack(pos, polys)
-
-
-def pack(pos, polys):
-    sizes = np.array([len(p) for p in polys], np.int32)
-    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int32) if len(polys) else np.zeros(0, np.int32)
-    corner_verts = np.array([v for p in polys for v in p], np.int32)
-    return pos, corner_verts, starts, sizes
-
-
-def texel(uv, pre):
-    return np.stack([uv[..., 0] * pre.width, (1.0 - uv[..., 1]) * pre.height], -1).astype(np.float64)
-
-
-def face_jacobians(pos, corner_verts, starts, uv, pre):
-    """Per triangle: J mapping the triangle's own plane (basis from its first edge) to texels."""
-    c = starts[:, None] + np.arange(3)[None, :]
-    return triangle_jacobians(pos[corner_verts[c]], texel(uv[c], pre))
-
-
 def test_flat_jittered_grid_every_face_is_a_similarity_with_scale_and_rotation(pre):
-    mesh = grid(16, 0.1, jitter=0.5)
+    mesh = polygon_grid(16, 0.1, jitter=0.5)
     angle = 0.9
     axis = (math.sin(angle), math.cos(angle), 0.0)
     out = ts.synthesize_jumpmap(pre, *mesh, scale=25.0, orientation="axis", axis=axis, seed=4)
@@ -69,7 +35,7 @@ def test_flat_jittered_grid_every_face_is_a_similarity_with_scale_and_rotation(p
 
 
 def test_blend_sets_agree_with_each_vertex_address_and_weights_are_one_hot(pre):
-    mesh = grid(12, 0.15, triangles=False)
+    mesh = polygon_grid(12, 0.15, triangles=False)
     pos, corner_verts, starts, sizes = mesh
     out = ts.synthesize_jumpmap(pre, *mesh, scale=20.0, seed=2)
     S = out["num_blend_sets"]
@@ -89,7 +55,7 @@ def test_blend_sets_agree_with_each_vertex_address_and_weights_are_one_hot(pre):
 
 
 def test_deterministic_and_seed_dependent(pre):
-    mesh = grid(20, 0.05, jitter=0.4)
+    mesh = polygon_grid(20, 0.05, jitter=0.4)
     a = ts.synthesize_jumpmap(pre, *mesh, scale=40.0, seed=7)
     b = ts.synthesize_jumpmap(pre, *mesh, scale=40.0, seed=7)
     c = ts.synthesize_jumpmap(pre, *mesh, scale=40.0, seed=8)
@@ -100,7 +66,7 @@ def test_deterministic_and_seed_dependent(pre):
 
 
 def test_other_dtypes_and_layouts_are_converted(pre):
-    pos, corner_verts, starts, sizes = grid(5, 0.1)
+    pos, corner_verts, starts, sizes = polygon_grid(5, 0.1)
     ref = ts.synthesize_jumpmap(pre, pos, corner_verts, starts, sizes, scale=30.0)
     wide = np.asfortranarray(pos.astype(np.float64))
     out = ts.synthesize_jumpmap(pre, wide, corner_verts.astype(np.int64), list(starts), sizes.astype(np.uint16),
@@ -122,7 +88,7 @@ def test_other_dtypes_and_layouts_are_converted(pre):
     ],
 )
 def test_malformed_meshes_raise_value_error(pre, mutate, message):
-    mesh = mutate(grid(3, 0.1))
+    mesh = mutate(polygon_grid(3, 0.1))
     with pytest.raises(ValueError, match=None) as err:
         ts.synthesize_jumpmap(pre, *mesh, scale=30.0)
     assert message in str(err.value)
@@ -131,7 +97,7 @@ def test_malformed_meshes_raise_value_error(pre, mutate, message):
 
 
 def test_bad_keywords_raise_value_error(pre):
-    mesh = grid(3, 0.1)
+    mesh = polygon_grid(3, 0.1)
     cases = [
         (dict(scale=0.0), "scale"),
         (dict(scale=30.0, jump_rate=0.0), "jump_rate"),
@@ -154,7 +120,7 @@ def test_bad_keywords_raise_value_error(pre):
 
 
 def test_oversized_faces_are_reported_with_counts(pre):
-    mesh = grid(2, 1.0, triangles=False)  # 4 unit quads
+    mesh = polygon_grid(2, 1.0, triangles=False)  # 4 unit quads
     with pytest.raises(ValueError) as err:
         ts.synthesize_jumpmap(pre, *mesh, scale=100.0)  # 100 texels per quad, sample is 64
     assert "4 of 4 faces are larger than the 64x64 sample" in str(err.value)
@@ -181,7 +147,7 @@ def test_degenerate_meshes_give_valid_results(pre):
 
 
 def test_compute_field_modes(pre):
-    pos, corner_verts, starts, sizes = grid(10, 0.1, jitter=0.3)
+    pos, corner_verts, starts, sizes = polygon_grid(10, 0.1, jitter=0.3)
     up = ts.compute_field(pos, corner_verts, starts, sizes, orientation="axis", axis=(1.0, 1.0, 5.0))
     assert up.shape == (pos.shape[0], 3) and up.dtype == np.float32
     np.testing.assert_allclose(up, np.tile([math.sqrt(0.5), math.sqrt(0.5), 0.0], (pos.shape[0], 1)), atol=1e-6)
@@ -201,7 +167,7 @@ def test_compute_field_modes(pre):
 def test_packed_set_pairs_hold_the_same_sets_as_blend_uv(pre, triangles):
     """pack_sets=True: the sets come as (u0, v0, u1, v1), (u2, v2, u3, v3) per corner (the add-on's
     RGBA attributes), bit-identical to blend_uv; an odd number of sets leaves zeros."""
-    mesh = grid(6, 0.3, triangles=triangles, jitter=0.3)
+    mesh = polygon_grid(6, 0.3, triangles=triangles, jitter=0.3)
     plain = ts.synthesize_jumpmap(pre, *mesh, scale=20.0, seed=4)
     packed = ts.synthesize_jumpmap(pre, *mesh, scale=20.0, seed=4, pack_sets=True)
     assert "blend_uv" not in packed and "blend_set_pairs" in plain.keys() | packed.keys()
@@ -222,7 +188,7 @@ def test_baseline_passes_give_identical_outputs_on_a_shuffled_mesh(pre, triangle
     """baseline_passes=True (the previous pass structure, kept for benchmarks) and the default give
     the same bytes, with vertex numbering and polygon order unrelated to the surface; phase
     seconds are reported."""
-    pos, corner_verts, starts, sizes = grid(30, 0.05, triangles=triangles, jitter=0.4)
+    pos, corner_verts, starts, sizes = polygon_grid(30, 0.05, triangles=triangles, jitter=0.4)
     rng = np.random.default_rng(5)
     new_index = rng.permutation(len(pos)).astype(np.int32)
     shuffled_pos = np.empty_like(pos)

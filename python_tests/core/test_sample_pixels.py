@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import addon_package
+import paths
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-SEED = os.path.join(HERE, "image_headers", "seeds", "rgb8.png")
+SEED = os.path.join(paths.IMAGE_SEEDS, "rgb8.png")
 sample_image = addon_package.load("core.sample_image")
 
 
@@ -33,7 +33,7 @@ def test_integer_pixels_become_the_floats_openimageio_decodes(tmp_path):
         native.image_info(SEED)
     except ValueError as error:
         pytest.skip("no texsynth_image_io in this build: %s" % error)
-    sys.path.insert(0, os.path.join(HERE, "hostile"))
+    sys.path.insert(0, paths.HOSTILE)
     import make_corpus
     for dtype, top in ((np.uint8, 255), (np.uint16, 65535)):
         values = np.arange(top + 1, dtype=dtype).reshape(-1, 256, 1)

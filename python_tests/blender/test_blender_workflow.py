@@ -22,7 +22,6 @@ WARMUP = 120           # steps before the memory baseline (caches and the 32-ste
                        # levels off after about 100 steps, 3.4 sooner)
 RSS_BOUND_MB = 150     # allowed RSS growth after the warm-up (see workflow_soak.py; measured in the report)
 
-needs_native = pytest.mark.skipif(not addon_package.real_synthesizer_available(), reason="texsynth_native not built")
 
 
 def format_violation(violation):
@@ -34,7 +33,7 @@ def format_violation(violation):
     return "\n".join(lines)
 
 
-@needs_native
+@pytest.mark.needs_native
 def test_an_artists_day_keeps_every_invariant():
     version = "%d.%d" % addon_package.blender_version()[:2]
     report_path = os.path.join(blender_run.ROOT, "out", "workflow_%s.json" % version)

@@ -8,8 +8,7 @@ import numpy as np
 import pytest
 
 import addon_package
-from test_particles_decals_binding import grid
-from test_particles_walk_binding import locate
+from mesh_arrays import locate, triangle_grid
 
 tn = pytest.importorskip("texsynth_native")
 compositing = addon_package.load("particles.compositing")
@@ -20,7 +19,7 @@ RED = np.array([1.0, 0.0, 0.0, 1.0], np.float32)
 
 
 def plane():
-    pos, tris = grid(4, 0.25)  # the unit square, 32 triangles
+    pos, tris = triangle_grid(4, 0.25)  # the unit square, 32 triangles
     return pos, tris, tn.surface_walk_mesh(pos, tris)
 
 

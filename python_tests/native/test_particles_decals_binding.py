@@ -9,22 +9,9 @@ import pathlib
 import numpy as np
 import pytest
 
-from test_particles_walk_binding import locate
+from mesh_arrays import locate, triangle_grid
 
 tn = pytest.importorskip("texsynth_native")
-
-
-def grid(n, spacing):
-    """(n + 1)^2 vertices on z = 0, two counter-clockwise triangles per cell."""
-    xs = np.arange(n + 1) * spacing
-    x, y = np.meshgrid(xs, xs)
-    pos = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], 1).astype(np.float32)
-    tris = []
-    for j in range(n):
-        for i in range(n):
-            a, b, c, d = j * (n + 1) + i, j * (n + 1) + i + 1, (j + 1) * (n + 1) + i + 1, (j + 1) * (n + 1) + i
-            tris += [(a, b, c), (a, c, d)]
-    return pos, np.array(tris, np.int32)
 
 
 def polygon_areas(d):
@@ -44,7 +31,7 @@ def one(pos, tris, xy, axis, rect, uv, **kw):
 
 
 def test_big_face_shows_only_its_rectangle():
-    pos, tris = grid(1, 10.0)  # one 10 x 10 quad against a 1 x 0.6 particle
+    pos, tris = triangle_grid(1, 10.0)  # one 10 x 10 quad against a 1 x 0.6 particle
     a = math.radians(20)
     uv = (0.5, 0.25, 0.75, 0.5)
     d = one(pos, tris, (4.2, 5.1), (math.cos(a), math.sin(a), 0), (-0.5, -0.2, 0.5, 0.4), uv, offset=0.01)
@@ -63,7 +50,7 @@ def test_big_face_shows_only_its_rectangle():
 
 
 def test_grid_decals_cover_their_rectangles_in_particle_order():
-    pos, tris = grid(30, 0.1)
+    pos, tris = triangle_grid(30, 0.1)
     mesh = tn.surface_walk_mesh(pos, tris)
     centres = [(0.73, 0.81), (1.52, 1.47), (2.2, 0.6)]
     located = [locate(pos, tris, c) for c in centres]
@@ -86,7 +73,7 @@ def test_grid_decals_cover_their_rectangles_in_particle_order():
 
 
 def test_source_triangles_and_barycentrics_put_the_corners_back_on_the_surface():
-    pos, tris = grid(12, 0.25)
+    pos, tris = triangle_grid(12, 0.25)
     d = one(pos, tris, (1.43, 1.61), (1.0, 0.4, 0.0), (-0.6, -0.35, 0.5, 0.45), (0.1, 0.2, 0.3, 0.4), offset=0.0)
     lifted = one(pos, tris, (1.43, 1.61), (1.0, 0.4, 0.0), (-0.6, -0.35, 0.5, 0.45), (0.1, 0.2, 0.3, 0.4),
                  offset=0.05)
@@ -103,7 +90,7 @@ def test_source_triangles_and_barycentrics_put_the_corners_back_on_the_surface()
     assert len(np.unique(source)) > 5
 
 def test_shapes_and_values_are_checked():
-    pos, tris = grid(4, 1.0)
+    pos, tris = triangle_grid(4, 1.0)
     mesh = tn.surface_walk_mesh(pos, tris)
     t, b = np.array([5]), np.array([[0.3, 0.3]])
     ax, rect, uv = np.array([[1.0, 0, 0]]), np.array([[-0.2, -0.2, 0.2, 0.2]]), np.array([[0, 0, 1, 1.0]])

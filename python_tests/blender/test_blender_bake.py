@@ -3,60 +3,27 @@
 --bake flags end to end in a subprocess."""
 import json
 import os
-import struct
 
 import pytest
 
-import addon_package
 import blender_run
 import blender_suite
+from blender_run import run_failing
+from scene_files import png_size, write_grid_obj
 
 BRICKS = os.path.join(blender_run.SAMPLES, "bricks.png")
-needs_native = pytest.mark.skipif(not addon_package.real_synthesizer_available(), reason="texsynth_native not built")
 
 
 BAKE_SUITE = os.path.join(blender_run.BLENDER_TESTS, "tests_bake.py")
 
 
-@needs_native
+@pytest.mark.needs_native
 @pytest.mark.parametrize("check", blender_suite.check_names(BAKE_SUITE))
 def test_bake_check_inside_blender(check):
     blender_suite.assert_check(BAKE_SUITE, check)
 
 
-def write_grid_obj(path, cells=4, size=2.0):
-    """A size x size grid of cells x cells quads in the xy plane with planar UVs (u, v) = (x, y) / size + .5."""
-    lines, n = [], cells + 1
-    for j in range(n):
-        for i in range(n):
-            x, y = (i / cells - 0.5) * size, (j / cells - 0.5) * size
-            lines.append("v %g %g 0" % (x, y))
-            lines.append("vt %g %g" % (i / cells, j / cells))
-    for j in range(cells):
-        for i in range(cells):
-            a = j * n + i + 1
-            corners = (a, a + 1, a + n + 1, a + n)
-            lines.append("f " + " ".join("%d/%d" % (c, c) for c in corners))
-    path.write_text("\n".join(lines) + "\n")
-    return path
-
-
-def png_size(path):
-    with open(path, "rb") as handle:
-        header = handle.read(24)
-    assert header[:8] == b"\x89PNG\r\n\x1a\n", header[:8]
-    return struct.unpack(">II", header[16:24])
-
-
-def run_failing(*args, code, fragment):
-    process = blender_run.cli(*args)
-    lines = blender_run.error_lines(process)
-    assert process.returncode == code, process.stdout[-2000:] + process.stderr[-2000:]
-    assert len(lines) == 1 and fragment.lower() in lines[0].lower(), lines
-    return lines[0]
-
-
-@needs_native
+@pytest.mark.needs_native
 def test_cli_bake_writes_the_png_and_stats(tmp_path):
     mesh = write_grid_obj(tmp_path / "grid.obj")
     out, stats_path, saved = tmp_path / "out.png", tmp_path / "stats.json", tmp_path / "out.blend"
@@ -97,7 +64,7 @@ def test_cli_bad_bake_arguments_exit_2_with_one_line(tmp_path, extra, fragment):
     assert not (tmp_path / "out.png").exists()
 
 
-@needs_native
+@pytest.mark.needs_native
 @pytest.mark.parametrize("extra, fragment", [
     (("--material", "none", "--bake-uv", "UVMap"), "no TexSynth result"),
     (("--bake-uv", "Missing"), "no UV map 'Missing'"),

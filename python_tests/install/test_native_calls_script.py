@@ -8,10 +8,11 @@ import sys
 
 import numpy as np
 import pytest
+import paths
 
 tn = pytest.importorskip("texsynth_native")
 
-SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "install", "native_calls.py")
+SCRIPT = os.path.join(paths.INSTALL_SCRIPTS, "native_calls.py")
 SUMMARY = "native_calls: "
 
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import addon_package
+import paths
 
 finite = addon_package.load("core.finite")
 core_layers = addon_package.load("core.layers")
@@ -299,9 +300,9 @@ def test_reason_names_the_missing_shared_library_of_a_real_module(tmp_path):
     os.remove(tmp_path / "libtexsynth_probe_dep.so")
     script = "import addon_package; print('REASON', addon_package.load('native').reason())"
     process = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600,
-                             cwd=os.path.dirname(os.path.abspath(__file__)),
+                             cwd=paths.TESTS,
                              env=dict(os.environ, TEXSYNTH_MODULE_DIR=str(tmp_path),
-                                      PYTHONPATH=os.path.dirname(os.path.abspath(__file__))))
+                                      PYTHONPATH=paths.TESTS))
     assert process.returncode == 0, process.stderr
     assert "REASON native module needs the shared library libtexsynth_probe_dep.so" in process.stdout, process.stdout
 
@@ -387,7 +388,7 @@ def test_blend_shading_above_4096_squared_uses_variance_and_says_why(tmp_path, r
     assert np.allclose(shading.mean, (200.0 * 1366 / 4097 / 255.0,) * 3, atol=1e-4)
     assert os.listdir(tmp_path) == []  # nothing cached for a transform that was not made
     # A path is measured from its header: the same size as the decoded pixels.
-    bricks = os.path.join(os.path.dirname(__file__), "..", "blend_samples", "bricks.png")
+    bricks = os.path.join(paths.SAMPLES, "bricks.png")
     height, width = real_native.load_image(bricks).shape[:2]
     assert sample_image.sample_size(bricks) == (width, height)
 

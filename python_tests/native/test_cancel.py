@@ -2,14 +2,13 @@
 """Cancellation through the Python API: a CancelToken raised from another thread stops a running
 native call (the GIL is released meanwhile) with texsynth_native.Cancelled; a raised token stops a
 call before it does anything. Latency figures: python_tests/bench/bench_cancel.py."""
-import os
 import sys
 import threading
 
-import numpy as np
 import pytest
+import paths
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "hostile"))
+sys.path.insert(0, paths.HOSTILE)
 import make_corpus  # noqa: E402
 import worker  # noqa: E402
 

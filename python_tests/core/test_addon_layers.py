@@ -5,8 +5,9 @@ package may import only from its own layer's shared packages below it, never upw
 takes part in an import circle."""
 import ast
 import os
+import paths
 
-ADDON = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "addon")
+ADDON = paths.ADDON
 
 # Lower numbers are lower layers. A package may import packages of a strictly lower layer, and itself.
 LAYERS = {

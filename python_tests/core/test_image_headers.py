@@ -12,9 +12,9 @@ import zlib
 import pytest
 
 import addon_package
+import paths
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-SEEDS = os.path.join(HERE, "image_headers", "seeds")
+SEEDS = paths.IMAGE_SEEDS
 FUZZ_IMAGE = [os.path.join(addon_package.ROOT, "cpp_tests", "fuzz", kind, "fuzz_image")
               for kind in ("corpus", "regressions")]
 FUZZ_EXTENSIONS = (".png", ".jpg", ".exr", ".tif", ".bmp", ".tga", ".hdr", ".ppm", ".gif", ".psd")  # fuzz_image.cpp
@@ -194,7 +194,7 @@ def test_files_that_are_not_samples_are_refused_by_name(tmp_path):
 def test_the_hostile_corpus_images_are_refused_before_blender_opens_them(tmp_path):
     """Every image the hostile corpus expects to fail is refused from its header, except the one whose
     header is sound and whose pixels are not (NaN/inf: refused by the native module after decoding)."""
-    sys.path.insert(0, os.path.join(HERE, "hostile"))
+    sys.path.insert(0, paths.HOSTILE)
     import make_corpus
     try:
         cases = make_corpus.image_cases(str(tmp_path))

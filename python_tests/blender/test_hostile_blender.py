@@ -9,9 +9,9 @@ import subprocess
 import sys
 
 import pytest
+import paths
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, os.path.join(HERE, "hostile"))
+sys.path.insert(0, paths.HOSTILE)
 
 import addon_package  # noqa: E402
 import blender_run  # noqa: E402
@@ -22,7 +22,7 @@ import run_hostile  # noqa: E402
 texsynth_native = pytest.importorskip("texsynth_native")
 if not hasattr(texsynth_native, "synthesize_jumpmap"):
     pytest.skip("texsynth_native has no synthesizer", allow_module_level=True)
-SCRIPT = os.path.join(HERE, "blender", "tests_hostile.py")
+SCRIPT = os.path.join(paths.BLENDER_SCRIPTS, "tests_hostile.py")
 CLI = os.path.join(addon_package.ROOT, "addon", "texsynth_cli.py")
 
 
@@ -127,7 +127,7 @@ def test_cli_on_hostile_cases_exits_cleanly_and_never_half_writes(corpus, tmp_pa
 def test_cancellation_and_modal_operator_inside_blender(capsys):
     """Esc during a 490k-face synthesis: Cancelled within a fraction of a second, mesh untouched."""
     process = subprocess.run([addon_package.BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "--python",
-                              os.path.join(HERE, "blender", "tests_cancel.py")],
+                              os.path.join(paths.BLENDER_SCRIPTS, "tests_cancel.py")],
                              capture_output=True, text=True, timeout=blender_run.HANG_SECONDS, errors="replace")
     output = process.stdout + process.stderr
     assert process.returncode == 0 and "SUMMARY failed=0" in output, output[-4000:]

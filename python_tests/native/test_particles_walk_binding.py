@@ -6,25 +6,13 @@ import math
 import numpy as np
 import pytest
 
-from test_neighbourhood_binding import plane
+from mesh_arrays import jittered_plane, locate
 
 tn = pytest.importorskip("texsynth_native")
 
 
-def locate(pos, tris, xy):
-    """Triangle and barycentrics (b1, b2) of the point xy of a planar mesh (z = 0)."""
-    p = pos[tris].astype(np.float64)
-    e1, e2, q = p[:, 1, :2] - p[:, 0, :2], p[:, 2, :2] - p[:, 0, :2], np.asarray(xy) - p[:, 0, :2]
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    b1 = (q[:, 0] * e2[:, 1] - q[:, 1] * e2[:, 0]) / det
-    b2 = (e1[:, 0] * q[:, 1] - e1[:, 1] * q[:, 0]) / det
-    inside = np.flatnonzero((b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1))
-    t = int(inside[0])
-    return t, (b1[t], b2[t])
-
-
 def test_plane_round_trip_walk_then_distance_back():
-    pos, tris = plane()  # 30 x 30 cells of 0.1, jittered
+    pos, tris = jittered_plane()  # 30 x 30 cells of 0.1, jittered
     mesh = tn.surface_walk_mesh(pos, tris)
     assert mesh.num_triangles == len(tris) and mesh.num_vertices == len(pos)
     angles = np.linspace(0.1, 2 * math.pi, 7, endpoint=False)
@@ -46,7 +34,7 @@ def test_plane_round_trip_walk_then_distance_back():
 
 
 def test_walk_off_the_edge_stops_at_the_wall():
-    pos, tris = plane(jitter=0.0)
+    pos, tris = jittered_plane(jitter=0.0)
     mesh = tn.surface_walk_mesh(pos, tris)
     t, b = locate(pos, tris, (1.52, 1.47))
     out = tn.walk_normal_sections(mesh, [t], [b], [[1.0, 0, 0]], [10.0])
@@ -56,7 +44,7 @@ def test_walk_off_the_edge_stops_at_the_wall():
 
 
 def test_two_sided_sheet_never_conflicts():
-    pos, tris = plane(n=8, jitter=0.0)
+    pos, tris = jittered_plane(n=8, jitter=0.0)
     both = np.concatenate([tris, tris[:, ::-1]])
     mesh = tn.surface_walk_mesh(pos, both)
     k = 10
@@ -65,7 +53,7 @@ def test_two_sided_sheet_never_conflicts():
 
 
 def test_shapes_and_values_are_checked():
-    pos, tris = plane(n=4)
+    pos, tris = jittered_plane(n=4)
     mesh = tn.surface_walk_mesh(pos, tris)
     with pytest.raises(ValueError, match="positions must have shape"):
         tn.surface_walk_mesh(pos[:, :2], tris)

@@ -235,10 +235,10 @@ def test_working_size_analyses_a_smaller_copy_and_keys_the_cache(tmp_path):
 
 
 def test_texton_synthesis_takes_the_full_sample_after_a_working_size():
-    from test_synth import grid
+    from mesh_arrays import polygon_grid
     big = (bricks(160, 120, seed=5) / 255.0).astype(np.float32)
     pre = ts.preprocess(big, working_size=80, jump_candidates=2)
-    mesh = grid(5, 0.2, triangles=False)
+    mesh = polygon_grid(5, 0.2, triangles=False)
     out = ts.synthesize_texton(pre, big, *mesh, scale=8.0, seed=1)
     assert np.isfinite(out["edge_error"]).all() and out["base_uv"].shape[0] == mesh[1].size
     with pytest.raises(ValueError, match="sample"):

@@ -15,8 +15,7 @@ import pytest
 
 import addon_package
 import blender_run
-from test_blender_bake import write_grid_obj
-from test_blender_particles import pebbles_png
+from scene_files import pebbles_png, write_grid_obj
 
 BATCH = os.path.join(addon_package.ROOT, "addon", "texsynth_batch.py")
 SAMPLES = blender_run.SAMPLES
@@ -27,7 +26,6 @@ if addon_package.blender_version()[0] == 3:  # the host (Debian 12): scripts/ins
 else:  # the Blender 4.3 / 5.2 root filesystems carry Blender, not the batch runner's Dask
     pytest.importorskip("distributed", reason="the batch runner runs with the host's Python and Dask")
 
-needs_native = pytest.mark.skipif(not addon_package.real_synthesizer_available(), reason="texsynth_native not built")
 
 
 def load_batch():
@@ -73,7 +71,7 @@ def staged_files(folder):
     return [os.path.join(d, f) for d, _, files in os.walk(folder) for f in files if ".texsynth-partial-" in d]
 
 
-@needs_native
+@pytest.mark.needs_native
 def test_every_method_on_two_workers_matches_the_cli_job_by_job(tmp_path):
     jobs = jobs_for_every_method(tmp_path)
     manifest = write_manifest(tmp_path, jobs)
@@ -100,7 +98,7 @@ def test_every_method_on_two_workers_matches_the_cli_job_by_job(tmp_path):
     assert again.returncode == 0 and "8 job(s), 2 to run, 6 up to date" in again.stdout, again.stdout
 
 
-@needs_native
+@pytest.mark.needs_native
 def test_a_worker_killed_mid_job_has_its_job_rerun_and_leaves_nothing_half_written(tmp_path):
     import psutil
     jobs = jobs_for_every_method(tmp_path)[:4]
@@ -138,7 +136,7 @@ def test_a_worker_killed_mid_job_has_its_job_rerun_and_leaves_nothing_half_writt
     assert staged_files(tmp_path) == []
 
 
-@needs_native
+@pytest.mark.needs_native
 def test_bad_assets_are_reported_and_the_others_complete(tmp_path):
     jobs = jobs_for_every_method(tmp_path)[:2]
     corrupt = tmp_path / "corrupt.blend"

@@ -8,8 +8,9 @@ import re
 import textwrap
 
 import pytest
+import paths
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
+ROOT = pathlib.Path(paths.ROOT)
 README = ROOT / "README.md"
 README_MAX_LINES = 250
 

@@ -13,7 +13,7 @@ import pytest
 
 from pebble_samples import brightness_labels, pebble_field
 
-from test_neighbourhood_binding import plane
+from mesh_arrays import jittered_plane
 
 tn = pytest.importorskip("texsynth_native")
 
@@ -34,7 +34,7 @@ def square_grid(n=6, side=20, gap=8):
 
 @pytest.fixture(scope="module")
 def scene():
-    pos, tris = plane(n=60, spacing=0.1, jitter=0.0)  # 6 x 6 world units, exact border
+    pos, tris = jittered_plane(n=60, spacing=0.1, jitter=0.0)  # 6 x 6 world units, exact border
     return square_grid(), tn.surface_walk_mesh(pos, tris), pos, tris
 
 
@@ -139,7 +139,7 @@ def test_cancel_progress_and_gil(scene):
     assert progress.progress == pytest.approx(1.0)
     # A long run in a thread: this thread keeps running meanwhile (GIL released) and cancels it.
     a, _, _, _ = scene
-    pos, tris = plane(n=200, spacing=0.05, jitter=0.3)
+    pos, tris = jittered_plane(n=200, spacing=0.05, jitter=0.3)
     mesh = tn.surface_walk_mesh(pos, tris)
     token = tn.CancelToken()
     caught = []
@@ -163,7 +163,7 @@ def test_cancel_progress_and_gil(scene):
 
 def hostile_meshes():
     """(name, positions, triangles) that must end in a result or a ValueError, never a crash."""
-    pos, tris = plane(n=6, spacing=0.5, jitter=0.2)
+    pos, tris = jittered_plane(n=6, spacing=0.5, jitter=0.2)
     yield "coords_1e30", pos * np.float32(1e30), tris
     yield "coords_1e-30", pos * np.float32(1e-30), tris
     yield "zero_area", np.zeros((3, 3), np.float32), np.array([[0, 1, 2]], np.int32)
@@ -201,7 +201,7 @@ def test_same_seed_same_bytes_other_seed_other_draws(scene):
 
 @pytest.fixture(scope="module")
 def pebbles():
-    pos, tris = plane(n=60, spacing=0.1, jitter=0.3)
+    pos, tris = jittered_plane(n=60, spacing=0.1, jitter=0.3)
     return pebble_field(), tn.surface_walk_mesh(pos, tris), pos
 
 
