@@ -200,6 +200,13 @@ def test_python_blocks_compile():
     assert not errors, "python blocks that do not compile:\n" + "\n".join(errors)
 
 
+def test_python_blocks_use_one_of_the_two_info_strings():
+    """A variant (```python3, ```Python example) would be neither run nor compiled: refused."""
+    odd = [f"{b.name}: ```{b.info}" for path in doc_files() for b in fenced_blocks(path)
+           if b.info.startswith("py") and b.info not in ("python", "py", SIGNATURE)]
+    assert not odd, "use ```python (runs) or ```%s (listing): %s" % (SIGNATURE, odd)
+
+
 def test_signature_blocks_have_an_example_next_to_them():
     """A reference listing is not run, so a runnable ```python block must follow it on the same page."""
     lonely = []
