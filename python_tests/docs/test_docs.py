@@ -249,8 +249,9 @@ def blender_blocks_run():
         listing = os.path.join(work, "blocks.json")
         with open(listing, "w") as f:
             json.dump(blocks, f)
+        # Blender's user cache folder points into the temporary folder: examples keep the default cache_dir.
         process = blender_run.blender("--python", os.path.join(ROOT, "python_tests", "docs", "doc_blocks_blender.py"),
-                                      "--", listing)
+                                      "--", listing, env={"XDG_CACHE_HOME": os.path.join(work, "cache")})
         results, current, options = {}, None, None
         for line in process.stdout.splitlines():
             match = re.match(r"^BLOCK (PASS|FAIL) (\S+)$", line)
