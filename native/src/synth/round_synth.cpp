@@ -28,6 +28,7 @@
 #include "texsynth/mesh/vec_math.hpp"
 #include "texsynth/mesh/vertex_fill.hpp"
 #include "texsynth/surface/dilate.hpp"
+#include "texsynth/synth/round_metric.hpp"
 #include "texsynth/synth/round_synth.hpp"
 
 namespace texsynth {
@@ -42,8 +43,6 @@ constexpr double kTwoPi = 6.283185307179586476925;
 constexpr float kMinColourWeight = 0.5f;
 // Candidates are de-duplicated on a quarter-pixel lattice (and kept there).
 constexpr int32_t kSub = 4;
-// The §5.2.2 cut is skipped when the SSD spread is this small relative to its mean (flat regions).
-constexpr double kFlatSpread = 1e-6;
 // Finer-level passes, in this order of the 2x2 texel parities (x & 1) | (y & 1) << 1: the diagonal
 // pair first, so the second half of each pass pair sees synthesized neighbours on both axes.
 constexpr std::array<int, 4> kPassOrder = {0, 3, 1, 2};
@@ -172,8 +171,7 @@ struct Scratch {
   std::vector<uint64_t> table;  // candidate set: generation << 40 | key
   uint32_t generation = 0;
   std::vector<float> blend, dk, ring_ssd;  // ring_ssd: candidates × K
-  std::vector<int> alive, next_alive;
-  std::vector<double> metric;
+  AdaptiveScratch adaptive;
 };
 
 struct PointStats {
@@ -460,11 +458,9 @@ class LevelSynth {
 
   // Adaptive metric (§5.2; round_neighbourhoods.md, "Metric"). Per candidate and coloured template point
   // the squared colour difference, clamped at mean + 2σ of that candidate's differences (outliers: clamped,
-  // not dropped, so every candidate keeps the same terms); per-ring sums D_m. Top size T: starting from all
-  // candidates, at size s = min_top_size, ... keep those with SSD_s = Σ_{m<=s} D_m <= μ - σ (else the
-  // minimum; no cut when σ ≈ 0 or ring s has no coloured point) until one is left, capped at the last ring
-  // with a coloured point (≤ K). Winner: argmin over ALL candidates of Σ_{s<=T} SSD_s (the literal nested
-  // sums, i.e. ring m weighted T - m + 1); ties: lowest index (the candidate order).
+  // not dropped, so every candidate keeps the same terms); per-ring sums D_m. The top size and the winner
+  // from those sums: choose_by_adaptive_metric (round_metric.hpp), capped at the last ring with a coloured
+  // point (<= K); ties go to the lowest index, i.e. the candidate order.
   template <int C>
   int choose(Scratch& s, int n, int* top_out) const {
     int last_ring = 0;
@@ -505,51 +501,10 @@ class LevelSynth {
         rs[m - 1] = acc;
       }
     }
-    // Top size.
-    s.alive.resize(size_t(n));
-    for (int c = 0; c < n; ++c) s.alive[c] = c;
-    s.metric.assign(size_t(n), 0.0);  // SSD_s of the alive candidates
-    int top = last_ring;
-    const int fixed = p_.fixed_top_size;
-    if (fixed > 0) top = std::min(last_ring, fixed);
-    for (int sz = 1; sz <= last_ring && fixed == 0; ++sz) {
-      for (int c : s.alive) s.metric[c] += s.ring_ssd[size_t(c) * K + sz - 1];
-      if (sz < p_.min_top_size && sz < last_ring) continue;
-      if (ring_coloured[size_t(sz)]) {
-        double mean = 0, sq = 0;
-        for (int c : s.alive) mean += s.metric[c];
-        mean /= double(s.alive.size());
-        for (int c : s.alive) sq += (s.metric[c] - mean) * (s.metric[c] - mean);
-        const double sigma = std::sqrt(sq / double(s.alive.size()));
-        if (sigma > kFlatSpread * mean && sigma > 0) {
-          s.next_alive.clear();
-          for (int c : s.alive)
-            if (s.metric[c] <= mean - sigma) s.next_alive.push_back(c);
-          if (s.next_alive.empty()) {
-            int m = s.alive[0];
-            for (int c : s.alive)
-              if (s.metric[c] < s.metric[m]) m = c;
-            s.next_alive.push_back(m);
-          }
-          s.alive.swap(s.next_alive);
-        }
-      }
-      if (s.alive.size() == 1) {
-        top = sz;
-        break;
-      }
-    }
-    *top_out = top;
-    // Σ_{s<=T} SSD_s = Σ_m (T - m + 1) D_m over all candidates.
-    int best = 0;
-    double best_v = std::numeric_limits<double>::infinity();
-    for (int c = 0; c < n; ++c) {
-      const float* rs = &s.ring_ssd[size_t(c) * K];
-      double v = 0;
-      for (int m = 1; m <= top; ++m) v += double(top - m + 1) * rs[m - 1];
-      if (v < best_v) best_v = v, best = c;
-    }
-    return best;
+    const AdaptiveChoice choice = choose_by_adaptive_metric(s.ring_ssd.data(), n, K, last_ring, ring_coloured.data(),
+                                                            p_.min_top_size, p_.fixed_top_size, s.adaptive);
+    *top_out = choice.top_size;
+    return choice.winner;
   }
 
   const RoundSynthesisContext& ctx_;
