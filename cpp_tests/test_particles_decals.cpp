@@ -463,3 +463,77 @@ TEST(ParticlesDecal, SourceTrianglesAndBarycentricsReproduceTheVertices) {
     EXPECT_GT(std::set<int32_t>(d.face_triangle.begin(), d.face_triangle.end()).size(), 5u);
   }
 }
+
+namespace {
+
+DecalMesh stacked_decals(const Scene& sc, const std::vector<DecalParticle>& ps, double offset, double step,
+                         int32_t max_level = texsynth::kMaxDecalStackLevel) {
+  texsynth::DecalOptions o;
+  o.offset = offset;
+  o.stack_step = step;
+  o.max_level = max_level;
+  return texsynth::build_decal_mesh(sc.s, ps.data(), int64_t(ps.size()), o);
+}
+
+// The height of each particle's decal vertices above the plane z = 0 (every vertex of one particle alike).
+std::vector<double> particle_heights(const DecalMesh& d, size_t particles) {
+  std::vector<double> h(particles, -1);
+  for (size_t f = 0; f < d.loop_starts.size(); ++f) {
+    const size_t i = size_t(d.face_particle[f]);
+    for (int32_t k = 0; k < d.loop_totals[f]; ++k) {
+      const double z = vertex(d.positions, d.corner_verts[size_t(d.loop_starts[f] + k)]).z;
+      if (h[i] < 0) h[i] = z;
+      EXPECT_NEAR(z, h[i], 1e-7) << "particle " << i << " is not flat";
+    }
+  }
+  return h;
+}
+
+}  // namespace
+
+// Overlapping decals of one call would z-fight at one height: decals whose rectangles overlap get different
+// levels (the lowest free one, in particle order) and lie a step higher per level; separate decals stay down.
+TEST(ParticlesDecal, OverlappingDecalsGetDifferentLevels) {
+  const Scene sc(quad(5.0));
+  auto at = [&](double x, double y, double angle = 0) {
+    return particle(locate(sc.mesh, {x, y, 0}), {std::cos(angle), std::sin(angle), 0}, {-0.5, -0.5, 0.5, 0.5});
+  };
+  // 0 overlaps 1, 1 overlaps 2 (0 and 2 are apart), 3 overlaps 0 and 1, 4 is alone.
+  const std::vector<DecalParticle> ps{at(0, 0), at(0.8, 0), at(1.6, 0.1), at(0.4, 0.6), at(-3, -3)};
+  const double offset = 0.01, step = 0.002;
+  const DecalMesh d = stacked_decals(sc, ps, offset, step);
+  EXPECT_EQ(d.level, (std::vector<int32_t>{0, 1, 0, 2, 0}));
+  const std::vector<double> h = particle_heights(d, ps.size());
+  for (size_t i = 0; i < ps.size(); ++i) EXPECT_NEAR(h[i], offset + d.level[i] * step, 1e-7) << "particle " << i;
+  EXPECT_EQ(d.stats.stacked, 2);
+  EXPECT_EQ(d.stats.max_level, 2);
+  // Without a step every decal keeps the one offset and level 0, as before stacking existed.
+  const DecalMesh flat = stacked_decals(sc, ps, offset, 0);
+  EXPECT_EQ(flat.level, std::vector<int32_t>(ps.size(), 0));
+  for (double z : particle_heights(flat, ps.size())) EXPECT_NEAR(z, offset, 1e-7);
+  // Rectangles, not their circles: unit squares (1.05, 0.3) apart overlap as circles (1.09 < 1.41) but not as
+  // squares (x gap 1.05 > 1); turned 45 degrees the same squares overlap (0.95 < 1 along their edge normals).
+  EXPECT_EQ(stacked_decals(sc, {at(0, 0), at(1.05, 0.3)}, offset, step).stats.stacked, 0);
+  EXPECT_EQ(stacked_decals(sc, {at(0, 0, kPi / 4), at(1.05, 0.3, kPi / 4)}, offset, step).stats.stacked, 1);
+  // Edge to edge (1.0 apart): touching is not overlapping.
+  EXPECT_EQ(stacked_decals(sc, {at(0, 0), at(1.0, 0)}, offset, step).stats.stacked, 0);
+}
+
+TEST(ParticlesDecal, ManyDecalsOnOneSpotShareTheCap) {
+  const Scene sc(quad(5.0));
+  const DecalParticle p = particle(locate(sc.mesh, {0.1, 0.2, 0}), {1, 0, 0}, {-0.2, -0.2, 0.2, 0.2});
+  const std::vector<DecalParticle> ps(size_t(texsynth::kMaxDecalStackLevel) + 10, p);
+  const DecalMesh d = stacked_decals(sc, ps, 0, 1e-5);
+  EXPECT_EQ(d.stats.max_level, texsynth::kMaxDecalStackLevel);
+  for (size_t i = 0; i < ps.size(); ++i)
+    EXPECT_EQ(d.level[i], std::min<int32_t>(int32_t(i), texsynth::kMaxDecalStackLevel));
+  const std::vector<double> h = particle_heights(d, ps.size());
+  EXPECT_NEAR(h.back(), texsynth::kMaxDecalStackLevel * 1e-5, 1e-7);
+  // A smaller cap keeps the band lower: the last two of three stacked decals share the top level.
+  const DecalMesh capped = stacked_decals(sc, {p, p, p}, 0, 1e-3, 1);
+  EXPECT_EQ(capped.level, (std::vector<int32_t>{0, 1, 1}));
+  for (double step : {-1e-3, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()})
+    expect_refused([&] { stacked_decals(sc, {p}, 0, step); }, "stack_step");
+  for (int32_t cap : {-1, texsynth::kMaxDecalStackLevel + 1})
+    expect_refused([&] { stacked_decals(sc, {p}, 0, 1e-3, cap); }, "max_level");
+}

@@ -8,7 +8,13 @@ from ..core.settings import SettingsError
 
 ATLAS_MAX_SIDE = 4096
 ATLAS_PADDING = 2            # transparent pixels around every sprite (no bleeding under mipmaps or Linear)
-DECAL_OFFSET_FACTOR = 1e-4   # x bbox diagonal x (class rank + 1): decals above the surface, classes ordered
+# Decals lie above the surface in one band per class, later classes higher (the class order); within a band,
+# decals of one class that overlap climb half a unit per level, lower-numbered on top, as the bake composites
+# them (decal_mesh's stack_step), so none z-fights. Unit: DECAL_OFFSET_FACTOR x the target's bbox diagonal.
+DECAL_OFFSET_FACTOR = 1e-4
+DECAL_CLASS_BAND = 2.0      # units per class band: class rank r starts 1 + 2r units up
+DECAL_STACK_STEP = 0.5      # units per stacking level
+DECAL_STACK_LEVELS = 3      # the top level stays below the next band (3 x 0.5 < 2 - 0)
 
 
 class Atlas:
@@ -152,8 +158,17 @@ def decal_inputs(placed, analysis, atlas, sprite_boxes):
             atlas.uv_rects(sprites), sprites)
 
 
-def decal_offset(rank, bbox_diagonal):
-    return (rank + 1) * DECAL_OFFSET_FACTOR * float(bbox_diagonal)
+def decal_lift(rank, bbox_diagonal):
+    """decal_mesh's offset, stack_step and max_level for the class of this rank."""
+    unit = DECAL_OFFSET_FACTOR * float(bbox_diagonal)
+    return dict(offset=(1.0 + DECAL_CLASS_BAND * rank) * unit, stack_step=DECAL_STACK_STEP * unit,
+                max_level=DECAL_STACK_LEVELS)
+
+
+def decal_lift_top(classes, bbox_diagonal):
+    """The highest any decal of `classes` classes can lie above the surface."""
+    top = decal_lift(classes - 1, bbox_diagonal)
+    return top["offset"] + top["max_level"] * top["stack_step"]
 
 
 def euler_xyz(x_axes, z_axes):

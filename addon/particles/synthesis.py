@@ -245,7 +245,11 @@ class Job:
                     out.decals = dict(module.decal_mesh(
                         walk_mesh, np.ascontiguousarray(part["triangle"], np.int32),
                         np.ascontiguousarray(part["barycentric"], np.float64), axes, rects, uv_rects,
-                        offset=outputs.decal_offset(rank[c], diagonal), cancel=self.token))
+                        **outputs.decal_lift(rank[c], diagonal), cancel=self.token))
+                stacking = out.decals["stats"]
+                item.stats["decals_stacked"] = item.stats.get("decals_stacked", 0) + int(stacking.get("stacked", 0))
+                item.stats["decal_max_level"] = max(item.stats.get("decal_max_level", 0),
+                                                    int(stacking.get("max_level", 0)))
                 if "source_triangle" not in out.decals:  # a build from before baking needed them
                     raise SettingsError("this build of texsynth_native's decal_mesh returns no source "
                                                  "triangles: rebuild with scripts/build.sh")

@@ -27,7 +27,8 @@ std::string path_arg(py::handle path) { return py::module_::import("os").attr("f
 py::dict decal_stats(const texsynth::DecalStats& s) {
   return stats_dict("particles", s.particles, "empty", s.empty, "capped", s.capped, "curved", s.curved,
                     "faces_visited", s.faces_visited, "faces_folded", s.faces_folded, "overlapping", s.overlapping,
-                    "min_coverage", s.min_coverage, "mean_coverage", s.mean_coverage, "seconds", s.seconds);
+                    "stacked", s.stacked, "max_level", s.max_level, "min_coverage", s.min_coverage,
+                    "mean_coverage", s.mean_coverage, "seconds", s.seconds);
 }
 
 }  // namespace
@@ -36,7 +37,8 @@ void bind_particles_decals(py::module_& m) {
   m.def(
       "decal_mesh",
       [](const texsynth::SurfaceWalkMesh& mesh, py::object triangles, py::object barycentrics, py::object axes,
-         py::object rects, py::object uv_rects, double offset, double max_normal_angle, py::object cancel) {
+         py::object rects, py::object uv_rects, double offset, double stack_step, int32_t max_level,
+         double max_normal_angle, py::object cancel) {
         const std::vector<texsynth::SurfacePoint> anchors =
             surface_points(triangles, barycentrics, "triangles", "barycentrics", -1);
         const py::ssize_t n = py::ssize_t(anchors.size());
@@ -52,6 +54,8 @@ void bind_particles_decals(py::module_& m) {
         }
         texsynth::DecalOptions o;
         o.offset = offset;
+        o.stack_step = stack_step;
+        o.max_level = max_level;
         o.max_normal_angle = max_normal_angle;
         texsynth::DecalMesh d = cancellable(cancel, [&](const CallControl& control) {
           o.cancel = control.cancel;
@@ -69,17 +73,20 @@ void bind_particles_decals(py::module_& m) {
         out["source_triangle"] = to_numpy(std::move(d.face_triangle), {F});
         out["source_barycentric"] = to_numpy(std::move(d.corner_barycentric), {C, 2});
         out["curved"] = to_numpy(std::move(d.curved), {n}).attr("astype")("bool");
+        out["level"] = to_numpy(std::move(d.level), {n});
         out["stats"] = decal_stats(d.stats);
         return out;
       },
       py::arg("walk_mesh"), py::arg("triangles"), py::arg("barycentrics"), py::arg("axes"), py::arg("rects"),
-      py::arg("uv_rects"), py::kw_only(), py::arg("offset"), py::arg("max_normal_angle") = 75.0,
-      py::arg("cancel") = py::none(),
+      py::arg("uv_rects"), py::kw_only(), py::arg("offset"), py::arg("stack_step") = 0.0,
+      py::arg("max_level") = texsynth::kMaxDecalStackLevel,      py::arg("max_normal_angle") = 75.0, py::arg("cancel") = py::none(),
       "Decal polygons of n particles on walk_mesh (a SurfaceWalkMesh): anchors triangles (n,) / barycentrics (n, 2), "
       "axes (n, 3) world u directions (projected into the tangent plane; v = normal x u), rects (n, 4) (u0, v0, u1, v1) "
       "world units around the anchor (containing it), uv_rects (n, 4) (s0, t0, s1, t1) atlas cells. The target faces "
       "under each rectangle (flood fill while the face normal is within max_normal_angle degrees of the anchor's), "
       "clipped to it, on the surface, moved by offset along the smooth normal; vertices shared within a particle. "
+      "stack_step > 0: decals whose rectangles overlap get different levels (level (n,) int32) and lie stack_step "
+      "higher per level, at most max_level (no z-fighting; composite the higher level on top). "
       "Returns dict: positions (P, 3) float32, loop_starts / loop_totals (F,) int32, corner_verts (C,) int32, "
       "corner_uvs (C, 2) float32, face_particle (F,) int32, source_triangle (F,) int32 (the target triangle each polygon "
       "lies in) and source_barycentric (C, 2) float32 (each corner's (b1, b2) on it, before the offset), curved (n,) bool (footprint radius x curvature > 0.5), "

@@ -40,8 +40,17 @@ struct DecalParticle {
   std::array<double, 4> uv_rect{};   // s0, t0, s1, t1: atlas cell
 };
 
+constexpr int32_t kMaxDecalStackLevel = 255;
+
 struct DecalOptions {
   double offset = 0;                 // along the smooth normal, world units, finite
+  // Overlapping decals of one call would lie at one height and z-fight. With stack_step > 0, decals whose
+  // rectangles overlap get different levels (DecalMesh::level, a greedy colouring in particle order) and lie
+  // stack_step higher per level; a bake composites the higher level on top, as a render shows it. Levels are
+  // capped at max_level (0..kMaxDecalStackLevel), so a caller can keep each call's decals in a band of known
+  // height. stack_step 0 = every decal at `offset`, level 0. World units, finite, >= 0.
+  double stack_step = 0;
+  int32_t max_level = kMaxDecalStackLevel;
   double max_normal_angle = 75;      // degrees, in (0, 90)
   int32_t max_faces_per_particle = 100000;  // patch faces per particle (stats.capped beyond it)
   const std::atomic<bool>* cancel = nullptr;
@@ -56,6 +65,8 @@ struct DecalStats {
   int64_t faces_folded = 0;    // faces left out for their normal
   int64_t overlapping = 0;     // particles whose decal covers part of its rectangle twice (coverage > 1):
                                // a surface winding over itself within the normal angle (a spiral ramp)
+  int64_t stacked = 0;         // particles lifted (level > 0)
+  int32_t max_level = 0;       // highest stacking level (the call's decals span offset .. offset + max_level × step)
   double min_coverage = 0;     // smallest (decal area in the (u, v) plane / rectangle area); < 1 at walls
   double mean_coverage = 0;
   double seconds = 0;
@@ -73,12 +84,13 @@ struct DecalMesh {
   std::vector<int32_t> face_triangle;       // F
   std::vector<float> corner_barycentric;    // C × 2
   std::vector<uint8_t> curved;        // per particle, 0 / 1
+  std::vector<int32_t> level;         // per particle, its stacking level (DecalOptions::stack_step)
   DecalStats stats;
 };
 
 // std::invalid_argument naming the first bad particle: anchor triangle out of range or barycentrics
 // NaN/outside, axis NaN/zero/along the normal, rectangle NaN/empty/not containing the anchor, atlas
-// cell NaN/infinite; or a bad option (offset not finite, angle outside (0, 90), face cap < 1), or a
+// cell NaN/infinite; or a bad option (offset not finite, stack_step negative or not finite, max_level outside 0..255, angle outside (0, 90), face cap < 1), or a
 // result beyond 2^31 - 1 corners. texsynth::Cancelled when *cancel is raised.
 DecalMesh build_decal_mesh(const SurfaceWalkMesh& mesh, const DecalParticle* particles, int64_t count,
                            const DecalOptions& options);
