@@ -17,6 +17,7 @@ LAYERS = {
     "uv_methods": 4, "surface_colour": 4,             # method families
     "particles": 5,                                   # uses a UV method for its background
     "bake": 6,                                        # bakes any family's result
+    "methods": 6,                                     # the method registry: every family's MethodFamily
     "ui": 7, "cli": 7,                                # the two interfaces: the panel, the command line in Blender
     "__init__": 8, "texsynth_cli": 8,                 # their entry points (register; the CLI script)
     "texsynth_batch": 9,                              # batch runs of the CLI on Dask (outside Blender)
