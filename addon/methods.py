@@ -1,11 +1,14 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The method registry: every synthesis method the panel, the operators and the command line offer, in menu
 order. Adding a method = a family package with a method.py declaring its MethodFamily
-(core/method_spec.py), and one line below. bpy-free and numpy-free (the CLI builds its parser from it)."""
+(core/method_spec.py), and one import line below. bpy-free and numpy-free (the CLI builds its parser from it)."""
 from .core import settings as _settings
-from .particles.method import FAMILY as _particles
-from .surface_colour.method import FAMILY as _surface_colour
-from .uv_methods.method import FAMILY as _uv_methods
+from .core.method_spec import MethodFamily
+
+# The registry: one line per family, in menu order (every MethodFamily imported here is registered below).
+from .uv_methods.method import FAMILY as uv_methods
+from .surface_colour.method import FAMILY as surface_colour
+from .particles.method import FAMILY as particles
 
 FAMILIES = []
 
@@ -53,7 +56,5 @@ def enum_items():
     return tuple((spec.id, spec.label, spec.description) for spec in all_methods())
 
 
-# The registry: one line per family, in menu order.
-register(_uv_methods)
-register(_surface_colour)
-register(_particles)
+for _family in [value for value in list(globals().values()) if isinstance(value, MethodFamily)]:
+    register(_family)

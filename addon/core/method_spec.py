@@ -64,6 +64,10 @@ class MethodFamily:
     check_cli_outputs: object = _nothing
     settings_from_cli: object = _no_settings  # settings_from_cli(args, spec, defaults) -> {Settings field: value}
     prepare_cli_run: object = _nothing        # prepare_cli_run(args, RunRequest): inputs only the CLI reads
+    # A family's own settings outside core/settings.py: {name: default} (Settings.method_options), and the
+    # panel's properties for them, panel_properties(bpy.props) -> {name: property} (added to the scene's settings).
+    option_defaults: dict = dataclasses.field(default_factory=dict)
+    panel_properties: object = _no_settings
 
     def cli_names(self):
         return [spec.cli_name for spec in self.methods]

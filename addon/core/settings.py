@@ -122,6 +122,9 @@ class Settings:
     particle_background: str = "JUMPMAP"
     # Who reads the messages (core/messages.py INTERFACES): native advice is reworded in its terms.
     interface: str = "API"
+    # Settings of a method whose family declares them itself (MethodFamily.option_defaults), by name: a new
+    # method needs no field here. The families above keep theirs as fields (the panel's and CLI's names).
+    method_options: dict = dataclasses.field(default_factory=dict)
 
     def validate(self):
         """Raises SettingsError naming the first bad setting; returns self."""

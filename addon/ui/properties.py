@@ -273,6 +273,11 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                  **methods.get(self.method).panel_settings(self))
 
 
+# Each family's own panel properties (MethodFamily.panel_properties), declared in its package.
+for _family in methods.FAMILIES:
+    TexSynthSettings.__annotations__.update(_family.panel_properties(bpy.props))
+
+
 class TexSynthPreferences(bpy.types.AddonPreferences):
     bl_idname = ADDON_ID
 
