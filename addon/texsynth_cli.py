@@ -65,14 +65,14 @@ class _Parser(argparse.ArgumentParser):
 def parse_args(argv):
     d = _defaults()
     parser = _Parser(prog=PROG, description="TexSynth: synthesize a sample texture on a mesh, headless.",
-                     epilog="--method round and patches keep their colours only in the scene: they need --bake, "
-                            "--save, --render or --stats, and are refused (exit 2) without any of them.")
+                     epilog="--method %s keep their colours only in the scene: they need --bake, --save, --render "
+                            "or --stats, and are refused (exit 2) without any of them." % " and ".join(_kept_in_scene()))
     parser.add_argument("--sample", required=True, help="sample texture image file")
     target = parser.add_mutually_exclusive_group(required=True)
     target.add_argument("--object", action="append", metavar="NAME",
                         help="mesh object in the opened scene (repeatable)")
     target.add_argument("--mesh", metavar="FILE", help=".obj, .ply or .stl file to import")
-    registry = _registry()
+    registry = _registry()  # the methods, their options and checks (methods.py)
     parser.add_argument("--method", default=_cli_name(d.method), choices=[m.cli_name for m in registry.all_methods()],
                         help="synthesis method (default %s); %s need an output, see below"
                              % (_cli_name(d.method), " and ".join(_kept_in_scene())))
@@ -138,11 +138,11 @@ def parse_args(argv):
     if args.resolution and not all(4 <= v <= 16384 for v in args.resolution):
         raise UsageError("--resolution must be two integers in [4, 16384], got %s" % args.resolution)
     spec = registry.by_cli_name(args.method)
-    for check in [family.check_cli_args for family in registry.FAMILIES] + [
-            lambda args, spec, d, family=family: family.check_cli_outputs(args, spec) for family in registry.FAMILIES]:
-        message = check(args, spec, d)
-        if message:
-            raise UsageError(message)
+    # Every family checks its options (and fills their defaults), then the output options: the first message wins.
+    messages = ([family.check_cli_args(args, spec, d) for family in registry.FAMILIES]
+                + [family.check_cli_outputs(args, spec) for family in registry.FAMILIES])
+    if any(messages):
+        raise UsageError(next(message for message in messages if message))
     check_bake_args(args)
     for option in ("save", "render", "stats", "bake"):
         path = getattr(args, option)
@@ -273,9 +273,10 @@ def load_addon():
     return module
 
 
-def settings_from_args(args, Settings, registry):
-    """The run's Settings from parsed arguments (Settings, registry: the add-on's, once it is loaded); an option
-    not given keeps the Settings default. Raises ValueError for a family option it cannot read."""
+def settings_from_args(args, Settings, registry=None):
+    """The run's Settings from parsed arguments (Settings, registry: the add-on's once it is loaded; by default
+    the parser's); an option not given keeps the Settings default. ValueError for a family option it cannot read."""
+    registry = registry or _registry()
     direction_attribute = args.direction_attribute or (FIELD_NAME if args.field_preset else "")
     spec, d = registry.by_cli_name(args.method), _defaults()
     family_settings = {}
