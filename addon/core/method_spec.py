@@ -43,6 +43,7 @@ class MethodSpec:
     extra_panels: tuple = ()         # bl_idname of sub-panels shown only for this method
     live_update: str = ""            # field edits: "" = refused, "UV" = re-synthesize, "PREVIEW" = own preview
     live_from_memory: bool = False   # the live update may re-synthesize from mesh arrays in memory
+    auto_blend_mode: str = "HISTOGRAM"  # what Blend Mode Auto takes for this method (README, Blending)
     # Parts (functions); the family fills them:
     validate: object = _nothing      # validate(settings): SettingsError for this method's own settings
     draw: object = _nothing          # draw(layout, props, context): this method's part of the Method panel

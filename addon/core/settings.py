@@ -38,10 +38,8 @@ PARTICLE_MAX_JITTER = 0.9
 ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
 SCALE_SOURCES = ("NONE", "ATTRIBUTE", "VERTEX_GROUP")
 BLEND_MODES = ("AUTO", "HISTOGRAM", "VARIANCE", "LINEAR")  # see blend_groups.py
-# AUTO: what measured best per method (README, Blending): the jump map blends up to three unrelated
-# patches everywhere, and keeps its contrast only with HISTOGRAM; texton patches blend in narrow
-# zones with neighbours the search matched, where LINEAR keeps detail (1.028 of tiling) and is cheaper.
-AUTO_BLEND_MODE = {"JUMPMAP": "HISTOGRAM", "TEXTON": "LINEAR"}
+# AUTO: what measured best per method, its MethodSpec.auto_blend_mode (uv_methods/method.py), else HISTOGRAM.
+_AUTO_BLEND_MODES = {}
 # Auto takes VARIANCE instead of HISTOGRAM when the sample keeps less of its detail than this through
 # the histogram transform's interpolation (interpolation_fidelity; moss 0.93, bark 1.00, bricks 1.04).
 AUTO_HISTOGRAM_MIN_FIDELITY = 0.97
@@ -51,9 +49,6 @@ HISTOGRAM_MAX_PIXELS = 4096 * 4096
 # blending them loses nothing and rescaling over-sharpens: bricks, periodicity 0.95), Variance for
 # stochastic ones (matched only along the edge, nearly independent inside: moss 0.09, bark 0.10).
 AUTO_TEXTON_LINEAR_PERIODICITY = 0.5
-# Texton method: each face shows its own patch beyond this distance from its edges (barycentric-like
-# units, 1/3 at a triangle's centre) and fades to the vertex mappings toward them (blend_groups.py).
-TEXTON_PATCH_ZONE = 0.15
 
 
 class SettingsError(ValueError):
@@ -172,7 +167,7 @@ class Settings:
         return self
 
     def resolved_blend_mode(self):
-        return AUTO_BLEND_MODE.get(self.method, "HISTOGRAM") if self.blend_mode == "AUTO" else self.blend_mode
+        return _AUTO_BLEND_MODES.get(self.method, "HISTOGRAM") if self.blend_mode == "AUTO" else self.blend_mode
 
     def preprocess_params(self):
         """Keyword arguments of texsynth_native.preprocess / cache_status that key the cache."""
@@ -189,10 +184,12 @@ def register_method(spec):
         if spec.colours_surface:
             SURFACE_METHODS.append(spec.id)
     _METHOD_CHECKS[spec.id] = spec.validate
+    _AUTO_BLEND_MODES[spec.id] = spec.auto_blend_mode
 
 
 def unregister_method(method_id):
     _METHOD_CHECKS.pop(method_id, None)
+    _AUTO_BLEND_MODES.pop(method_id, None)
     for ids in (METHODS, UV_METHODS, SURFACE_METHODS):
         if method_id in ids:
             ids.remove(method_id)
