@@ -8,7 +8,7 @@ import zlib
 
 
 # The registered methods (methods.py fills these from each family's MethodSpec, in menu order): ids only,
-# for the checks below and for callers that list them. Nothing here names a method.
+# for the checks below and for callers that list them; validate() routes to each method's own check.
 METHODS = []
 UV_METHODS = []        # write coordinates into the sample + blend data (MethodSpec.writes_uv)
 SURFACE_METHODS = []   # write a colour per surface sample (MethodSpec.colours_surface)
