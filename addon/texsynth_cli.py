@@ -40,6 +40,7 @@ import math
 import os
 import sys
 import time
+import types
 
 import bpy
 
@@ -64,53 +65,19 @@ class _Parser(argparse.ArgumentParser):
 def parse_args(argv):
     d = _defaults()
     parser = _Parser(prog=PROG, description="TexSynth: synthesize a sample texture on a mesh, headless.",
-                     epilog="--method round and patches keep their colours only in the scene: they need --bake, "
-                            "--save, --render or --stats, and are refused (exit 2) without any of them.")
+                     epilog="--method %s keep their colours only in the scene: they need --bake, --save, --render "
+                            "or --stats, and are refused (exit 2) without any of them." % " and ".join(_kept_in_scene()))
     parser.add_argument("--sample", required=True, help="sample texture image file")
     target = parser.add_mutually_exclusive_group(required=True)
     target.add_argument("--object", action="append", metavar="NAME",
                         help="mesh object in the opened scene (repeatable)")
     target.add_argument("--mesh", metavar="FILE", help=".obj, .ply or .stl file to import")
-    parser.add_argument("--method", default="jumpmap", choices=["jumpmap", "texton", "round", "patches", "particles"],
-                        help="synthesis method (default jumpmap); round and patches need an output, see below")
-    parser.add_argument("--target", choices=("image", "vertices"), default=None,
-                        help="round, patches: colours per texel of the --bake image (default) or per vertex")
-    parser.add_argument("--mode", choices=("sampling", "optimisation", "optimization"), default=None,
-                        help="patches: sampling (default) pastes matched patches; optimisation refines them")
-    parser.add_argument("--patch-size", type=int, default=None, help="patches: patch size in sample pixels "
-                        "(multiple of 4, 8-64; default 32)")
-    parser.add_argument("--boundary-width", type=int, default=None,
-                        help="patches: boundary zone matched and cross-faded, in sample pixels (default 4)")
-    parser.add_argument("--tolerance", type=float, default=None,
-                        help="patches: candidates within this factor of the best match are equally likely (default 1.2)")
-    parser.add_argument("--iterations", type=int, default=None, help="patches, optimisation: iterations (default 6)")
-    particles = parser.add_argument_group("particles")
-    particles.add_argument("--classes", type=int, default=None, help="particles: colour classes (2-12, default 4)")
-    particles.add_argument("--blur", type=float, default=None, help="particles: segmentation blur in pixels (1)")
-    particles.add_argument("--min-area", type=int, default=None, help="particles: smallest particle in pixels")
-    particles.add_argument("--background-class", type=int, default=None, help="particles: background class id")
-    particles.add_argument("--merges", default=None, metavar="a>b,...", help="particles: class merges")
-    particles.add_argument("--class-order", default=None, metavar="c,...", help="particles: classes to place, in order")
-    particles.add_argument("--labels", default=None, metavar="IMAGE",
-                           help="particles: label image of the sample's size, one colour per class")
-    particles.add_argument("--write-labels", default=None, metavar="PNG",
-                           help="particles: also write the segmentation as a label image (one flat colour per "
-                                "class) to repaint and give back as --labels")
-    particles.add_argument("--particle-output", choices=("decals", "instances", "both"), default=None)
-    particles.add_argument("--instances", default=None, metavar="COLLECTION",
-                           help="particles: collection instanced per class ('example': the thorn collection)")
-    particles.add_argument("--size-jitter", type=float, default=None, help="particles: size variation 0-0.9")
-    for name in ("density", "probability", "size"):
-        particles.add_argument("--" + name, default=None, metavar="NAME",
-                               help="particles: face attribute or vertex group giving the %s per face" % name)
-    particles.add_argument("--background", choices=("jumpmap", "texton", "none"), default=None,
-                           help="particles: how the filled background is synthesized (default jumpmap)")
-    parser.add_argument("--levels", type=int, default=d.round_levels, help="round: resolution levels on the surface (1-6)")
-    parser.add_argument("--coarse-rings", type=int, default=d.round_coarse_rings, help="round: neighbourhood rings, coarsest level")
-    parser.add_argument("--fine-rings", type=int, default=d.round_fine_rings, help="round: neighbourhood rings, finer levels")
-    parser.add_argument("--candidates", type=int, default=d.round_candidates, help="round: random candidates per point (0-16)")
-    parser.add_argument("--synthesis-resolution", choices=("auto", "full"), default="auto",
-                        help="round: auto reduces a sample finer than the target to its texel density first")
+    registry = _registry()  # the methods, their options and checks (methods.py)
+    parser.add_argument("--method", default=_cli_name(d.method), choices=[m.cli_name for m in registry.all_methods()],
+                        help="synthesis method (default %s); %s need an output, see below"
+                             % (_cli_name(d.method), " and ".join(_kept_in_scene())))
+    for family in registry.FAMILIES:
+        family.add_cli_options(parser, d)
     parser.add_argument("--scale", type=float, default=d.sample_world_size,
                         help="world size of the sample's width, in world units (default 1)")
     parser.add_argument("--seed", type=int, default=d.seed)
@@ -170,27 +137,12 @@ def parse_args(argv):
         raise UsageError("--scale-range must be two positive numbers, got %s" % list(args.scale_range))
     if args.resolution and not all(4 <= v <= 16384 for v in args.resolution):
         raise UsageError("--resolution must be two integers in [4, 16384], got %s" % args.resolution)
-    surface = args.method in ("round", "patches")
-    if args.target is not None and not surface:
-        raise UsageError("--target is for --method round or patches")
-    patch_options = [name for name in ("mode", "patch_size", "boundary_width", "tolerance", "iterations")
-                     if getattr(args, name) is not None]
-    if patch_options and args.method != "patches":
-        raise UsageError("--%s is for --method patches" % patch_options[0].replace("_", "-"))
-    if args.iterations is not None and (args.mode or "sampling") == "sampling":
-        raise UsageError("--iterations is for --mode optimisation")
-    args.mode = {"optimization": "optimisation"}.get(args.mode, args.mode or d.patch_mode.lower())
-    args.patch_size = d.patch_size if args.patch_size is None else args.patch_size
-    args.boundary_width = d.patch_boundary if args.boundary_width is None else args.boundary_width
-    args.tolerance = d.patch_tolerance if args.tolerance is None else args.tolerance
-    args.iterations = d.patch_iterations if args.iterations is None else args.iterations
-    args.target = args.target or d.surface_target.lower()
-    check_particle_args(args)
-    if surface and args.bake_material:
-        raise UsageError("--bake-material is for baking jump-map or texton results; --method %s uses --material"
-                         % args.method)
-    if surface and args.target == "vertices" and args.bake is not None:
-        raise UsageError("--target vertices writes a colour attribute: drop --bake")
+    spec = registry.by_cli_name(args.method)
+    # Every family checks its options (and fills their defaults), then the output options: the first message wins.
+    messages = ([family.check_cli_args(args, spec, d) for family in registry.FAMILIES]
+                + [family.check_cli_outputs(args, spec) for family in registry.FAMILIES])
+    if any(messages):
+        raise UsageError(next(message for message in messages if message))
     check_bake_args(args)
     for option in ("save", "render", "stats", "bake"):
         path = getattr(args, option)
@@ -232,59 +184,21 @@ def parse_axis(text):
     return vector
 
 
-PARTICLE_OPTIONS = ("classes", "blur", "min_area", "background_class", "merges", "class_order", "labels",
-                    "write_labels", "particle_output", "instances", "size_jitter", "density", "probability", "size", "background")
-
-
 def check_kept_output(args):
     """round and patches leave their colours in the scene only (an image or attribute): refused from the
     command line when nothing would save, bake, render or measure them. Not checked for main() called from
     Python, whose caller reads the scene (python_tests/blender/output_digest.py)."""
-    if args.method not in ("round", "patches") or any((args.bake, args.save, args.render, args.stats)):
+    if not _registry().by_cli_name(args.method).colours_surface or any((args.bake, args.save, args.render, args.stats)):
         return
     where = "--save OUT.blend" if args.target == "vertices" else "--bake IMAGE.png or --save OUT.blend"
     raise UsageError("--method %s keeps its result only in the scene and nothing would be written: add %s "
                      "(or --render OUT.png, --stats OUT.json)" % (args.method, where))
 
 
-def check_particle_args(args):
-    """Particle options only with --method particles; instances need a collection; defaults filled in."""
-    given = [name for name in PARTICLE_OPTIONS if getattr(args, name) is not None]
-    if given and args.method != "particles":
-        raise UsageError("--%s is for --method particles" % given[0].replace("_", "-"))
-    args.particle_output = args.particle_output or _defaults().particle_output.lower()
-    if args.particle_output != "decals" and not args.instances:
-        raise UsageError("--particle-output %s needs --instances COLLECTION" % args.particle_output)
-    if args.method == "particles" and args.bake is not None and args.background == "none":
-        raise UsageError("--bake composites the particles over their background: drop --background none")
-
-
-def particle_settings(args):
-    from texsynth.particles import core
-    if args.method != "particles":
-        return {}
-    try:
-        d = _defaults()
-        return dict(particle_classes=d.particle_classes if args.classes is None else args.classes,
-                    particle_blur=d.particle_blur if args.blur is None else args.blur,
-                    particle_min_area=d.particle_min_area if args.min_area is None else args.min_area,
-                    particle_background_class=(d.particle_background_class if args.background_class is None
-                                               else args.background_class),
-                    particle_merges=core.parse_merges(args.merges or ""),
-                    particle_class_order=core.parse_class_list(args.class_order or ""),
-                    particle_output=args.particle_output.upper(), particle_collection=args.instances or "",
-                    particle_size_jitter=d.particle_size_jitter if args.size_jitter is None else args.size_jitter,
-                    particle_density_source=args.density or "",
-                    particle_probability_source=args.probability or "", particle_size_source=args.size or "",
-                    particle_background=(args.background or d.particle_background.lower()).upper())
-    except ValueError as error:
-        raise CliError(str(error))
-
-
 def check_bake_args(args):
     """--bake-* options: only with --bake, one object, a supported image type, sizes in range, and never
     through TexSynth's own UV map (core/bake_options.py: the same rules as the operator)."""
-    options = _standalone("bake_options")
+    options = _standalone("core.bake_options")
     extra = [name for name in ("bake_uv", "bake_size", "bake_margin") if getattr(args, name) is not None]
     if args.bake_material:
         extra.append("bake_material")
@@ -313,21 +227,36 @@ def bake_request(args, options):
                                material="ASSIGN" if args.bake_material else "NONE")
 
 
+STANDALONE = "texsynth_cli_addon"
+
+
 def _standalone(module):
-    """core/<module>.py (bpy-free, no relative imports) loaded on its own, before the add-on."""
-    name = "texsynth_cli_" + module
-    if name not in sys.modules:
-        path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "core", module + ".py")
-        spec = importlib.util.spec_from_file_location(name, path)
-        module_object = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module_object
-        spec.loader.exec_module(module_object)
-    return sys.modules[name]
+    """An add-on module that imports without bpy and numpy (core/, the method registry) loaded before the add-on,
+    under a package of its own whose __init__.py (registration, bpy) never runs."""
+    if STANDALONE not in sys.modules:
+        package = types.ModuleType(STANDALONE)
+        package.__path__ = [os.path.dirname(os.path.abspath(__file__))]
+        sys.modules[STANDALONE] = package
+    return importlib.import_module(STANDALONE + "." + module)
+
+
+def _registry():
+    """methods.py: the methods, their options and checks (what the parser offers)."""
+    return _standalone("methods")
+
+
+def _cli_name(method_id):
+    return _registry().get(method_id).cli_name
+
+
+def _kept_in_scene():
+    """The --method names whose result stays in the scene only (colours on the surface)."""
+    return [m.cli_name for m in _registry().all_methods() if m.colours_surface]
 
 
 def _defaults():
     """Settings() as core/settings.py defines it: every option's default is written once, there."""
-    return _standalone("settings").Settings()
+    return _standalone("core.settings").Settings()
 
 
 def load_addon():
@@ -344,11 +273,16 @@ def load_addon():
     return module
 
 
-def settings_from_args(args, Settings):
-    """The run's Settings from parsed arguments (Settings: the add-on's class, once it is loaded); an option not
-    given keeps the Settings default."""
+def settings_from_args(args, Settings, registry=None):
+    """The run's Settings from parsed arguments (Settings, registry: the add-on's once it is loaded; by default
+    the parser's); an option not given keeps the Settings default. ValueError for a family option it cannot read."""
+    registry = registry or _registry()
     direction_attribute = args.direction_attribute or (FIELD_NAME if args.field_preset else "")
-    return Settings(method=args.method.upper(), sample_world_size=args.scale, seed=args.seed,
+    spec, d = registry.by_cli_name(args.method), _defaults()
+    family_settings = {}
+    for family in registry.FAMILIES:
+        family_settings.update(family.settings_from_cli(args, spec, d))
+    return Settings(method=spec.id, sample_world_size=args.scale, seed=args.seed,
                     jump_rate=args.jump_rate, working_size=args.working_size, blend=not args.no_blend,
                     blend_mode=args.blend_mode.upper(),
                     allow_oversized=args.allow_oversized, blend_threshold=args.blend_threshold,
@@ -356,15 +290,9 @@ def settings_from_args(args, Settings):
                     direction_attribute=direction_attribute,
                     scale_source="ATTRIBUTE" if args.scale_attribute else
                     "VERTEX_GROUP" if args.scale_group else "NONE",
-                    scale_attribute=args.scale_attribute or _defaults().scale_attribute,
+                    scale_attribute=args.scale_attribute or d.scale_attribute,
                     scale_group=args.scale_group, scale_min=args.scale_range[0],
-                    scale_max=args.scale_range[1], surface_target=args.target.upper(),
-                    round_levels=args.levels, round_coarse_rings=args.coarse_rings,
-                    round_fine_rings=args.fine_rings, round_candidates=args.candidates,
-                    round_resolution=args.synthesis_resolution.upper(),
-                    patch_mode=args.mode.upper(), patch_size=args.patch_size,
-                    patch_boundary=args.boundary_width, patch_tolerance=args.tolerance,
-                    patch_iterations=args.iterations, interface="CLI", **particle_settings(args))
+                    scale_max=args.scale_range[1], interface="CLI", **family_settings)
 
 
 def main(argv, command_line=False):
@@ -373,10 +301,11 @@ def main(argv, command_line=False):
     addon = load_addon()
     if addon.UNSUPPORTED:
         raise CliError(addon.UNSUPPORTED)
-    from texsynth import native  # registered by load_addon
+    from texsynth import methods, native  # registered by load_addon
     from texsynth.bridge import sources
-    from texsynth.core.settings import SURFACE_METHODS, Settings
-    from texsynth.uv_methods import synthesis
+    from texsynth.core import bake_options
+    from texsynth.core.method_spec import RunRequest
+    from texsynth.core.settings import Settings
     if native.get() is None:
         raise CliError(native.reason())
     if not os.path.isfile(args.sample):
@@ -391,31 +320,27 @@ def main(argv, command_line=False):
             cli_scene.apply_field_preset(args, objects)
         except cli_scene.SceneError as error:
             raise CliError(str(error)) from None
-    settings = settings_from_args(args, Settings)
-    sample = sources.Sample(path=os.path.abspath(args.sample))
-    surface = settings.method in SURFACE_METHODS
+    try:
+        settings = settings_from_args(args, Settings, methods)
+    except ValueError as error:
+        raise CliError(str(error))
+    spec = methods.get(settings.method)
+    request = bake_request(args, bake_options) if args.bake else bake_options.BakeRequest(create_uv=True)
+    run = RunRequest(objects, sources.Sample(path=os.path.abspath(args.sample)), settings, cache_dir=args.cache_dir,
+                     material_mode=args.material.upper(), bake_request=request, scene=bpy.context.scene)
     try:
         settings.validate()
         if command_line:  # after the settings' own errors (exit 1), before any synthesis
             check_kept_output(args)
-        if settings.method == "PARTICLES":
-            report = cli_scene.run_particles(args, objects, sample, settings)
-        elif surface:
-            from texsynth.core import bake_options as options
-            from texsynth.surface_colour import synthesis as surface_synthesis
-            request = bake_request(args, options) if args.bake else options.BakeRequest(create_uv=True)
-            report = surface_synthesis.synthesize(objects, sample, settings, request, args.material.upper(),
-                                                  cache_dir=args.cache_dir or sources.default_cache_dir())
-        else:
-            report = synthesis.synthesize(objects, sample, settings, args.cache_dir or None, args.material.upper())
+        methods.family_of(spec).prepare_cli_run(args, run)
+        report = spec.synthesize(run)
     except (ValueError, RuntimeError) as error:
         raise CliError(str(error))
     if report.failures:
         raise CliError(report.summary())
     stats = report.as_json()
-    if args.bake and not surface:
+    if args.bake and not spec.colours_surface:  # surface colours were synthesized into the --bake image itself
         try:
-            from texsynth.core import bake_options
             print("%s: %s" % (PROG, cli_scene.run_bake(objects, bake_request(args, bake_options), stats)))
         except cli_scene.SceneError as error:
             raise CliError(str(error)) from None

@@ -19,6 +19,7 @@ def load(submodule):
         package = types.ModuleType("texsynth")
         package.__path__ = [ADDON_DIR]
         sys.modules["texsynth"] = package
+        importlib.import_module("texsynth.methods")  # registers the methods, as the add-on's ui/ does
     return importlib.import_module("texsynth." + submodule)
 
 

@@ -4,19 +4,13 @@ objects, or named objects of the .blend), --field-preset on them, --bake, a came
 --render."""
 import math
 import os
-import sys
 import time
 
 import bpy
 
 from .. import compat
 from ..bake import baking
-from ..bridge import images, mesh_io, sources
 from ..fields import mesh_state
-from ..particles import synthesis as particle_synthesis
-
-# A clone's root (addon/cli/ is two folders down): --instances example reads blend_samples/ there.
-REPOSITORY = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 class SceneError(ValueError):
@@ -149,30 +143,3 @@ def run_bake(objects, request, stats):
                      "material": result.material.name if result.material is not None else "",
                      "notes": list(result.notes)}
     return result.summary(objects[0].name)
-
-
-def run_particles(args, objects, sample, settings):
-    """--method particles: the label image read bottom row first (then removed), the example collection."""
-    labels = None
-    if args.labels:
-        if not os.path.isfile(args.labels):
-            raise SceneError("label image not found: %s" % args.labels)
-        image = bpy.data.images.load(os.path.abspath(args.labels))
-        try:
-            labels = mesh_io.read_image_pixels(image)[::-1]
-        finally:
-            bpy.data.images.remove(image)
-    if args.write_labels:
-        from ..particles import core as particle_core
-        cache_dir = args.cache_dir or sources.default_cache_dir()
-        analysis, _, _ = particle_synthesis.analyse(sample, settings, cache_dir, labels)
-        images.write_png(os.path.abspath(args.write_labels), particle_core.label_image(analysis))
-    if args.instances == "example" and bpy.data.collections.get("example") is None:
-        sys.path.insert(0, os.path.join(REPOSITORY, "blend_samples"))
-        try:
-            import particle_instances
-        except ImportError:
-            raise SceneError("--instances example needs blend_samples/particle_instances.py (run from the repository)")
-        settings.particle_collection = particle_instances.make_collection().name
-    return particle_synthesis.synthesize(objects, sample, settings, args.cache_dir or sources.default_cache_dir(),
-                                         labels, material_mode=args.material.upper(), scene_=bpy.context.scene)

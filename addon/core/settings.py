@@ -7,10 +7,12 @@ import numbers
 import zlib
 
 
-METHODS = ("JUMPMAP", "TEXTON", "ROUND", "PATCHES", "PARTICLES")
-IMPLEMENTED_METHODS = ("JUMPMAP", "TEXTON", "ROUND", "PATCHES", "PARTICLES")
-UV_METHODS = ("JUMPMAP", "TEXTON")   # write coordinates into the sample + blend data (uv_methods/)
-SURFACE_METHODS = ("ROUND", "PATCHES")  # write a colour per surface sample (surface_colour/)
+# The registered methods (methods.py fills these from each family's MethodSpec, in menu order): ids only,
+# for the checks below and for callers that list them; validate() routes to each method's own check.
+METHODS = []
+UV_METHODS = []        # write coordinates into the sample + blend data (MethodSpec.writes_uv)
+SURFACE_METHODS = []   # write a colour per surface sample (MethodSpec.colours_surface)
+_METHOD_CHECKS = {}    # id -> validate(settings): the method's own settings, checked after the shared ones
 SURFACE_TARGETS = ("IMAGE", "VERTICES")
 # Preprocessing working size (native kMinWorkingSize / kMaxWorkingSize; 0 = off).
 WORKING_SIZE_RANGE = (64, 4096)
@@ -36,10 +38,8 @@ PARTICLE_MAX_JITTER = 0.9
 ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
 SCALE_SOURCES = ("NONE", "ATTRIBUTE", "VERTEX_GROUP")
 BLEND_MODES = ("AUTO", "HISTOGRAM", "VARIANCE", "LINEAR")  # see blend_groups.py
-# AUTO: what measured best per method (README, Blending): the jump map blends up to three unrelated
-# patches everywhere, and keeps its contrast only with HISTOGRAM; texton patches blend in narrow
-# zones with neighbours the search matched, where LINEAR keeps detail (1.028 of tiling) and is cheaper.
-AUTO_BLEND_MODE = {"JUMPMAP": "HISTOGRAM", "TEXTON": "LINEAR"}
+# AUTO: what measured best per method, its MethodSpec.auto_blend_mode (uv_methods/method.py), else HISTOGRAM.
+_AUTO_BLEND_MODES = {}
 # Auto takes VARIANCE instead of HISTOGRAM when the sample keeps less of its detail than this through
 # the histogram transform's interpolation (interpolation_fidelity; moss 0.93, bark 1.00, bricks 1.04).
 AUTO_HISTOGRAM_MIN_FIDELITY = 0.97
@@ -49,9 +49,6 @@ HISTOGRAM_MAX_PIXELS = 4096 * 4096
 # blending them loses nothing and rescaling over-sharpens: bricks, periodicity 0.95), Variance for
 # stochastic ones (matched only along the edge, nearly independent inside: moss 0.09, bark 0.10).
 AUTO_TEXTON_LINEAR_PERIODICITY = 0.5
-# Texton method: each face shows its own patch beyond this distance from its edges (barycentric-like
-# units, 1/3 at a triangle's centre) and fades to the vertex mappings toward them (blend_groups.py).
-TEXTON_PATCH_ZONE = 0.15
 
 
 class SettingsError(ValueError):
@@ -120,18 +117,21 @@ class Settings:
     particle_background: str = "JUMPMAP"
     # Who reads the messages (core/messages.py INTERFACES): native advice is reworded in its terms.
     interface: str = "API"
+    # Settings of a method whose family declares them itself (MethodFamily.option_defaults), by name: a new
+    # method needs no field here. The families above keep theirs as fields (the panel's and CLI's names).
+    method_options: dict = dataclasses.field(default_factory=dict)
 
     def validate(self):
         """Raises SettingsError naming the first bad setting; returns self."""
-        if self.method not in METHODS:
+        if not _METHOD_CHECKS:
+            raise SettingsError("no synthesis method is registered: import the add-on's methods.py first")
+        if self.method not in _METHOD_CHECKS:
             raise SettingsError("unknown method %r (choose one of %s)" % (self.method, ", ".join(METHODS)))
-        if self.method not in IMPLEMENTED_METHODS:
-            raise SettingsError("method %r is not implemented yet; use JUMPMAP" % self.method)
-        if not _finite_positive(self.sample_world_size):
+        if not finite_positive(self.sample_world_size):
             raise SettingsError("scale must be a positive world size of the sample, got %r" % (self.sample_world_size,))
         if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0 or self.seed >= 2 ** 63:
             raise SettingsError("seed must be an integer in [0, 2^63), got %r" % (self.seed,))
-        if not (_finite(self.jump_rate) and self.jump_rate >= 0.0):
+        if not (finite(self.jump_rate) and self.jump_rate >= 0.0):
             raise SettingsError("jump rate must be a finite number >= 0, got %r" % (self.jump_rate,))
         if self.orientation not in ORIENTATIONS:
             raise SettingsError("unknown orientation %r (choose one of %s)" % (self.orientation, ", ".join(ORIENTATIONS)))
@@ -146,7 +146,7 @@ class Settings:
             raise SettingsError("orientation %s needs the name of a vector attribute on the mesh" % self.orientation)
         if self.blend_mode not in BLEND_MODES:
             raise SettingsError("unknown blend mode %r (choose one of %s)" % (self.blend_mode, ", ".join(BLEND_MODES)))
-        if not (_finite(self.blend_threshold) and self.blend_threshold >= 0.0):
+        if not (finite(self.blend_threshold) and self.blend_threshold >= 0.0):
             raise SettingsError("blend threshold must be a finite number >= 0, got %r" % (self.blend_threshold,))
         if self.scale_source not in SCALE_SOURCES:
             raise SettingsError("unknown scale source %r (choose one of %s)" % (self.scale_source, ", ".join(SCALE_SOURCES)))
@@ -155,92 +155,44 @@ class Settings:
         if self.scale_source == "VERTEX_GROUP":
             if not self.scale_group:
                 raise SettingsError("scale source VERTEX_GROUP needs a vertex group name")
-            if not (_finite_positive(self.scale_min) and _finite_positive(self.scale_max)):
+            if not (finite_positive(self.scale_min) and finite_positive(self.scale_max)):
                 raise SettingsError("scale range must be two positive numbers, got (%r, %r)" % (self.scale_min, self.scale_max))
         if not isinstance(self.neighbourhood, int) or self.neighbourhood < 3 or self.neighbourhood % 2 == 0:
             raise SettingsError("neighbourhood must be an odd integer >= 3, got %r" % (self.neighbourhood,))
         low, high = WORKING_SIZE_RANGE
-        if not _is_int(self.working_size) or not (self.working_size == 0 or low <= self.working_size <= high):
+        if not is_int(self.working_size) or not (self.working_size == 0 or low <= self.working_size <= high):
             raise SettingsError("analysis size must be 0 (the sample's own) or an integer in [%d, %d], got %r"
                                 % (low, high, self.working_size))
-        if self.method in SURFACE_METHODS:
-            if self.surface_target not in SURFACE_TARGETS:
-                raise SettingsError("unknown target %r (choose one of %s)"
-                                    % (self.surface_target, ", ".join(SURFACE_TARGETS)))
-            if self.round_resolution not in ROUND_RESOLUTIONS:
-                raise SettingsError("unknown synthesis resolution %r (choose one of %s)"
-                                    % (self.round_resolution, ", ".join(ROUND_RESOLUTIONS)))
-            for name, (low, high) in (("round_levels", ROUND_LEVEL_RANGE), ("round_coarse_rings", ROUND_RING_RANGE),
-                                      ("round_fine_rings", ROUND_RING_RANGE),
-                                      ("round_candidates", ROUND_CANDIDATE_RANGE)):
-                value = getattr(self, name)
-                if not isinstance(value, int) or isinstance(value, bool) or not low <= value <= high:
-                    raise SettingsError("%s must be an integer in [%d, %d], got %r"
-                                        % (name.replace("_", " "), low, high, value))
-        if self.method == "PATCHES":
-            self._validate_patches()
-        if self.method == "PARTICLES":
-            self._validate_particles()
+        _METHOD_CHECKS[self.method](self)
         return self
 
-    def _validate_particles(self):
-        low, high = PARTICLE_CLASS_RANGE
-        if not _is_int(self.particle_classes) or not low <= self.particle_classes <= high:
-            raise SettingsError("particle classes must be an integer in [%d, %d], got %r"
-                                % (low, high, self.particle_classes))
-        if not (_finite(self.particle_blur) and 0.0 <= self.particle_blur <= PARTICLE_MAX_BLUR):
-            raise SettingsError("segmentation blur must be a number in [0, %g] pixels, got %r"
-                                % (PARTICLE_MAX_BLUR, self.particle_blur))
-        if not _is_int(self.particle_min_area) or self.particle_min_area < 0:
-            raise SettingsError("minimum particle area must be an integer >= 0 pixels (0 = automatic), got %r"
-                                % (self.particle_min_area,))
-        if not _is_int(self.particle_background_class) or self.particle_background_class < -1:
-            raise SettingsError("background class must be a class id or -1 (largest class), got %r"
-                                % (self.particle_background_class,))
-        for pair in self.particle_merges:
-            if (len(pair) != 2 or not all(_is_int(c) and c >= 0 for c in pair) or pair[0] == pair[1]):
-                raise SettingsError("a class merge must be two different class ids, got %r" % (pair,))
-        order = list(self.particle_class_order)
-        if not all(_is_int(c) and c >= 0 for c in order) or len(set(order)) != len(order):
-            raise SettingsError("class order must list distinct class ids, got %r" % (tuple(order),))
-        if self.particle_output not in PARTICLE_OUTPUTS:
-            raise SettingsError("unknown particle output %r (choose one of %s)"
-                                % (self.particle_output, ", ".join(PARTICLE_OUTPUTS)))
-        if self.particle_output != "DECALS" and not self.particle_collection:
-            raise SettingsError("particle output %s needs an instance collection (the objects placed per class)"
-                                % self.particle_output)
-        if not (_finite(self.particle_size_jitter) and 0.0 <= self.particle_size_jitter <= PARTICLE_MAX_JITTER):
-            raise SettingsError("size jitter must be a number in [0, %g], got %r"
-                                % (PARTICLE_MAX_JITTER, self.particle_size_jitter))
-        if self.particle_background not in PARTICLE_BACKGROUNDS:
-            raise SettingsError("unknown particle background %r (choose one of %s)"
-                                % (self.particle_background, ", ".join(PARTICLE_BACKGROUNDS)))
-
-    def _validate_patches(self):
-        if self.patch_mode not in PATCH_MODES:
-            raise SettingsError("unknown patch mode %r (choose one of %s)" % (self.patch_mode, ", ".join(PATCH_MODES)))
-        low, high = PATCH_SIZE_RANGE
-        if not _is_int(self.patch_size) or not low <= self.patch_size <= high or self.patch_size % 4:
-            raise SettingsError("patch size must be a multiple of 4 in [%d, %d] sample pixels, got %r"
-                                % (low, high, self.patch_size))
-        low, high = PATCH_BOUNDARY_RANGE[0], max_patch_boundary(self.patch_size)
-        if not _is_int(self.patch_boundary) or not low <= self.patch_boundary <= high:
-            raise SettingsError("boundary width must be an integer in [%d, %d] (at most half the patch size), got %r"
-                                % (low, high, self.patch_boundary))
-        low, high = PATCH_TOLERANCE_RANGE
-        if not (_finite(self.patch_tolerance) and low <= self.patch_tolerance <= high):
-            raise SettingsError("tolerance must be a number in [%g, %g], got %r" % (low, high, self.patch_tolerance))
-        low, high = PATCH_ITERATION_RANGE
-        if not _is_int(self.patch_iterations) or not low <= self.patch_iterations <= high:
-            raise SettingsError("iterations must be an integer in [%d, %d], got %r" % (low, high, self.patch_iterations))
-
     def resolved_blend_mode(self):
-        return AUTO_BLEND_MODE.get(self.method, "HISTOGRAM") if self.blend_mode == "AUTO" else self.blend_mode
+        return _AUTO_BLEND_MODES.get(self.method, "HISTOGRAM") if self.blend_mode == "AUTO" else self.blend_mode
 
     def preprocess_params(self):
         """Keyword arguments of texsynth_native.preprocess / cache_status that key the cache."""
         return {"neighbourhood": self.neighbourhood, "tileable": bool(self.tileable), "seed": 0,
                 "working_size": int(self.working_size)}
+
+
+def register_method(spec):
+    """Called by methods.py for each MethodSpec: its id becomes valid and its validate() runs in validate()."""
+    if spec.id not in _METHOD_CHECKS:
+        METHODS.append(spec.id)
+        if spec.writes_uv:
+            UV_METHODS.append(spec.id)
+        if spec.colours_surface:
+            SURFACE_METHODS.append(spec.id)
+    _METHOD_CHECKS[spec.id] = spec.validate
+    _AUTO_BLEND_MODES[spec.id] = spec.auto_blend_mode
+
+
+def unregister_method(method_id):
+    _METHOD_CHECKS.pop(method_id, None)
+    _AUTO_BLEND_MODES.pop(method_id, None)
+    for ids in (METHODS, UV_METHODS, SURFACE_METHODS):
+        if method_id in ids:
+            ids.remove(method_id)
 
 
 def max_patch_boundary(patch_size):
@@ -262,23 +214,23 @@ def check_patch_boundary(boundary, level_sizes):
                         "(CLI --boundary-width)" % (boundary, where, max_patch_boundary(patch)))
 
 
-def _is_int(value):
+def is_int(value):
     return isinstance(value, int) and not isinstance(value, bool)
 
 
-def _finite(value):
+def finite(value):
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def _finite_positive(value):
-    return _finite(value) and value > 0.0
+def finite_positive(value):
+    return finite(value) and value > 0.0
 
 
 def texels_per_unit(sample_width, sample_world_size):
     """Native `scale` (texels per world unit) for a sample whose width spans sample_world_size units."""
     if not (isinstance(sample_width, numbers.Integral) and sample_width > 0):
         raise SettingsError("sample width must be a positive integer, got %r" % (sample_width,))
-    if not _finite_positive(float(sample_world_size)):
+    if not finite_positive(float(sample_world_size)):
         raise SettingsError("scale must be a positive world size of the sample, got %r" % (sample_world_size,))
     return float(sample_width) / float(sample_world_size)
 

@@ -27,7 +27,6 @@ import bpy
 
 from .. import compat
 from ..core.layers import BASE_UV_NAME, GROUPS_NAME, SET_ATTRIBUTE_NAMES, WEIGHTS_NAME
-from ..core.settings import TEXTON_PATCH_ZONE
 from ..core.names import fit_name
 
 GROUP_PREFIX = "TexSynth Blend: "
@@ -64,11 +63,11 @@ class BlendInputs:
         return self
 
 
-def blend_inputs(blend, image, method="JUMPMAP"):
-    """BlendInputs for uv_methods.core.BlendShading `blend` of `image` (loads the histogram images)."""
+def blend_inputs(blend, image, patch_zone=0.0):
+    """BlendInputs for uv_methods.core.BlendShading `blend` of `image` (loads the histogram images); patch_zone:
+    uv_methods.core.patch_zone of the method."""
     inputs = BlendInputs(mode=blend.mode, mean=blend.mean, correlation_length=blend.correlation_length,
-                         size=(int(image.size[0]), int(image.size[1])),
-                         patch_zone=TEXTON_PATCH_ZONE if method == "TEXTON" else 0.0)
+                         size=(int(image.size[0]), int(image.size[1])), patch_zone=patch_zone)
     if blend.files is not None:
         inputs.gaussian, inputs.inverse_lut = histogram_images(blend.files, image)
     return inputs

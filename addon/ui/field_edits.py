@@ -13,9 +13,10 @@ import time
 
 import numpy as np
 
+from .. import methods
 from ..bridge import mesh_io
 from ..core.layers import MeshArrays
-from ..core.settings import SURFACE_METHODS, SettingsError
+from ..core.settings import SettingsError
 from ..fields import authoring, mesh_state, overlay
 from ..surface_colour import synthesis as surface_synthesis
 from ..uv_methods import synthesis
@@ -107,13 +108,13 @@ def live_update(context, obj, state=None, attributes=None, write_field=None):
     settings = props.to_settings()
     if settings.orientation == "AXIS":
         settings.orientation, settings.direction_attribute = "FIELD", authoring.DIRECTION_NAME
-    if settings.method == "PATCHES":
+    spec = methods.get(settings.method)
+    if spec.live_update == "PREVIEW":
         if write_field is not None:
             write_field()  # the preview reads the field from the mesh
         return _patch_preview(context, obj, props, settings)
-    if settings.method in SURFACE_METHODS + ("PARTICLES",):
-        raise SettingsError("live update is not available for %s: press Synthesize"
-                                     % props.bl_rna.properties["method"].enum_items[settings.method].name)
+    if spec.live_update != "UV":
+        raise SettingsError("live update is not available for %s: press Synthesize" % spec.label)
     settings.validate()
     sample = modal_jobs.sample_from_settings(props)
     cache_dir = properties.cache_dir(context)
@@ -127,7 +128,7 @@ def live_update(context, obj, state=None, attributes=None, write_field=None):
     for name in [name for name in last_timings if name.startswith("live_")]:
         del last_timings[name]
     arrays = None
-    if (state is not None and write_field is not None and settings.method == "JUMPMAP"
+    if (state is not None and write_field is not None and spec.live_from_memory
             and settings.direction_attribute == authoring.DIRECTION_NAME):
         arrays = _arrays_from_memory(obj, state, attributes)
     last_timings["live_from_memory"] = arrays is not None

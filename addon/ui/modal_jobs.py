@@ -5,10 +5,12 @@ import atexit
 import threading
 import weakref
 
-from .. import compat
-from ..bridge import sources
+from .. import compat, methods
+from ..bridge import mesh_io, sources
 from ..core.jobs import Cancelled
+from ..core.method_spec import RunRequest
 from ..core.settings import SettingsError
+from . import properties
 
 
 # Last known cache status per sample description, shown by the panel.
@@ -21,6 +23,26 @@ def sample_from_settings(settings):
             raise SettingsError("no sample image: choose an image in the .blend")
         return sources.Sample(image=settings.sample_image)
     return sources.Sample(path=settings.sample_path)
+
+
+def label_pixels(props):
+    """The label image's pixels, bottom row first (what the particle analysis takes), or None."""
+    image = props.particle_label_image
+    if image is None:
+        return None
+    return mesh_io.read_image_pixels(image)[::-1]
+
+
+def method_job(context, objects, only_class=None):
+    """The Job of the panel's method for these objects, from the method's own factory (methods.py)."""
+    props = context.scene.texsynth
+    settings = props.to_settings()
+    spec = methods.get(settings.method)
+    run = RunRequest(objects, sample_from_settings(props), settings, cache_dir=properties.cache_dir(context),
+                     material_mode=props.material_mode, bake_request=props.to_bake_request(), context=context,
+                     scene=context.scene, label_pixels=label_pixels(props) if spec.reads_label_image else None,
+                     only_class=only_class)
+    return spec.make_job(run)
 
 
 class Progress:

@@ -2,11 +2,10 @@
 """Operators: Preprocess, Synthesize (all selected mesh objects), Clear, Bake (active object)."""
 import bpy
 
-from ..bridge import sources
+from .. import methods
 from ..core.reporting import Timings
-from ..core.settings import SURFACE_METHODS
 from . import properties
-from .modal_jobs import JobOperator, Progress, cache_status_by_sample, sample_from_settings
+from .modal_jobs import JobOperator, Progress, cache_status_by_sample, method_job, sample_from_settings
 from ..uv_methods import synthesis
 
 
@@ -18,9 +17,9 @@ class TEXSYNTH_OT_preprocess(bpy.types.Operator):
 
     def execute(self, context):
         props = context.scene.texsynth
-        if props.method in SURFACE_METHODS + ("PARTICLES",):
-            self.report({"INFO"}, "TexSynth: %s works on the sample directly; nothing to preprocess"
-                        % props.bl_rna.properties["method"].enum_items[props.method].name)
+        spec = methods.get(props.method)
+        if not spec.writes_uv:  # only the UV methods analyse the sample ahead (textons, jump map)
+            self.report({"INFO"}, "TexSynth: %s works on the sample directly; nothing to preprocess" % spec.label)
             return {"FINISHED"}
         try:
             sample = sample_from_settings(props)
@@ -65,19 +64,7 @@ class TEXSYNTH_OT_synthesize(JobOperator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     def _job(self, context):
-        props = context.scene.texsynth
-        objects = sorted(context.selected_objects, key=lambda obj: obj.name)
-        settings = props.to_settings()
-        if settings.method == "PARTICLES":
-            from .particle_operators import particle_job
-            return particle_job(context, objects)
-        if settings.method in SURFACE_METHODS:
-            from ..surface_colour import synthesis as surface_synthesis
-            return surface_synthesis.Job(objects, sample_from_settings(props), settings, props.to_bake_request(),
-                                         props.material_mode, context,
-                                         properties.cache_dir(context) or sources.default_cache_dir())
-        return synthesis.Job(objects, sample_from_settings(props), settings, properties.cache_dir(context),
-                             props.material_mode, context.scene)
+        return method_job(context, sorted(context.selected_objects, key=lambda obj: obj.name))
 
 
 class TEXSYNTH_OT_clear(bpy.types.Operator):

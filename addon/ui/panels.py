@@ -2,9 +2,8 @@
 """3D Viewport sidebar tab "TexSynth"."""
 import bpy
 
-from .. import native
+from .. import methods, native
 from ..core.layers import BASE_UV_NAME
-from ..core.settings import SURFACE_METHODS, UV_METHODS
 from . import modal_jobs
 
 
@@ -51,7 +50,7 @@ class TEXSYNTH_PT_sample(_SubPanel, bpy.types.Panel):
         else:
             layout.template_ID(props, "sample_image", open="image.open")
             key = props.sample_image.name if props.sample_image else "<none>"
-        if props.method in SURFACE_METHODS + ("PARTICLES",):
+        if not methods.get(props.method).writes_uv:  # only the UV methods analyse the sample ahead
             layout.label(text="No preprocessing needed", icon="INFO")
             return
         row = layout.row(align=True)
@@ -69,50 +68,7 @@ class TEXSYNTH_PT_method(_SubPanel, bpy.types.Panel):
         props = context.scene.texsynth
         layout.prop(props, "method", text="")
         layout.prop(props, "seed")
-        if props.method == "JUMPMAP":
-            layout.prop(props, "jump_rate")
-        if props.method in UV_METHODS:
-            column = layout.column(align=True)
-            column.prop(props, "working_size")
-            column.prop(props, "neighbourhood")
-        if props.method == "PARTICLES":
-            column = layout.column(align=True)
-            column.prop(props, "particle_classes")
-            column.prop(props, "particle_blur")
-            column.prop(props, "particle_min_area")
-            layout.label(text="Label Image (optional):")
-            layout.template_ID(props, "particle_label_image", open="image.open")
-            layout.operator("texsynth.particle_analyse", icon="VIEWZOOM")
-            return
-        if props.method == "PATCHES":
-            layout.prop(props, "patch_mode", text="")
-            column = layout.column(align=True)
-            column.prop(props, "patch_size")
-            column.prop(props, "patch_boundary")
-            column.prop(props, "patch_tolerance")
-            if props.patch_mode == "OPTIMISATION":
-                column.prop(props, "patch_iterations")
-            layout.label(text="Synthesis Resolution:")
-            layout.prop(props, "round_resolution", text="")
-            return
-        if props.method in SURFACE_METHODS:
-            column = layout.column(align=True)
-            column.prop(props, "round_levels")
-            column.prop(props, "round_coarse_rings")
-            column.prop(props, "round_fine_rings")
-            column.prop(props, "round_candidates")
-            layout.label(text="Synthesis Resolution:")
-            layout.prop(props, "round_resolution", text="")
-            return
-        layout.prop(props, "blend")
-        if props.blend:
-            layout.label(text="Blend Mode:")
-            layout.prop(props, "blend_mode", text="")
-        if props.method == "TEXTON" and props.blend:
-            layout.prop(props, "blend_threshold")
-            if props.blend_threshold > 0.0 and context.scene.camera is None:
-                layout.label(text="Needs a scene camera", icon="ERROR")
-        layout.prop(props, "allow_oversized")
+        methods.get(props.method).draw(layout, props, context)  # the method's own settings
 
 
 class TEXSYNTH_PT_orientation(_SubPanel, bpy.types.Panel):
@@ -153,9 +109,10 @@ class TEXSYNTH_PT_output(_SubPanel, bpy.types.Panel):
         props = context.scene.texsynth
         layout.label(text="Material:")
         layout.prop(props, "material_mode", text="")
-        if props.method == "PARTICLES":
-            return  # the particles' own outputs are in the Particles panel
-        surface = props.method in SURFACE_METHODS
+        spec = methods.get(props.method)
+        if not (spec.writes_uv or spec.colours_surface):
+            return  # a method with its own outputs (particles) shows them in its own panel
+        surface = spec.colours_surface
         if surface:
             layout.label(text="Target:")
             layout.prop(props, "surface_target", expand=True)
@@ -231,7 +188,7 @@ class TEXSYNTH_PT_particles(_SubPanel, bpy.types.Panel):
 
     @classmethod
     def poll(cls, context):
-        return context.scene.texsynth.method == "PARTICLES"
+        return cls.bl_idname in methods.get(context.scene.texsynth.method).extra_panels
 
     def draw(self, context):
         layout = self.layout

@@ -5,17 +5,10 @@ import os
 
 import bpy
 
-from ..bridge import mesh_io
 from ..core.settings import Settings, SettingsError
+from ..particles import method as particle_method
 from . import modal_jobs, properties
-
-
-def label_pixels(props):
-    """The label image's pixels, bottom row first (what the analysis takes), or None."""
-    image = props.particle_label_image
-    if image is None:
-        return None
-    return mesh_io.read_image_pixels(image)[::-1]
+from .modal_jobs import label_pixels
 
 
 def analyse(context):
@@ -24,9 +17,9 @@ def analyse(context):
     from ..particles import core, scene, synthesis
     props = context.scene.texsynth
     settings = props.to_settings()
-    if settings.method != "PARTICLES":
-        settings = Settings(**{**settings.__dict__, "method": "PARTICLES",
-                                        **properties.TexSynthSettings.particle_settings(_AsParticles(props))})
+    if settings.method != particle_method.PARTICLES.id:  # the analysis view works whatever method is selected
+        settings = Settings(**{**settings.__dict__, "method": particle_method.PARTICLES.id,
+                               **particle_method.panel_settings(props)})
     sample = modal_jobs.sample_from_settings(props)
     analysis, source, notes = synthesis.analyse(sample, settings, properties.cache_dir(context), label_pixels(props))
     rows = core.class_rows(analysis)
@@ -39,16 +32,6 @@ def analyse(context):
     props.particle_preview = scene.segmentation_image(os.path.basename(sample.describe()),
                                                       core.segmentation_preview(analysis))
     return analysis, source, notes
-
-
-class _AsParticles:
-    """props seen with method PARTICLES (the analysis view works whatever method is selected)."""
-
-    def __init__(self, props):
-        self._props = props
-
-    def __getattr__(self, name):
-        return "PARTICLES" if name == "method" else getattr(self._props, name)
 
 
 class TEXSYNTH_OT_particle_analyse(bpy.types.Operator):
@@ -180,15 +163,6 @@ class TEXSYNTH_OT_particle_set_background(bpy.types.Operator):
         return _reanalyse(self, context, "particle_background_class", context.scene.texsynth.particle_active_class)
 
 
-def particle_job(context, objects, only_class=None):
-    """The Texture Particles Job for the panel's settings (Synthesize, Re-synthesize Class)."""
-    from ..particles import synthesis
-    props = context.scene.texsynth
-    return synthesis.Job(objects, modal_jobs.sample_from_settings(props), props.to_settings(),
-                         properties.cache_dir(context), label_pixels(props), only_class, props.material_mode,
-                         context.scene)
-
-
 class TEXSYNTH_OT_particle_resynthesize(modal_jobs.JobOperator, bpy.types.Operator):
     """Place the picked class again on the selected objects, replacing only its decals / instances (Esc cancels)"""
     bl_idname = "texsynth.particle_resynthesize"
@@ -196,8 +170,8 @@ class TEXSYNTH_OT_particle_resynthesize(modal_jobs.JobOperator, bpy.types.Operat
     bl_options = {"REGISTER", "UNDO"}
 
     def _job(self, context):
-        return particle_job(context, sorted(context.selected_objects, key=lambda obj: obj.name),
-                            context.scene.texsynth.particle_active_class)
+        return modal_jobs.method_job(context, sorted(context.selected_objects, key=lambda obj: obj.name),
+                                     context.scene.texsynth.particle_active_class)
 
 
 classes = (TEXSYNTH_OT_particle_analyse, TEXSYNTH_OT_particle_pick_class, TEXSYNTH_OT_particle_merge,

@@ -2,6 +2,7 @@
 """Scene settings (persist in the .blend) and add-on preferences."""
 import bpy
 
+from .. import methods
 from ..bridge import sources
 from ..core import bake_options
 from ..core.settings import (PARTICLE_CLASS_RANGE, PARTICLE_MAX_BLUR, PARTICLE_MAX_JITTER, PATCH_BOUNDARY_RANGE,
@@ -34,22 +35,7 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                           description="Sample texture image file")
     sample_image: bpy.props.PointerProperty(name="Sample Image", type=bpy.types.Image,
                                             description="Sample texture image in this .blend")
-    method: bpy.props.EnumProperty(
-        name="Method",
-        items=(("JUMPMAP", "Jump Map", "Jump-map vertex walk (Zelinka & Garland)"),
-               ("TEXTON", "Texton Strings", "Texton-string patch matching per face (Magda & Kriegman); "
-                                            "better on structured samples"),
-               ("ROUND", "Round Neighbourhoods", "Pixel-level synthesis on the surface (Chen & Dong): a colour "
-                                                 "per texel of an image through a UV map, or per vertex; no "
-                                                 "seams across UV islands"),
-               ("PATCHES", "Vector-Field Patches", "Whole sample patches resampled along the direction field "
-                                                   "(Chen, Liu & Dong): large, structured samples (bricks, weaves, "
-                                                   "scales) follow the field without distortion; colours per texel "
-                                                   "or per vertex"),
-               ("PARTICLES", "Texture Particles", "Cut the sample into its elements (pebbles, leaves, spots) and "
-                                                  "scatter them whole over the surface as decals or 3D instances, "
-                                                  "keeping their arrangement (Dischler et al.)")),
-        default=DEFAULTS.method)
+    method: bpy.props.EnumProperty(name="Method", items=methods.enum_items(), default=DEFAULTS.method)
     particle_classes: bpy.props.IntProperty(
         name="Classes", default=DEFAULTS.particle_classes, min=PARTICLE_CLASS_RANGE[0], max=PARTICLE_CLASS_RANGE[1],
         description="Colour classes the sample is segmented into (background included)")
@@ -284,26 +270,12 @@ class TexSynthSettings(bpy.types.PropertyGroup):
                                  patch_size=int(self.patch_size) // 4 * 4, patch_boundary=int(self.patch_boundary),
                                  patch_tolerance=float(self.patch_tolerance),
                                  patch_iterations=int(self.patch_iterations), interface="PANEL",
-                                 **self.particle_settings())
+                                 **methods.get(self.method).panel_settings(self))
 
-    def particle_settings(self):
-        """The Texture Particles fields of Settings (parsed only for that method: a typo in the
-        merges never blocks another method)."""
-        from ..particles import core as particle_core
-        if self.method != "PARTICLES":
-            return {}
-        return dict(particle_classes=int(self.particle_classes), particle_blur=float(self.particle_blur),
-                    particle_min_area=int(self.particle_min_area),
-                    particle_background_class=int(self.particle_background_class),
-                    particle_merges=particle_core.parse_merges(self.particle_merges),
-                    particle_class_order=particle_core.parse_class_list(self.particle_class_order),
-                    particle_output=self.particle_output,
-                    particle_collection=self.particle_collection.name if self.particle_collection else "",
-                    particle_size_jitter=float(self.particle_size_jitter),
-                    particle_density_source=self.particle_density_source.strip(),
-                    particle_probability_source=self.particle_probability_source.strip(),
-                    particle_size_source=self.particle_size_source.strip(),
-                    particle_background=self.particle_background)
+
+# Each family's own panel properties (MethodFamily.panel_properties), declared in its package.
+for _family in methods.FAMILIES:
+    TexSynthSettings.__annotations__.update(_family.panel_properties(bpy.props))
 
 
 class TexSynthPreferences(bpy.types.AddonPreferences):

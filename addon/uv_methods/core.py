@@ -13,6 +13,15 @@ from ..core.sample_image import correlation_length, load_sample, periodicity, sa
 from ..core.settings import AUTO_HISTOGRAM_MIN_FIDELITY, AUTO_TEXTON_LINEAR_PERIODICITY, HISTOGRAM_MAX_PIXELS, SettingsError
 from .encoding import check_result, mapping_groups_rgba
 
+# Texton method: each face shows its own patch beyond this distance from its edges (barycentric-like units, 1/3
+# at a triangle's centre) and fades to the vertex mappings toward them (shading/blend_groups.py).
+TEXTON_PATCH_ZONE = 0.15
+
+
+def patch_zone(method):
+    """The blend shader's own-patch zone of a UV method (0: the jump map blends everywhere)."""
+    return TEXTON_PATCH_ZONE if method == "TEXTON" else 0.0
+
 
 def default_cache_dir(base):
     """Cache folder under a Blender user resource folder (or any base folder)."""
