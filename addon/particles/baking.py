@@ -48,8 +48,10 @@ def prepare(target):
                             "%r were made on %d): synthesize the particles again before baking"
                             % (target.name, triangles, obj.name, int(obj[scene.TRIANGLES_TAG])))
         starts, totals = mesh_io.read_polygon_layout(mesh)
+        level = mesh.attributes.get(scene.STACK_LEVEL_NAME)  # absent on decals made before stacking: all 0
         layer = compositing.DecalLayer(starts, totals, atlas_uvs, mesh_io.read_face_ints(mesh, source.name),
-                                       bary[:, :2], obj.name)
+                                       bary[:, :2], obj.name,
+                                       None if level is None else mesh_io.read_face_ints(mesh, level.name))
         try:
             layer.check(triangles)
         except ValueError as error:

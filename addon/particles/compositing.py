@@ -7,30 +7,41 @@ decal polygon is mapped into the bake UV map through the target triangle it lies
 source_triangle / source_barycentric), rasterised there with sample_texels (exact coverage) and the atlas
 is sampled at the interpolated atlas UVs (bilinear, Image Texture's Linear + Clip). Layers go in class
 order (a later class lies on top, as its decal offset puts it in a render). Within one class a texel takes
-the lowest-numbered particle covering it (sample_texels keeps the lowest triangle).
+the decal with the highest stacking level covering it, as the render shows it lifted highest (decal_mesh's
+stack_step); among equal levels the lowest-numbered particle (sample_texels keeps the lowest triangle, and
+polygons are ordered by level first).
 """
 import numpy as np
 
 
 class DecalLayer:
     """One class's decal mesh as the bake needs it: polygons (loop_starts, loop_totals), per corner the atlas
-    UV (C, 2) and the source barycentrics (C, 2), per polygon the target's loop triangle."""
+    UV (C, 2) and the source barycentrics (C, 2), per polygon the target's loop triangle and stacking level
+    (None: all 0). Polygons are kept highest level first (stable), the order the bake composites them in."""
 
-    def __init__(self, loop_starts, loop_totals, corner_uvs, source_triangle, source_barycentric, name=""):
+    def __init__(self, loop_starts, loop_totals, corner_uvs, source_triangle, source_barycentric, name="",
+                 face_level=None):
         self.loop_starts = np.ascontiguousarray(loop_starts, np.int64)
         self.loop_totals = np.ascontiguousarray(loop_totals, np.int64)
+        self.face_level = (np.zeros(self.loop_starts.size, np.int64) if face_level is None
+                           else np.ascontiguousarray(face_level, np.int64))
         self.corner_uvs = np.ascontiguousarray(corner_uvs, np.float32).reshape(-1, 2)
         self.source_triangle = np.ascontiguousarray(source_triangle, np.int64)
         self.source_barycentric = np.ascontiguousarray(source_barycentric, np.float64).reshape(-1, 2)
         self.name = name
+        if self.face_level.shape == self.loop_starts.shape == self.source_triangle.shape:
+            order = np.argsort(-self.face_level, kind="stable")  # loop_starts index the corners: nothing else moves
+            self.loop_starts, self.loop_totals = self.loop_starts[order], self.loop_totals[order]
+            self.source_triangle, self.face_level = self.source_triangle[order], self.face_level[order]
 
     def check(self, num_target_triangles):
         """ValueError naming the layer when its arrays disagree or point outside the target."""
         corners = self.corner_uvs.shape[0]
         what = self.name or "decal layer"
-        if not (self.loop_starts.shape == self.loop_totals.shape == self.source_triangle.shape):
-            raise ValueError("%s: %d polygons but %d loop totals and %d source triangles" % (
-                what, self.loop_starts.size, self.loop_totals.size, self.source_triangle.size))
+        if not (self.loop_starts.shape == self.loop_totals.shape == self.source_triangle.shape
+                == self.face_level.shape):
+            raise ValueError("%s: %d polygons but %d loop totals, %d source triangles and %d stacking levels" % (
+                what, self.loop_starts.size, self.loop_totals.size, self.source_triangle.size, self.face_level.size))
         if self.source_barycentric.shape[0] != corners:
             raise ValueError("%s: %d corners but %d source barycentrics" % (what, corners,
                                                                            self.source_barycentric.shape[0]))

@@ -12,9 +12,9 @@ ATLAS_PADDING = 2            # transparent pixels around every sprite (no bleedi
 # decals of one class that overlap climb half a unit per level, lower-numbered on top, as the bake composites
 # them (decal_mesh's stack_step), so none z-fights. Unit: DECAL_OFFSET_FACTOR x the target's bbox diagonal.
 DECAL_OFFSET_FACTOR = 1e-4
-DECAL_CLASS_BAND = 2.0      # units per class band: class rank r starts 1 + 2r units up
-DECAL_STACK_STEP = 0.5      # units per stacking level
-DECAL_STACK_LEVELS = 3      # the top level stays below the next band (3 x 0.5 < 2 - 0)
+DECAL_CLASS_BAND = 3.0      # units per class band: class rank r starts 1 + 3r units up
+DECAL_STACK_STEP = 0.5      # units per stacking level (half a unit: Eevee's depth buffer still tells them apart)
+DECAL_STACK_LEVELS = 5      # the top level stays below the next band (5 x 0.5 < 3); packed pebbles need 4
 
 
 class Atlas:

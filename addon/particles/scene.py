@@ -24,6 +24,7 @@ RANK_TAG, TRIANGLES_TAG = "texsynth_rank", "texsynth_target_triangles"
 # Per decal polygon its target loop triangle, per corner (b1, b2, 0) on it. A FLOAT_VECTOR, not a FLOAT2:
 # Blender 3.5+ lists every FLOAT2 corner attribute as a UV map.
 SOURCE_TRIANGLE_NAME, SOURCE_BARY_NAME = "TexSynth_SourceTriangle", "TexSynth_SourceBary"
+STACK_LEVEL_NAME = "TexSynth_StackLevel"  # INT FACE: the decal's stacking level (a bake puts the higher on top)
 ATLAS_UV = "TexSynth Atlas"
 ATLAS_PREFIX, MATERIAL_PREFIX = "TexSynth Atlas: ", "TexSynth Particles: "
 PREVIEW_PREFIX = "TexSynth Segmentation: "
@@ -181,6 +182,13 @@ def local_frames(target, rotation_axes_x, normals, scale):
     return rotation, np.ascontiguousarray(np.asarray(scale, np.float64) / factor, dtype=np.float32)
 
 
+def _face_levels(decals):
+    """Each polygon's stacking level (zeros from a decal_mesh without levels)."""
+    levels = decals.get("level")
+    faces = np.asarray(decals["face_particle"], np.int64)
+    return np.zeros(faces.size, np.int32) if levels is None else np.asarray(levels, np.int32)[faces]
+
+
 def owned_objects(target_name, kinds=("DECALS", "POINTS"), class_id=None):
     """Objects a particle run made for this target (by tag)."""
     return [obj for obj in bpy.data.objects if obj.get(TAG) == target_name and obj.get(KIND_TAG) in kinds
@@ -234,7 +242,8 @@ def write_outputs(target, outputs, atlas_pixels=None, atlas_size=None, collectio
                 mesh = creation.add("meshes", mesh_io.new_polygon_mesh(
                     _TEMP + decal_name(target.name, out.class_id), local_points(target, d["positions"]),
                     d["loop_starts"], d["loop_totals"], d["corner_verts"], ATLAS_UV, d["corner_uvs"],
-                    {core.PARTICLE_ID_NAME: d["face_particle"], SOURCE_TRIANGLE_NAME: d["source_triangle"]},
+                    {core.PARTICLE_ID_NAME: d["face_particle"], SOURCE_TRIANGLE_NAME: d["source_triangle"],
+                     STACK_LEVEL_NAME: _face_levels(d)},
                     {SOURCE_BARY_NAME: bary}))
                 mesh.materials.append(material)
                 obj = creation.add("objects", bpy.data.objects.new(mesh.name, mesh))

@@ -74,6 +74,35 @@ def test_later_classes_go_over_earlier_ones_with_their_alpha():
     np.testing.assert_allclose(swapped[centre], np.tile(RED, (centre.sum(), 1)), atol=1e-6)
 
 
+def test_within_a_class_the_higher_stacking_level_is_on_top_as_in_a_render():
+    # Two overlapping squares of one class (one decal_mesh call) with stacking: they get levels 0 and 1, the
+    # second lies higher, and the bake shows it over the first where they overlap; without stacking (all level
+    # 0) the lowest-numbered particle wins, as before.
+    pos, tris, walk = plane()
+    xy = pos[tris][..., :2]
+    anchors = [locate(pos, tris, c) for c in ((0.4, 0.5), (0.6, 0.5))]
+    atlas = np.concatenate([solid(RED, 8), solid(BLUE, 8)], 1)  # cells (0.125 .. 0.375) and (0.625 .. 0.875)
+
+    def decals(stack_step):
+        d = tn.decal_mesh(walk, np.array([t for t, _ in anchors], np.int32), np.array([b for _, b in anchors]),
+                          np.array([[1.0, 0, 0]] * 2), np.array([[-0.15, -0.15, 0.15, 0.15]] * 2),
+                          np.array([[0.125, 0.25, 0.375, 0.75], [0.625, 0.25, 0.875, 0.75]]), offset=0.001,
+                          stack_step=stack_step)
+        return d, compositing.DecalLayer(d["loop_starts"], d["loop_totals"], d["corner_uvs"], d["source_triangle"],
+                                         d["source_barycentric"], face_level=d["level"][d["face_particle"]])
+
+    stacked, layer_stacked = decals(0.001)
+    np.testing.assert_array_equal(stacked["level"], [0, 1])
+    overlap = inside(0.35, 0.65)[:, None] & inside(0.45, 0.55)[None, :]  # [row (y), column (x)]
+    assert overlap.sum() > 0
+    out, _ = compositing.composite(tn, solid((0, 0, 0, 1), SIZE), False, [layer_stacked], xy, atlas, False)
+    np.testing.assert_allclose(out[overlap], np.tile(BLUE, (overlap.sum(), 1)), atol=1e-6)
+    flat, layer_flat = decals(0.0)
+    np.testing.assert_array_equal(flat["level"], [0, 0])
+    out, _ = compositing.composite(tn, solid((0, 0, 0, 1), SIZE), False, [layer_flat], xy, atlas, False)
+    np.testing.assert_allclose(out[overlap], np.tile(RED, (overlap.sum(), 1)), atol=1e-6)
+
+
 def test_srgb_images_are_composited_in_linear():
     pos, tris, walk = plane()
     xy = pos[tris][..., :2]

@@ -264,13 +264,13 @@ def test_decal_rectangles_are_the_sprite_around_its_box_centre_in_world_units():
     np.testing.assert_allclose(rects[0], [-3.0, -2.0, 3.0, 2.0])
     np.testing.assert_allclose(axes[0], [1, 0, 0])
     np.testing.assert_allclose(uv_rects[0], atlas.uv_rects([0])[0])
-    # Class bands 2 units apart from 1 unit up (unit 1e-4 x the diagonal), stacking half a unit per level, at
-    # most 3 levels: a band's top (1.5 units above its base) stays below the next band.
+    # Class bands 3 units apart from 1 unit up (unit 1e-4 x the diagonal), stacking half a unit per level, at
+    # most 5 levels: a band's top (2.5 units above its base) stays below the next band.
     first, third = outputs.decal_lift(0, 10.0), outputs.decal_lift(2, 10.0)
-    assert first["offset"] == pytest.approx(1e-3) and third["offset"] == pytest.approx(5e-3)
-    assert first["stack_step"] == pytest.approx(5e-4) and first["max_level"] == 3
-    assert first["offset"] + 3 * first["stack_step"] < outputs.decal_lift(1, 10.0)["offset"]
-    assert outputs.decal_lift_top(3, 10.0) == pytest.approx(6.5e-3)
+    assert first["offset"] == pytest.approx(1e-3) and third["offset"] == pytest.approx(7e-3)
+    assert first["stack_step"] == pytest.approx(5e-4) and first["max_level"] == 5
+    assert first["offset"] + 5 * first["stack_step"] < outputs.decal_lift(1, 10.0)["offset"]
+    assert outputs.decal_lift_top(3, 10.0) == pytest.approx(9.5e-3)
 
 
 def test_instance_frames_point_x_along_the_box_and_z_along_the_normal():
