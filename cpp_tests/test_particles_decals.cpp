@@ -537,3 +537,28 @@ TEST(ParticlesDecal, ManyDecalsOnOneSpotShareTheCap) {
   for (int32_t cap : {-1, texsynth::kMaxDecalStackLevel + 1})
     expect_refused([&] { stacked_decals(sc, {p}, 0, 1e-3, cap); }, "max_level");
 }
+
+// One footprint as wide as the mesh makes the grid one cell: the pair tests stop at their bound, the rest keep
+// level 0 and are counted, and the call stays fast. Tiny footprints (cells far smaller than the coordinates)
+// are clamped, not overflowed.
+TEST(ParticlesDecal, StackingWorkIsBoundedAndTinyFootprintsAreSafe) {
+  const Scene sc(quad(5.0));
+  std::vector<DecalParticle> ps{particle(locate(sc.mesh, {0, 0, 0}), {1, 0, 0}, {-4.9, -4.9, 4.9, 4.9})};
+  texsynth::Rng rng(5);
+  for (int i = 0; i < 3000; ++i)
+    ps.push_back(particle(locate(sc.mesh, {rng.uniform() * 9 - 4.5, rng.uniform() * 9 - 4.5, 0}), {1, 0, 0},
+                          {-0.05, -0.05, 0.05, 0.05}));
+  const DecalMesh d = stacked_decals(sc, ps, 0, 1e-4);
+  EXPECT_GT(d.stats.unstacked, 0);
+  EXPECT_LT(d.stats.unstacked, int64_t(ps.size()));
+  for (size_t i = ps.size() - size_t(d.stats.unstacked); i < ps.size(); ++i) EXPECT_EQ(d.level[i], 0);
+  EXPECT_EQ(d.level[1], 1);  // the first small one lies on the big one
+  const std::vector<DecalParticle> tiny{particle(locate(sc.mesh, {3, 3, 0}), {1, 0, 0}, {-1e-200, -1e-200, 1e-200, 1e-200}),
+                                        particle(locate(sc.mesh, {3, 3, 0}), {1, 0, 0}, {-1e-200, -1e-200, 1e-200, 1e-200})};
+  // Their corners round onto the centre (3 + 1e-200 == 3), so whether they overlap is rounding's call; the
+  // call must only stay defined (cells clamped) and give valid levels.
+  const DecalMesh t = stacked_decals(sc, tiny, 0, 1e-4);
+  EXPECT_EQ(t.level[0], 0);
+  EXPECT_LE(t.level[1], 1);
+  EXPECT_EQ(t.stats.unstacked, 0);
+}

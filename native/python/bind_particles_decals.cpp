@@ -27,7 +27,7 @@ std::string path_arg(py::handle path) { return py::module_::import("os").attr("f
 py::dict decal_stats(const texsynth::DecalStats& s) {
   return stats_dict("particles", s.particles, "empty", s.empty, "capped", s.capped, "curved", s.curved,
                     "faces_visited", s.faces_visited, "faces_folded", s.faces_folded, "overlapping", s.overlapping,
-                    "stacked", s.stacked, "max_level", s.max_level, "min_coverage", s.min_coverage,
+                    "stacked", s.stacked, "unstacked", s.unstacked, "max_level", s.max_level, "min_coverage", s.min_coverage,
                     "mean_coverage", s.mean_coverage, "seconds", s.seconds);
 }
 

@@ -385,11 +385,15 @@ bool footprints_overlap(const Footprint& k, const Footprint& j) {
 // Stacking levels (DecalOptions::stack_step), a greedy colouring: in particle order, each takes the lowest level
 // no earlier particle whose rectangle overlaps its own has taken (the cap when all are taken). So overlapping
 // decals lie at different heights, and the levels stay as few as the overlaps are deep (a "lower-numbered on
-// top" order would climb one level per link of a chain of overlaps: 28 levels on a bunny of packed pebbles).
-// Earlier particles are kept in a uniform grid of cells one footprint diameter wide, so only the 27 cells
-// round a particle can hold an overlap.
+// top" order would climb one level per link of a chain of overlaps: 9 levels for packed pebbles on a bunny,
+// where this colouring needs 5). Earlier particles are kept in a uniform grid of cells one widest footprint
+// across, so only the 27 cells round a particle can hold an overlap. One huge footprint among small ones
+// makes the cells huge: the pair tests are bounded (kStackTestsPerParticle per particle on average), and
+// the particles after the bound keep level 0 (counted in DecalStats::unstacked).
+constexpr int64_t kStackTestsPerParticle = 256;
+
 std::vector<int32_t> stack_levels(const SurfaceWalkMesh& mesh, const TriangleMeshInput& in,
-                                  const std::vector<DecalParticle>& ps, int32_t cap) {
+                                  const std::vector<DecalParticle>& ps, int32_t cap, int64_t* unstacked) {
   const size_t n = ps.size();
   std::vector<int32_t> level(n, 0);
   std::vector<Footprint> foot(n);
@@ -408,13 +412,19 @@ std::vector<int32_t> stack_levels(const SurfaceWalkMesh& mesh, const TriangleMes
   }
   if (n < 2 || !(widest > 0)) return level;
   const double cell = 2 * widest;
-  auto cell_of = [&](double x) { return int64_t(std::floor(x / cell)); };
+  // Clamped before the cast: a tiny footprint far from the origin gives a quotient beyond int64.
+  auto cell_of = [&](double x) { return int64_t(std::clamp(std::floor(x / cell), -1e15, 1e15)); };
+  int64_t budget = kStackTestsPerParticle * int64_t(n);
   auto key = [](int64_t x, int64_t y, int64_t z) {  // 21 bits per axis: cells beyond wrap, costing checks only
     return (uint64_t(x) & 0x1FFFFF) | (uint64_t(y) & 0x1FFFFF) << 21 | (uint64_t(z) & 0x1FFFFF) << 42;
   };
   std::unordered_map<uint64_t, std::vector<int32_t>> grid;
   std::bitset<kMaxDecalStackLevel + 1> taken;
   for (size_t k = 0; k < n; ++k) {
+    if (budget <= 0) {
+      *unstacked = int64_t(n - k);
+      break;
+    }
     const Footprint& f = foot[k];
     const int64_t cx = cell_of(f.centre.x), cy = cell_of(f.centre.y), cz = cell_of(f.centre.z);
     taken.reset();
@@ -423,6 +433,7 @@ std::vector<int32_t> stack_levels(const SurfaceWalkMesh& mesh, const TriangleMes
         for (int64_t dz = -1; dz <= 1; ++dz) {
           const auto found = grid.find(key(cx + dx, cy + dy, cz + dz));
           if (found == grid.end()) continue;
+          budget -= int64_t(found->second.size());
           for (int32_t j : found->second) {
             const Footprint& g = foot[size_t(j)];
             if (taken[size_t(level[size_t(j)])] || !(norm(g.centre - f.centre) < f.radius + g.radius)) continue;
@@ -460,7 +471,9 @@ DecalMesh build_decal_mesh(const SurfaceWalkMesh& mesh, const DecalParticle* par
 
   const TriangleMeshInput input = mesh.input();
   const double cos_max = std::cos(o.max_normal_angle * kPi / 180);
-  const std::vector<int32_t> level = o.stack_step > 0 ? stack_levels(mesh, input, in, o.max_level) : std::vector<int32_t>(size_t(count), 0);
+  int64_t unstacked = 0;
+  const std::vector<int32_t> level = o.stack_step > 0 ? stack_levels(mesh, input, in, o.max_level, &unstacked)
+                                                      : std::vector<int32_t>(size_t(count), 0);
   throw_if_cancelled(o.cancel);
   std::vector<Patch> patches(static_cast<size_t>(count));
   tbb::enumerable_thread_specific<Scratch> scratch([&] {
@@ -502,6 +515,7 @@ DecalMesh build_decal_mesh(const SurfaceWalkMesh& mesh, const DecalParticle* par
     s.overlapping += p.coverage > 1 + 1e-9;
     s.mean_coverage += p.coverage;
     s.stacked += level[size_t(i)] > 0;
+    s.unstacked = unstacked;
     s.max_level = std::max(s.max_level, level[size_t(i)]);
   }
   if (count) s.mean_coverage /= double(count);

@@ -66,6 +66,7 @@ struct DecalStats {
   int64_t overlapping = 0;     // particles whose decal covers part of its rectangle twice (coverage > 1):
                                // a surface winding over itself within the normal angle (a spiral ramp)
   int64_t stacked = 0;         // particles lifted (level > 0)
+  int64_t unstacked = 0;       // particles left at level 0 untested (the stacking's work bound; see decals.cpp)
   int32_t max_level = 0;       // highest stacking level (the call's decals span offset .. offset + max_level × step)
   double min_coverage = 0;     // smallest (decal area in the (u, v) plane / rectangle area); < 1 at walls
   double mean_coverage = 0;
