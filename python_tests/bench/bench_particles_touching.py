@@ -3,7 +3,8 @@
 prints a table. No Blender needed.
 
   PYTHONPATH=addon /usr/bin/python3.11 python_tests/bench/bench_particles_touching.py [--classes 2,3,4]
-  (the cobbles rows need out/corpus/samples/cobbles.png: python_tests/bench/corpus.py builds it)
+  (the cobbles rows need out/corpus/samples/cobbles.png, which python_tests/bench/corpus.py builds, or
+  TEXSYNTH_CORPUS_SAMPLES=<folder holding cobbles.png>)
 
 Samples and measures: touching_metrics.py. For each sample and class count it analyses with the defaults
 (touching=False: background = the class with the most pixels, 8-connected components) and with touching=True

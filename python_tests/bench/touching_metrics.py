@@ -32,7 +32,9 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 AREA_SLACK = 1.25
 ASPECT_SLACK = 1.1
 COBBLES_LABELS = os.path.join(HERE, "touching_cobbles_labels.json")
-CORPUS_SAMPLES = (os.path.join(ROOT, "out", "corpus", "samples"), "/work/main/out/corpus/samples")
+# Where corpus.py writes the samples; TEXSYNTH_CORPUS_SAMPLES names another folder (e.g. a shared checkout's).
+CORPUS_SAMPLES = tuple(p for p in (os.environ.get("TEXSYNTH_CORPUS_SAMPLES", ""),
+                                   os.path.join(ROOT, "out", "corpus", "samples")) if p)
 
 
 def _wrapped_delta(d, n):
@@ -89,7 +91,8 @@ def packed_pebbles(seed=7, size=256):
 
 
 def load_sample(name):
-    """(H, W, 3) float32 of a corpus sample (out/corpus/samples/<name>.png, made by corpus.py), or None."""
+    """(H, W, 3) float32 of a corpus sample (out/corpus/samples/<name>.png, made by corpus.py, or under
+    $TEXSYNTH_CORPUS_SAMPLES), or None."""
     for folder in CORPUS_SAMPLES:
         path = os.path.join(folder, name + ".png")
         if os.path.isfile(path):
