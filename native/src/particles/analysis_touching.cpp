@@ -56,6 +56,11 @@ void darker_into_background(ParticleAnalysis& a, const ParticleSample& sample) {
   }
   auto mean = [&](int32_t k) { return count[size_t(k)] ? sum[size_t(k)] / double(count[size_t(k)]) : 0.0; };
   const double lace = mean(a.background);
+  // Only when some class is lighter than the lace: elements lighter than the gaps between them, whose
+  // shadows are darker. Dark elements on a lighter ground (pebbles.png) would all go.
+  bool lighter = false;
+  for (int32_t k = 0; k < K; ++k) lighter = lighter || (count[size_t(k)] > 0 && mean(k) > lace);
+  if (!lighter) return;
   std::vector<uint8_t> darker(size_t(K), 0);
   for (int32_t k = 0; k < K; ++k) darker[size_t(k)] = count[size_t(k)] > 0 && mean(k) < lace;
   for (size_t i = 0; i < N; ++i)

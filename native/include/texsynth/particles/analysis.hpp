@@ -71,16 +71,17 @@
 //  - Touching elements (params.touching; issue 30, texture_particles.md "Touching elements"): the background
 //    class is, unless given, the class whose largest 8-connected piece is the largest (the gaps' lace between
 //    stones, not the stones when they cover most of the sample); with touching_darker (and the background
-//    automatic) the pixels of the classes darker than it (mean of the first 3 channels) join it: the shadows
-//    between touching elements. The other pixels, all classes together, are
+//    automatic) the pixels of the classes darker than it (mean of the first 3 channels) join it, the shadows
+//    between touching elements, when some class is lighter than it (else the elements are dark on a light
+//    ground and nothing joins). The other pixels, all classes together, are
 //    split by a watershed of their chamfer (5-7) distance to the background (wrapped when tileable; the image
 //    border is no background): flooded from the top by decreasing distance, a pixel joins the basin of its
 //    highest flooded neighbour; two basins that meet merge unless the lower peak rises >= 1.5 px above the
 //    saddle and the saddle is <= touching_neck x that peak. Basins whose peak is below kParticleTouchingThin x
 //    the median peak (that of the basin holding the median foreground pixel by peak) go to the background (a
 //    shadow strip, a bit of rim). Each basin takes its most frequent class; the particles are then the
-//    8-connected components within one basin. Not the default: on separated elements darker than their ground
-//    (leopard_spots) the background becomes the elements (docs/benchmarks.md, "Touching elements").
+//    8-connected components within one basin. Not the default: it changes separated samples too
+//    (texture_particles.md, "Touching elements").
 //  - Background fill: the sample with every particle dilated by 2 px (3x3 twice) filled by onion
 //    peeling: each unknown pixel with known 8-neighbours copies one of them, chosen by a seeded hash.
 //
