@@ -160,6 +160,11 @@ TEST(ParticlesTouching, DegenerateInputsAreSafe) {
     bad.touching_neck = neck;
     EXPECT_THROW(texsynth::analyse_particles(s.view(), bad), std::invalid_argument) << neck;
   }
+  bad = touching_params();
+  for (double depth : {-1.0, 2000.0, std::nan("")}) {
+    bad.touching_depth = depth;
+    EXPECT_THROW(texsynth::analyse_particles(s.view(), bad), std::invalid_argument) << depth;
+  }
 }
 
 TEST(ParticlesTouching, SameComponentsAtOneAndTwoThreads) {

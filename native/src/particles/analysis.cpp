@@ -54,6 +54,8 @@ void validate(const ParticleSample& s, const ParticleAnalysisParams& p) {
     throw std::invalid_argument("particle analysis: min_area must be >= 0 (0 = default), got " + std::to_string(p.min_area));
   if (!(p.touching_neck > 0 && p.touching_neck <= 1))
     throw std::invalid_argument("particle analysis: touching_neck must be in (0, 1], got " + std::to_string(p.touching_neck));
+  if (!std::isfinite(p.touching_depth) || p.touching_depth < 0 || p.touching_depth > 1000)
+    throw std::invalid_argument("particle analysis: touching_depth must be in 0..1000 px, got " + std::to_string(p.touching_depth));
   if (p.max_components < 1)
     throw std::invalid_argument("particle analysis: max_components must be >= 1, got " + std::to_string(p.max_components));
   if (!p.labels.empty()) {
@@ -150,7 +152,7 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
   t0 = Clock::now();
   if (params.touching) {
     if (params.background < 0 && params.touching_darker) darker_into_background(a, sample);
-    const std::vector<int32_t> region = split_touching(a, params.touching_neck, cancel);
+    const std::vector<int32_t> region = split_touching(a, params.touching_neck, params.touching_depth, cancel);
     find_components(a, params.max_components, cancel, &region);
   } else {
     find_components(a, params.max_components, cancel);

@@ -93,7 +93,7 @@ int32_t lace_background(const ParticleAnalysis& a, const std::atomic<bool>* canc
   return int32_t(std::max_element(largest.begin(), largest.end()) - largest.begin());
 }
 
-std::vector<int32_t> split_touching(ParticleAnalysis& a, double neck, const std::atomic<bool>* cancel) {
+std::vector<int32_t> split_touching(ParticleAnalysis& a, double neck, double depth, const std::atomic<bool>* cancel) {
   const int32_t W = a.width, H = a.height;
   const size_t N = size_t(W) * size_t(H);
   std::vector<int32_t> region(N, -1);
@@ -120,7 +120,7 @@ std::vector<int32_t> split_touching(ParticleAnalysis& a, double neck, const std:
   // Flooding from the top: foreground pixels by decreasing distance (ties by index). A pixel with no flooded
   // neighbour starts a basin (its peak); else it joins the basin of its highest flooded neighbour, and the
   // basins that meet at it merge when the lower one's peak rises little above this saddle: peak - saddle
-  // below 1.5 px or saddle above neck x peak (a neck at least that wide is one element's waist, not a join).
+  // below `depth` px or saddle above neck x peak (a neck at least that wide is one element's waist, not a join).
   std::vector<size_t> order;
   order.reserve(N);
   for (size_t i = 0; i < N; ++i)
@@ -156,7 +156,7 @@ std::vector<int32_t> split_touching(ParticleAnalysis& a, double neck, const std:
     });
     for (size_t k = 1; k < roots.size(); ++k) {
       const int32_t r = roots[k], lower = peak[size_t(r)];
-      const bool shallow = 2 * (lower - d) < 3 * kAxis;  // below 1.5 px
+      const bool shallow = double(lower - d) < depth * kAxis;  // rises less than `depth` px above the saddle
       const bool waist = double(d) > neck * double(lower);
       if (shallow || waist) parent[size_t(r)] = roots[0];
     }

@@ -122,6 +122,8 @@ constexpr double kParticleIncompleteWeight = 0.5;  // an incomplete particle's w
 // Touching elements: two watershed basins stay apart when the saddle between them is at most this share of
 // the lower one's peak distance (and >= 1.5 px below it).
 constexpr double kParticleTouchingNeck = 0.85;
+// Touching elements: two basins merge when the lower peak rises less than this (px) above their saddle.
+constexpr double kParticleTouchingDepth = 1.5;
 // Touching elements: regions whose peak distance is below this share of the median region's go to the background.
 constexpr double kParticleTouchingThin = 0.35;
 
@@ -144,6 +146,7 @@ struct ParticleAnalysisParams {
   // other pixels split by a distance-transform watershed; neck in (0, 1] (kParticleTouchingNeck).
   bool touching = false;
   double touching_neck = kParticleTouchingNeck;
+  double touching_depth = kParticleTouchingDepth;  // px, >= 0: a lower peak this little above the saddle merges
   bool touching_darker = true;  // classes darker than the automatic background join it
   const std::atomic<bool>* cancel = nullptr;
   std::atomic<float>* progress = nullptr;  // 0..1 while the call runs (optional)
