@@ -122,6 +122,26 @@ TEST(ParticlesTouching, ShadowsDarkerThanTheGroundJoinIt) {
   EXPECT_GE(b.particles.size(), 1u);  // the rings stay foreground: one joined piece or rings and cores
 }
 
+TEST(ParticlesTouching, ShadingSplitsAtADarkSeamTheDistanceCannotSee) {
+  // A 48 x 20 px bar given as a label image, lit, with a dark 2 px seam across its middle: the distance alone
+  // sees one bar; with shading the seam is a saddle and the bar two elements.
+  Scene s = flat(80, 40, 0.3f);
+  ParticleAnalysisParams p = touching_params();
+  p.labels.assign(size_t(s.W) * s.H, 0);
+  p.background = 0;
+  for (int y = 10; y < 30; ++y)
+    for (int x = 16; x < 64; ++x) {
+      p.labels[size_t(y) * s.W + x] = 1;
+      s.set(x, y, x == 39 || x == 40 ? 0.1f : 0.75f);
+    }
+  EXPECT_EQ(texsynth::analyse_particles(s.view(), p).particles.size(), 1u);
+  p.touching_shading = 1;
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), p);
+  ASSERT_EQ(a.particles.size(), 2u);
+  EXPECT_NE(particle_at(a, 30, 20), particle_at(a, 50, 20));
+  EXPECT_NEAR(a.particles[0].area, a.particles[1].area, 40);
+}
+
 TEST(ParticlesTouching, DegenerateInputsAreSafe) {
   const int W = 8, H = 8;
   Scene s = flat(W, H, 0.5f);
@@ -159,6 +179,11 @@ TEST(ParticlesTouching, DegenerateInputsAreSafe) {
   for (double neck : {0.0, -0.5, 1.5, std::nan("")}) {
     bad.touching_neck = neck;
     EXPECT_THROW(texsynth::analyse_particles(s.view(), bad), std::invalid_argument) << neck;
+  }
+  bad = touching_params();
+  for (double shading : {-0.1, 1.5, std::nan("")}) {
+    bad.touching_shading = shading;
+    EXPECT_THROW(texsynth::analyse_particles(s.view(), bad), std::invalid_argument) << shading;
   }
   bad = touching_params();
   for (double depth : {-1.0, 2000.0, std::nan("")}) {

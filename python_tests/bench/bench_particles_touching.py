@@ -9,10 +9,11 @@ prints a table. No Blender needed.
 Samples and measures: touching_metrics.py. For each sample and class count it analyses with the defaults
 (touching=False: background = the class with the most pixels, 8-connected components) and with touching=True
 (background = the lace class, a distance-transform watershed split; --necks lists the touching_neck values,
---depths touching_depth values at the default neck),
+--depths touching_depth values at the default neck, --shadings touching_shading values),
 blur 1, seed 0, tileable as the sample is, and prints the particles, the ground truth's elements, the share in
 the ground truth's size range, the share of elements matched at IoU >= 0.5, the count ratio and seconds. The "mask" rows give the ground
-truth's element mask as the artist's label image (background 0 given): the split alone, without k-means.
+truth's element mask as the artist's label image (background 0 given): the split alone, without k-means
+(and with touching_shading 1).
 """
 import argparse
 import os
@@ -32,6 +33,7 @@ def main():
     parser.add_argument("--classes", default="2,3,4")
     parser.add_argument("--necks", default="0.7")
     parser.add_argument("--depths", default="", help="touching_depth values to try at the default neck")
+    parser.add_argument("--shadings", default="", help="touching_shading values to try")
     parser.add_argument("--no-darker", action="store_true", help="also touching without the darker classes rule")
     args = parser.parse_args()
     samples = [("packed_pebbles", tm.packed_pebbles())]
@@ -50,6 +52,8 @@ def main():
                                          for n in args.necks.split(",")]
             modes += [("depth %.2f" % float(d), {"touching": True, "touching_depth": float(d)})
                       for d in args.depths.split(",") if d]
+            modes += [("shading %.2f" % float(v), {"touching": True, "touching_shading": float(v)})
+                      for v in args.shadings.split(",") if v]
             if args.no_darker:
                 modes.append(("no darker", {"touching": True, "touching_darker": False}))
             for mode, extra in modes:
@@ -62,7 +66,8 @@ def main():
                     seconds))
         # The split alone: the ground truth's element mask as the artist's label image (1 = element, 0 = not).
         mask = (inst >= 0).astype("int32")
-        for mode, extra in (("mask default", {}), ("mask touching", {"touching": True})):
+        for mode, extra in (("mask default", {}), ("mask touching", {"touching": True}),
+                            ("mask shading 1", {"touching": True, "touching_shading": 1.0})):
             t0 = time.perf_counter()
             a = tn.particle_analysis(sample, labels=mask, background=0, tileable=True, seed=0, **extra)
             seconds = time.perf_counter() - t0

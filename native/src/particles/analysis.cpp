@@ -56,6 +56,8 @@ void validate(const ParticleSample& s, const ParticleAnalysisParams& p) {
     throw std::invalid_argument("particle analysis: touching_neck must be in (0, 1], got " + std::to_string(p.touching_neck));
   if (!std::isfinite(p.touching_depth) || p.touching_depth < 0 || p.touching_depth > 1000)
     throw std::invalid_argument("particle analysis: touching_depth must be in 0..1000 px, got " + std::to_string(p.touching_depth));
+  if (!(p.touching_shading >= 0 && p.touching_shading <= 1))
+    throw std::invalid_argument("particle analysis: touching_shading must be in 0..1, got " + std::to_string(p.touching_shading));
   if (p.max_components < 1)
     throw std::invalid_argument("particle analysis: max_components must be >= 1, got " + std::to_string(p.max_components));
   if (!p.labels.empty()) {
@@ -152,7 +154,8 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
   t0 = Clock::now();
   if (params.touching) {
     if (params.background < 0 && params.touching_darker) darker_into_background(a, sample);
-    const std::vector<int32_t> region = split_touching(a, params.touching_neck, params.touching_depth, cancel);
+    const std::vector<int32_t> region = split_touching(a, sample, params.touching_neck, params.touching_depth,
+                                                             params.touching_shading, cancel);
     find_components(a, params.max_components, cancel, &region);
   } else {
     find_components(a, params.max_components, cancel);

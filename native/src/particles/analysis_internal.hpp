@@ -49,7 +49,8 @@ void find_components(ParticleAnalysis& a, int32_t max_components, const std::ato
 int32_t lace_background(const ParticleAnalysis& a, const std::atomic<bool>* cancel);
 // darker_into_background: pixels of the classes darker (mean of the first 3 channels) than the background
 // class relabelled to it (the shadows between touching elements).
-std::vector<int32_t> split_touching(ParticleAnalysis& a, double neck, double depth, const std::atomic<bool>* cancel);
+std::vector<int32_t> split_touching(ParticleAnalysis& a, const ParticleSample& sample, double neck, double depth,
+                                   double shading, const std::atomic<bool>* cancel);
 void darker_into_background(ParticleAnalysis& a, const ParticleSample& sample);
 void particle_geometry(const ParticleAnalysis& a, Particle& part);
 

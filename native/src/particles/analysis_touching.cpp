@@ -4,6 +4,7 @@
 // elements by a watershed of its distance to the background, basins merged by persistence.
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdint>
 #include <numeric>
 #include <utility>
@@ -92,7 +93,8 @@ int32_t lace_background(const ParticleAnalysis& a, const std::atomic<bool>* canc
   return int32_t(std::max_element(largest.begin(), largest.end()) - largest.begin());
 }
 
-std::vector<int32_t> split_touching(ParticleAnalysis& a, double neck, double depth, const std::atomic<bool>* cancel) {
+std::vector<int32_t> split_touching(ParticleAnalysis& a, const ParticleSample& sample, double neck, double depth,
+                                   double shading, const std::atomic<bool>* cancel) {
   const int32_t W = a.width, H = a.height;
   const size_t N = size_t(W) * size_t(H);
   std::vector<int32_t> region(N, -1);
@@ -139,6 +141,26 @@ std::vector<int32_t> split_touching(ParticleAnalysis& a, double neck, double dep
       }
     }
     if (!a.tileable) break;  // exact after one pair of passes without wrapping
+  }
+  // Shading (optional): the relief is the distance x (1 - shading + shading x min(1, brightness / the
+  // foreground's mean brightness)), so that a darker seam where two elements meet becomes a saddle.
+  if (shading > 0) {
+    const int32_t C = a.channels;
+    auto brightness = [&](size_t i) {
+      const float* px = sample.pixels + i * size_t(C);
+      return (double(px[0]) + px[1] + px[2]) / 3.0;
+    };
+    double sum = 0;
+    int64_t count = 0;
+    for (size_t i = 0; i < N; ++i)
+      if (a.labels[i] != a.background) sum += brightness(i), count++;
+    const double mean = count ? sum / double(count) : 0.0;
+    if (mean > 0)
+      for (size_t i = 0; i < N; ++i)
+        if (a.labels[i] != a.background && dist[i] < kFar) {
+          const double f = 1.0 - shading + shading * std::clamp(brightness(i) / mean, 0.0, 1.0);
+          dist[i] = std::max<int32_t>(1, int32_t(std::lround(double(dist[i]) * f)));
+        }
   }
   // Flooding from the top: foreground pixels by decreasing distance (ties by index). A pixel with no flooded
   // neighbour starts a basin (its peak); else it joins the basin of its highest flooded neighbour, and the

@@ -77,7 +77,8 @@
 //    split by a watershed of their chamfer (5-7) distance to the background (wrapped when tileable; the image
 //    border is no background): flooded from the top by decreasing distance, a pixel joins the basin of its
 //    highest flooded neighbour; two basins that meet merge unless the lower peak rises >= 1.5 px above the
-//    saddle and the saddle is <= touching_neck x that peak. Basins whose peak is below kParticleTouchingThin x
+//    saddle and the saddle is <= touching_neck x that peak (with touching_shading s > 0 the relief is the
+//    distance x (1 - s + s x min(1, brightness / the foreground's mean brightness))). Basins whose peak is below kParticleTouchingThin x
 //    the median peak (that of the basin holding the median foreground pixel by peak) go to the background (a
 //    shadow strip, a bit of rim). Each basin takes its most frequent class; the particles are then the
 //    8-connected components within one basin. Not the default: it changes separated samples too
@@ -148,6 +149,7 @@ struct ParticleAnalysisParams {
   double touching_neck = kParticleTouchingNeck;
   double touching_depth = kParticleTouchingDepth;  // px, >= 0: a lower peak this little above the saddle merges
   bool touching_darker = true;  // classes darker than the automatic background join it
+  double touching_shading = 0;   // 0..1: weight of the sample's darkness in the watershed's relief (0 = distance)
   const std::atomic<bool>* cancel = nullptr;
   std::atomic<float>* progress = nullptr;  // 0..1 while the call runs (optional)
 };
