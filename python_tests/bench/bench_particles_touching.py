@@ -11,9 +11,9 @@ Samples and measures: touching_metrics.py. For each sample and class count it an
 (background = the lace class, a distance-transform watershed split; --necks lists the touching_neck values,
 --depths touching_depth values at the default neck, --shadings touching_shading values),
 blur 1, seed 0, tileable as the sample is, and prints the particles, the ground truth's elements, the share in
-the ground truth's size range, the share of elements matched at IoU >= 0.5, the count ratio and seconds. The "mask" rows give the ground
-truth's element mask as the artist's label image (background 0 given): the split alone, without k-means
-(and with touching_shading 1).
+the ground truth's size range, the share of elements matched at IoU >= 0.5, the count ratio and seconds. The
+"mask" rows give the ground truth's element mask as the artist's label image (background 0 given): the split
+alone, without k-means (and with touching_shading 1).
 """
 import argparse
 import os

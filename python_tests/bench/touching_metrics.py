@@ -6,7 +6,8 @@ Samples, each with a ground-truth instance image (H, W) int, -1 = no element, ro
 analysis is given the same array (it reads row 0 as the bottom: a mirror image, which changes no area, aspect
 or overlap):
   - packed_pebbles(seed): generated, tileable 256^2: ellipses (half axes 7-15 px, aspect 1-1.9) packed so that
-    most press on their neighbours (rejected when closer than both 0.72 x the sum of their long half axes and 0.92 x that of their short ones), each pixel the
+    most press on their neighbours (a candidate is rejected when closer to one than both 0.72 x the sum of
+    their long half axes and 0.92 x that of their short ones), each pixel the
     element's with the least normalised radius below 1, else a dark sandy gap. Each pebble: a colour among
     four greys and browns, darkened towards its rim (0.55 at the rim, 1 at the centre) and mottled: touching
     pebbles meet along a darker seam of their own colours, not along the gap colour.

@@ -170,7 +170,8 @@ std::vector<int32_t> split_touching(ParticleAnalysis& a, const ParticleSample& s
   order.reserve(N);
   for (size_t i = 0; i < N; ++i)
     if (a.labels[i] != a.background) order.push_back(i);
-  std::sort(order.begin(), order.end(), [&](size_t p, size_t q) { return dist[p] != dist[q] ? dist[p] > dist[q] : p < q; });
+  std::sort(order.begin(), order.end(),
+            [&](size_t p, size_t q) { return dist[p] != dist[q] ? dist[p] > dist[q] : p < q; });
   std::vector<int32_t> basin(N, -1), parent, peak;
   std::vector<int32_t> roots;
   for (size_t at = 0; at < order.size(); ++at) {
