@@ -31,7 +31,7 @@ import touching_metrics as tm  # noqa: E402
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--classes", default="2,3,4")
-    parser.add_argument("--necks", default="0.7")
+    parser.add_argument("--necks", default="0.85", help="touching_neck values (0.85 = the default)")
     parser.add_argument("--depths", default="", help="touching_depth values to try at the default neck")
     parser.add_argument("--shadings", default="", help="touching_shading values to try")
     parser.add_argument("--no-darker", action="store_true", help="also touching without the darker classes rule")
