@@ -105,11 +105,19 @@ class AnalysisCache(BoundedCache):
 analyses = AnalysisCache()
 
 
+def particle_touching(settings):
+    """Touching elements (issue 30; texture_particles.md "Touching elements"): settings.particle_touching when
+    the settings have it (the UI and CLI are not wired yet), else False, the default."""
+    return bool(getattr(settings, "particle_touching", False))
+
+
 def analysis_key(sample, settings, labels=None):
     params = (int(settings.particle_classes) if labels is None else 0, float(settings.particle_blur),
               int(settings.particle_min_area), int(settings.particle_background_class),
               tuple(tuple(int(c) for c in pair) for pair in settings.particle_merges),
               bool(settings.tileable), int(settings.seed))
+    if particle_touching(settings):  # issue 30; off: the keys (and cached analyses) of before stay valid
+        params += ("touching",)
     return digest(sample, labels) + "-" + hashlib.blake2b(repr(params).encode(), digest_size=8).hexdigest()
 
 
@@ -135,6 +143,8 @@ def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=anal
     kwargs = dict(blur=float(settings.particle_blur), tileable=bool(settings.tileable), seed=int(settings.seed))
     if settings.particle_min_area:
         kwargs["min_area"] = int(settings.particle_min_area)
+    if particle_touching(settings):
+        kwargs["touching"] = True
     if cancel is not None:
         kwargs["cancel"] = cancel
     background = int(settings.particle_background_class)

@@ -52,6 +52,12 @@ void validate(const ParticleSample& s, const ParticleAnalysisParams& p) {
     throw std::invalid_argument("particle analysis: blur sigma must be in 0..32 px, got " + std::to_string(p.blur_sigma));
   if (p.min_area < 0)
     throw std::invalid_argument("particle analysis: min_area must be >= 0 (0 = default), got " + std::to_string(p.min_area));
+  if (!(p.touching_neck > 0 && p.touching_neck <= 1))
+    throw std::invalid_argument("particle analysis: touching_neck must be in (0, 1], got " + std::to_string(p.touching_neck));
+  if (!std::isfinite(p.touching_depth) || p.touching_depth < 0 || p.touching_depth > 1000)
+    throw std::invalid_argument("particle analysis: touching_depth must be in 0..1000 px, got " + std::to_string(p.touching_depth));
+  if (!(p.touching_shading >= 0 && p.touching_shading <= 1))
+    throw std::invalid_argument("particle analysis: touching_shading must be in 0..1, got " + std::to_string(p.touching_shading));
   if (p.max_components < 1)
     throw std::invalid_argument("particle analysis: max_components must be >= 1, got " + std::to_string(p.max_components));
   if (!p.labels.empty()) {
@@ -139,12 +145,21 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
                                 " is out of range (classes 0.." + std::to_string(a.num_classes - 1) + ", or -1 = automatic)");
   a.background = params.background >= 0
                      ? params.background
-                     : int32_t(std::max_element(class_pixels.begin(), class_pixels.end()) - class_pixels.begin());
+                     : params.touching
+                           ? lace_background(a, cancel)
+                           : int32_t(std::max_element(class_pixels.begin(), class_pixels.end()) - class_pixels.begin());
   throw_if_cancelled(cancel);
 
   // Components and per-particle geometry.
   t0 = Clock::now();
-  find_components(a, params.max_components, cancel);
+  if (params.touching) {
+    if (params.background < 0 && params.touching_darker) darker_into_background(a, sample);
+    const std::vector<int32_t> region = split_touching(a, sample, params.touching_neck, params.touching_depth,
+                                                             params.touching_shading, cancel);
+    find_components(a, params.max_components, cancel, &region);
+  } else {
+    find_components(a, params.max_components, cancel);
+  }
   a.stats.seconds_components = seconds_since(t0);
   report(params.progress, 0.45f);
   t0 = Clock::now();

@@ -40,7 +40,18 @@ struct SearchScratch {
 std::vector<float> gaussian_blur(const ParticleSample& s, double sigma, bool tileable, const std::atomic<bool>* cancel);
 void kmeans_classes(const std::vector<float>& colours, int32_t n, int C, int k, uint64_t seed,
                     const std::atomic<bool>* cancel, std::vector<int32_t>& labels, std::vector<float>& centres);
-void find_components(ParticleAnalysis& a, int32_t max_components, const std::atomic<bool>* cancel);
+void find_components(ParticleAnalysis& a, int32_t max_components, const std::atomic<bool>* cancel,
+                     const std::vector<int32_t>* region = nullptr);
+
+// Touching elements (analysis_touching.cpp). lace_background: the class whose largest 8-connected piece is
+// the largest (ties: lower class). split_touching: watershed regions of the non-background pixels (-1 on the
+// background), each region's pixels relabelled to its most frequent class.
+int32_t lace_background(const ParticleAnalysis& a, const std::atomic<bool>* cancel);
+// darker_into_background: pixels of the classes darker (mean of the first 3 channels) than the background
+// class relabelled to it (the shadows between touching elements).
+std::vector<int32_t> split_touching(ParticleAnalysis& a, const ParticleSample& sample, double neck, double depth,
+                                   double shading, const std::atomic<bool>* cancel);
+void darker_into_background(ParticleAnalysis& a, const ParticleSample& sample);
 void particle_geometry(const ParticleAnalysis& a, Particle& part);
 
 // Neighbours and co-occurrences (analysis_neighbours.cpp).

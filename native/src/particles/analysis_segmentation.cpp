@@ -127,8 +127,10 @@ void kmeans_classes(const std::vector<float>& colours, int32_t n, int C, int k, 
   for (int32_t& l : labels) l = rank[size_t(l)];
 }
 
-// 8-connected components of the non-background classes; merges; ids in first-pixel order.
-void find_components(ParticleAnalysis& a, int32_t max_components, const std::atomic<bool>* cancel) {
+// 8-connected components of the non-background classes (within one region of split_touching when given);
+// merges; ids in first-pixel order.
+void find_components(ParticleAnalysis& a, int32_t max_components, const std::atomic<bool>* cancel,
+                     const std::vector<int32_t>* region) {
   const int32_t W = a.width, H = a.height;
   const size_t N = size_t(W) * size_t(H);
   std::vector<int32_t> comp(N, -1);
@@ -151,6 +153,7 @@ void find_components(ParticleAnalysis& a, int32_t max_components, const std::ato
             if (!a.tileable && (nx < 0 || ny < 0 || nx >= W || ny >= H)) continue;
             const size_t j = size_t(wrap(ny, H)) * W + size_t(wrap(nx, W));
             if (a.labels[j] != cls || comp[j] >= 0) continue;
+            if (region && (*region)[j] != (*region)[i]) continue;  // touching elements split apart
             comp[j] = id;
             xy.push_back(nx), xy.push_back(ny);
           }

@@ -68,6 +68,21 @@
 //    margin = half the 10th percentile of their box gaps max(dx, dy) (px, >= 0: overlapping pairs give 0).
 //    On the diagonal: the class's tolerance, and half the 10th percentile of max(dx, dy) over its measured
 //    co-occurrences. pairs = distinct particle pairs measured.
+//  - Touching elements (params.touching; issue 30, texture_particles.md "Touching elements"): the background
+//    class is, unless given, the class whose largest 8-connected piece is the largest (the gaps' lace between
+//    stones, not the stones when they cover most of the sample); with touching_darker (and the background
+//    automatic) the pixels of the classes darker than it (mean of the first 3 channels) join it, the shadows
+//    between touching elements, when some class is lighter than it (else the elements are dark on a light
+//    ground and nothing joins). The other pixels, all classes together, are
+//    split by a watershed of their chamfer (5-7) distance to the background (wrapped when tileable; the image
+//    border is no background): flooded from the top by decreasing distance, a pixel joins the basin of its
+//    highest flooded neighbour; two basins that meet merge unless the lower peak rises >= 1.5 px above the
+//    saddle and the saddle is <= touching_neck x that peak (with touching_shading s > 0 the relief is the
+//    distance x (1 - s + s x min(1, brightness / the foreground's mean brightness))). Basins whose peak is below kParticleTouchingThin x
+//    the median peak (that of the basin holding the median foreground pixel by peak) go to the background (a
+//    shadow strip, a bit of rim). Each basin takes its most frequent class; the particles are then the
+//    8-connected components within one basin. Not the default: it changes separated samples too
+//    (texture_particles.md, "Touching elements").
 //  - Background fill: the sample with every particle dilated by 2 px (3x3 twice) filled by onion
 //    peeling: each unknown pixel with known 8-neighbours copies one of them, chosen by a seeded hash.
 //
@@ -105,6 +120,13 @@ constexpr double kParticleCrossSlack = 0.01;  // added to the 95th-percentile ov
 // Density from the blobs' cells when at least this many particles lie in cells that do not touch the border.
 constexpr int32_t kParticleDensityCells = 8;
 constexpr double kParticleIncompleteWeight = 0.5;  // an incomplete particle's weight in its class's share
+// Touching elements: two watershed basins stay apart when the saddle between them is at most this share of
+// the lower one's peak distance (and >= 1.5 px below it).
+constexpr double kParticleTouchingNeck = 0.85;
+// Touching elements: two basins merge when the lower peak rises less than this (px) above their saddle.
+constexpr double kParticleTouchingDepth = 1.5;
+// Touching elements: regions whose peak distance is below this share of the median region's go to the background.
+constexpr double kParticleTouchingThin = 0.35;
 
 // Borrowed sample pixels (see conventions).
 struct ParticleSample {
@@ -121,6 +143,13 @@ struct ParticleAnalysisParams {
   bool tileable = false;
   uint64_t seed = 0;
   int32_t max_components = kParticleMaxComponents;  // >= 1
+  // Touching elements (conventions, "Touching elements"): background = the lace class (unless given), the
+  // other pixels split by a distance-transform watershed; neck in (0, 1] (kParticleTouchingNeck).
+  bool touching = false;
+  double touching_neck = kParticleTouchingNeck;
+  double touching_depth = kParticleTouchingDepth;  // px, >= 0: a lower peak this little above the saddle merges
+  bool touching_darker = true;  // classes darker than the automatic background join it
+  double touching_shading = 0;   // 0..1: weight of the sample's darkness in the watershed's relief (0 = distance)
   const std::atomic<bool>* cancel = nullptr;
   std::atomic<float>* progress = nullptr;  // 0..1 while the call runs (optional)
 };

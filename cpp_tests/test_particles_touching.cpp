@@ -1,0 +1,219 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// Touching elements (particles/analysis.hpp, conventions "Touching elements"; issue 30): the distance-transform
+// watershed splits discs that touch, leaves one ellipse whole, and is safe on degenerate inputs.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "texsynth/common/rng.hpp"
+#include "texsynth/particles/analysis.hpp"
+
+namespace {
+
+using texsynth::ParticleAnalysis;
+using texsynth::ParticleAnalysisParams;
+
+struct Scene {
+  int W = 0, H = 0;
+  std::vector<float> px;  // W x H x 3, row 0 at the bottom
+  texsynth::ParticleSample view() const { return {px.data(), W, H, 3}; }
+  void set(int x, int y, float v) {
+    float* p = &px[(size_t(y) * W + x) * 3];
+    p[0] = v, p[1] = 0.9f * v, p[2] = 0.8f * v;
+  }
+};
+
+Scene flat(int W, int H, float v) {
+  Scene s{W, H, std::vector<float>(size_t(W) * H * 3)};
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) s.set(x, y, v);
+  return s;
+}
+
+// Ellipse (centre, half axes, angle in radians), wrapped around the sample when tileable.
+void paint_ellipse(Scene& s, double cx, double cy, double a, double b, double angle, float v, bool wrap = false) {
+  const double c = std::cos(angle), sn = std::sin(angle);
+  for (int y = 0; y < s.H; ++y)
+    for (int x = 0; x < s.W; ++x) {
+      double dx = x + 0.5 - cx, dy = y + 0.5 - cy;
+      if (wrap) dx -= s.W * std::round(dx / s.W), dy -= s.H * std::round(dy / s.H);
+      const double u = (dx * c + dy * sn) / a, w = (-dx * sn + dy * c) / b;
+      if (u * u + w * w <= 1) s.set(x, y, v);
+    }
+}
+
+void add_noise(Scene& s, float amplitude, uint64_t seed) {
+  texsynth::Rng rng(seed);
+  for (float& v : s.px) v += float(amplitude * (2 * rng.uniform() - 1));
+}
+
+ParticleAnalysisParams touching_params(int classes = 2) {
+  ParticleAnalysisParams p;
+  p.classes = classes;
+  p.blur_sigma = 0;
+  p.touching = true;
+  return p;
+}
+
+int32_t particle_at(const ParticleAnalysis& a, double x, double y) {
+  return a.components[size_t(int(y)) * size_t(a.width) + size_t(int(x))];
+}
+
+TEST(ParticlesTouching, TwoTouchingDiscsAreSplitInTwo) {
+  Scene s = flat(96, 64, 0.25f);
+  paint_ellipse(s, 38, 32, 12, 12, 0, 0.7f);  // centres 20 px apart: a neck 2 x 6.6 px wide
+  paint_ellipse(s, 58, 32, 12, 12, 0, 0.7f);
+  ParticleAnalysisParams plain;
+  plain.classes = 2, plain.blur_sigma = 0;
+  const ParticleAnalysis before = texsynth::analyse_particles(s.view(), plain);
+  ASSERT_EQ(before.particles.size(), 1u);
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), touching_params());
+  ASSERT_EQ(a.particles.size(), 2u);
+  const int32_t left = particle_at(a, 32, 32), right = particle_at(a, 64, 32);
+  ASSERT_GE(left, 0);
+  ASSERT_GE(right, 0);
+  EXPECT_NE(left, right);
+  // Mirror images: the split runs along the symmetry line, give or take the chamfer's pixel.
+  EXPECT_NEAR(a.particles[size_t(left)].area, a.particles[size_t(right)].area, 0.05 * before.particles[0].area);
+  EXPECT_EQ(a.particles[0].area + a.particles[1].area, before.particles[0].area);
+  EXPECT_NEAR(a.particles[size_t(left)].centroid_x, 37.0, 1.5);
+  EXPECT_NEAR(a.particles[size_t(right)].centroid_x, 59.0, 1.5);
+}
+
+TEST(ParticlesTouching, DiscsTouchingAcrossATileableBorderAreSplit) {
+  Scene s = flat(64, 64, 0.25f);
+  paint_ellipse(s, 54, 20, 11, 11, 0, 0.7f, true);
+  paint_ellipse(s, 72, 20, 11, 11, 0, 0.7f, true);  // = x 8, across the seam
+  ParticleAnalysisParams p = touching_params();
+  p.tileable = true;
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), p);
+  ASSERT_EQ(a.particles.size(), 2u);
+  EXPECT_NE(particle_at(a, 50, 20), particle_at(a, 10, 20));
+}
+
+TEST(ParticlesTouching, OneEllipseIsNotSplit) {
+  for (double angle : {0.0, 0.5, 1.2}) {
+    for (double aspect : {1.0, 2.0, 3.0}) {
+      Scene s = flat(128, 128, 0.25f);
+      paint_ellipse(s, 64, 64, 36, 36 / aspect, angle, 0.7f);
+      add_noise(s, 0.05f, 3);
+      const ParticleAnalysis a = texsynth::analyse_particles(s.view(), touching_params());
+      EXPECT_EQ(a.particles.size(), 1u) << "angle " << angle << " aspect " << aspect;
+    }
+  }
+}
+
+TEST(ParticlesTouching, ShadowsDarkerThanTheGroundJoinIt) {
+  // Three discs in a row, each with a darker shadow ring, the rings touching: the lace is the ground, the
+  // shadow class is darker, so it joins the background, and the three discs come out whole.
+  Scene s = flat(128, 64, 0.45f);
+  for (double cx : {30.0, 62.0, 94.0}) paint_ellipse(s, cx, 32, 16.5, 16.5, 0, 0.15f);
+  for (double cx : {30.0, 62.0, 94.0}) paint_ellipse(s, cx, 32, 12, 12, 0, 0.8f);
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), touching_params(3));
+  ASSERT_EQ(a.particles.size(), 3u);
+  for (const auto& p : a.particles) EXPECT_NEAR(p.area, M_PI * 144, 0.1 * M_PI * 144);
+  ParticleAnalysisParams keep = touching_params(3);
+  keep.touching_darker = false;
+  const ParticleAnalysis b = texsynth::analyse_particles(s.view(), keep);
+  EXPECT_GE(b.particles.size(), 1u);  // the rings stay foreground: one joined piece or rings and cores
+}
+
+TEST(ParticlesTouching, ShadingSplitsAtADarkSeamTheDistanceCannotSee) {
+  // A 48 x 20 px bar given as a label image, lit, with a dark 2 px seam across its middle: the distance alone
+  // sees one bar; with shading the seam is a saddle and the bar two elements.
+  Scene s = flat(80, 40, 0.3f);
+  ParticleAnalysisParams p = touching_params();
+  p.labels.assign(size_t(s.W) * s.H, 0);
+  p.background = 0;
+  for (int y = 10; y < 30; ++y)
+    for (int x = 16; x < 64; ++x) {
+      p.labels[size_t(y) * s.W + x] = 1;
+      s.set(x, y, x == 39 || x == 40 ? 0.1f : 0.75f);
+    }
+  EXPECT_EQ(texsynth::analyse_particles(s.view(), p).particles.size(), 1u);
+  p.touching_shading = 1;
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), p);
+  ASSERT_EQ(a.particles.size(), 2u);
+  EXPECT_NE(particle_at(a, 30, 20), particle_at(a, 50, 20));
+  EXPECT_NEAR(a.particles[0].area, a.particles[1].area, 40);
+}
+
+TEST(ParticlesTouching, DegenerateInputsAreSafe) {
+  const int W = 8, H = 8;
+  Scene s = flat(W, H, 0.5f);
+  // Uniform sample: one class holds every pixel and is the background: no particle.
+  EXPECT_TRUE(texsynth::analyse_particles(s.view(), touching_params()).particles.empty());
+  // Every pixel foreground (labels all 1, background 0 given): no background to measure from, one particle.
+  ParticleAnalysisParams all = touching_params();
+  all.labels.assign(size_t(W) * H, 1);
+  all.background = 0;
+  all.min_area = 1;
+  for (bool tileable : {false, true}) {
+    all.tileable = tileable;
+    const ParticleAnalysis a = texsynth::analyse_particles(s.view(), all);
+    ASSERT_EQ(a.particles.size(), 1u);
+    EXPECT_EQ(a.particles[0].area, W * H);
+  }
+  // Checkerboard and random labels: every pixel is background or in a particle, the same twice.
+  ParticleAnalysisParams board = touching_params();
+  board.labels.resize(size_t(W) * H);
+  board.min_area = 1;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) board.labels[size_t(y) * W + x] = (x + y) % 2;
+  EXPECT_NO_THROW(texsynth::analyse_particles(s.view(), board));
+  texsynth::Rng rng(11);
+  for (int32_t& l : board.labels) l = int32_t(rng.below(4));
+  for (bool tileable : {false, true}) {
+    board.tileable = tileable;
+    const ParticleAnalysis a = texsynth::analyse_particles(s.view(), board);
+    const ParticleAnalysis b = texsynth::analyse_particles(s.view(), board);
+    EXPECT_EQ(a.components, b.components);
+    for (size_t i = 0; i < a.components.size(); ++i)
+      EXPECT_EQ(a.components[i] < 0, a.labels[i] == a.background) << i;
+  }
+  ParticleAnalysisParams bad = touching_params();
+  for (double neck : {0.0, -0.5, 1.5, std::nan("")}) {
+    bad.touching_neck = neck;
+    EXPECT_THROW(texsynth::analyse_particles(s.view(), bad), std::invalid_argument) << neck;
+  }
+  bad = touching_params();
+  for (double shading : {-0.1, 1.5, std::nan("")}) {
+    bad.touching_shading = shading;
+    EXPECT_THROW(texsynth::analyse_particles(s.view(), bad), std::invalid_argument) << shading;
+  }
+  bad = touching_params();
+  for (double depth : {-1.0, 2000.0, std::nan("")}) {
+    bad.touching_depth = depth;
+    EXPECT_THROW(texsynth::analyse_particles(s.view(), bad), std::invalid_argument) << depth;
+  }
+}
+
+TEST(ParticlesTouching, SameComponentsAtOneAndTwoThreads) {
+  Scene s = flat(160, 120, 0.3f);
+  texsynth::Rng rng(5);
+  for (int k = 0; k < 40; ++k)
+    paint_ellipse(s, 160 * rng.uniform(), 120 * rng.uniform(), 6 + 8 * rng.uniform(), 6 + 4 * rng.uniform(),
+                  3 * rng.uniform(), 0.6f + 0.3f * float(rng.uniform()), true);
+  add_noise(s, 0.05f, 9);
+  ParticleAnalysisParams p = touching_params(4);
+  p.blur_sigma = 1;
+  p.tileable = true;
+  ParticleAnalysis one, two;
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    one = texsynth::analyse_particles(s.view(), p);
+  }
+  {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+    two = texsynth::analyse_particles(s.view(), p);
+  }
+  EXPECT_EQ(one.components, two.components);
+  EXPECT_EQ(one.labels, two.labels);
+  EXPECT_GT(one.particles.size(), 10u);
+}
+
+}  // namespace
