@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Touching elements (issue 30, "Touching elements"): samples with known elements and how well the particle
-analysis finds them whole. Used by bench_particles_touching.py and python_tests/test_particles_touching.py.
+analysis finds them whole. Used by bench_particles_touching.py and python_tests/native/test_particles_touching.py.
 
 Samples, each with a ground-truth instance image (H, W) int, -1 = no element, row 0 = top as drawn; the
 analysis is given the same array (it reads row 0 as the bottom: a mirror image, which changes no area, aspect
@@ -93,9 +93,10 @@ def packed_pebbles(seed=7, size=256):
 
 def load_sample(name):
     """(H, W, 3) float32 of a corpus sample (out/corpus/samples/<name>.png, made by corpus.py, or under
-    $TEXSYNTH_CORPUS_SAMPLES), or None."""
-    for folder in CORPUS_SAMPLES:
-        path = os.path.join(folder, name + ".png")
+    $TEXSYNTH_CORPUS_SAMPLES), or None. The hand-labelled cobbles are committed beside this file
+    (touching_cobbles.png, 70 KB), so their tests run on a fresh clone too."""
+    committed = os.path.join(os.path.dirname(os.path.abspath(__file__)), "touching_%s.png" % name)
+    for path in [committed] + [os.path.join(folder, name + ".png") for folder in CORPUS_SAMPLES]:
         if os.path.isfile(path):
             import texsynth_native
             return np.ascontiguousarray(np.asarray(texsynth_native.load_image(path), np.float32)[..., :3])

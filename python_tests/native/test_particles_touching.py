@@ -3,14 +3,14 @@
 measured against known elements (bench/touching_metrics.py; figures in docs/benchmarks.md, "Touching
 elements"). Thresholds sit below the measured shares with a margin; everything is seeded, no clock."""
 import dataclasses
-import os
 import sys
 import types
 
 import numpy as np
 import pytest
+import paths
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "bench"))
+sys.path.insert(0, paths.BENCH)
 import touching_metrics as tm  # noqa: E402
 
 tn = pytest.importorskip("texsynth_native")
@@ -32,8 +32,6 @@ def test_generated_packed_pebbles_are_found_whole_when_touching():
     assert 0.75 <= after["count_ratio"] <= 1.1
 
 
-@pytest.mark.skipif(tm.load_sample("cobbles") is None,
-                    reason="out/corpus/samples/cobbles.png missing (python_tests/bench/corpus.py builds it)")
 @pytest.mark.parametrize("classes, in_range, matched", [(2, 0.95, 0.85), (4, 0.95, 0.85)])
 def test_hand_labelled_cobbles_reach_the_goal_share(classes, in_range, matched):
     sample, inst = tm.cobbles()
@@ -55,8 +53,6 @@ def test_label_image_split_with_shading_finds_the_pressed_pebbles():
     assert shaded["matched"] > plain["matched"] + 0.1
 
 
-@pytest.mark.skipif(tm.load_sample("cobbles") is None,
-                    reason="out/corpus/samples/cobbles.png missing (python_tests/bench/corpus.py builds it)")
 def test_hand_labelled_cobbles_from_their_mask_with_shading():
     sample, inst = tm.cobbles()
     m = measure(sample, inst, labels=(inst >= 0).astype(np.int32), background=0, touching=True,
