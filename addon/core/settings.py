@@ -104,6 +104,7 @@ class Settings:
     particle_classes: int = 4        # k-means classes (ignored with a label image)
     particle_blur: float = 1.0       # Gaussian sigma in sample pixels before k-means
     particle_min_area: int = 0       # smaller components join the background; 0 = max(16 px, 0.02 %)
+    particle_touching: bool = False  # split touching elements (watershed; texture_particles.md "Touching elements")
     particle_background_class: int = -1  # -1: the largest class
     particle_merges: tuple = ()      # ((a, b), ...): k-means class a joins class b, applied in order
     particle_class_order: tuple = () # placement order of class ids; () = by decreasing particle count

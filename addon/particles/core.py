@@ -106,9 +106,8 @@ analyses = AnalysisCache()
 
 
 def particle_touching(settings):
-    """Touching elements (issue 30; texture_particles.md "Touching elements"): settings.particle_touching when
-    the settings have it (the UI and CLI are not wired yet), else False, the default."""
-    return bool(getattr(settings, "particle_touching", False))
+    """Touching elements (texture_particles.md "Touching elements"): Settings.particle_touching."""
+    return bool(settings.particle_touching)
 
 
 def analysis_key(sample, settings, labels=None):

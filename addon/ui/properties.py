@@ -45,6 +45,10 @@ class TexSynthSettings(bpy.types.PropertyGroup):
     particle_min_area: bpy.props.IntProperty(
         name="Min Area", default=DEFAULTS.particle_min_area, min=0, subtype="PIXEL",
         description="Smaller regions join the background (0: automatic, max(16 px, 0.02 % of the sample))")
+    particle_touching: bpy.props.BoolProperty(
+        name="Touching Elements", default=DEFAULTS.particle_touching,
+        description="Split elements that touch each other (gravel, cobbles, packed pebbles) along the narrow necks "
+                    "between them, and take the connected gaps as the background. Off for separated elements")
     particle_background_class: bpy.props.IntProperty(
         name="Background Class", default=DEFAULTS.particle_background_class, min=-1, max=PARTICLE_CLASS_RANGE[1] - 1,
         description="Class synthesized as texture under the particles (-1: the largest)")

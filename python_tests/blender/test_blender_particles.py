@@ -59,6 +59,20 @@ def cli_particles(tmp_path, *extra):
 
 @pytest.mark.needs_native
 @needs_placement
+def test_cli_touching_keys_its_own_analysis_and_places_the_stones(tmp_path):
+    # The pebbles' stones and leaves are separated, so --touching finds the same six elements, through an
+    # analysis of its own (a second cache entry: the plain one is not reused).
+    plain = cli_particles(tmp_path)
+    touching = cli_particles(tmp_path, "--touching")
+    assert touching["cache_status"] == "analysis built", touching["cache_status"]
+    assert len(list((tmp_path / "cache").glob("particles-*.bin"))) == 2
+    assert touching["native"]["grid"]["placed"] > 0
+    assert abs(touching["native"]["grid"]["placed"] - plain["native"]["grid"]["placed"]) <= \
+        0.15 * plain["native"]["grid"]["placed"]
+
+
+@pytest.mark.needs_native
+@needs_placement
 def test_cli_particles_writes_decals_and_stats(tmp_path):
     blend = tmp_path / "out.blend"
     stats = cli_particles(tmp_path, "--particle-output", "both", "--instances", "example", "--save", str(blend))
@@ -107,6 +121,7 @@ def test_cli_write_labels_writes_the_segmentation_and_labels_reads_it_back(tmp_p
     (("--method", "particles", "--size-jitter", "2"), 1, "size jitter"),
     (("--method", "particles", "--background", "none", "--bake", "out.png"), 2, "drop --background none"),
     (("--method", "jumpmap", "--write-labels", "labels.png"), 2, "--write-labels is for --method particles"),
+    (("--method", "jumpmap", "--touching"), 2, "--touching is for --method particles"),
 ])
 def test_cli_particles_bad_arguments_exit_with_one_line(tmp_path, extra, code, fragment):
     mesh = write_grid_obj(tmp_path / "grid.obj")

@@ -4,7 +4,6 @@ measured against known elements (bench/touching_metrics.py; figures in docs/benc
 elements"). Thresholds sit below the measured shares with a margin; everything is seeded, no clock."""
 import dataclasses
 import sys
-import types
 
 import numpy as np
 import pytest
@@ -76,8 +75,7 @@ def test_particle_core_passes_touching_and_keys_it():
     addon_native = addon_package.load("native")
     addon_native._module, addon_native._reason, addon_native._tried = tn, None, True
     plain = core_settings.Settings(method="PARTICLES", particle_classes=2, particle_blur=1.0, tileable=True)
-    touching = types.SimpleNamespace(**{f.name: getattr(plain, f.name) for f in dataclasses.fields(plain)},
-                                     particle_touching=True)
+    touching = dataclasses.replace(plain, particle_touching=True)
     sample, inst = tm.packed_pebbles()
     assert not core.particle_touching(plain) and core.particle_touching(touching)
     assert core.analysis_key(sample, plain) != core.analysis_key(sample, touching)
