@@ -1,0 +1,292 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Pictures for docs/user/: the TexSynth sidebar of a real Blender UI and a result, per shot.
+
+Run by scripts/docs_screenshots.sh (one Blender per shot, under Xvfb, not in background mode):
+
+  blender --factory-startup --enable-event-simulate blend_samples/scene.blend \\
+      --python scripts/docs_screenshots.py -- OUT_DIR SHOT
+
+SHOT is one of SHOTS below. Each shot sets the panel as an artist would (method, sample, scale),
+selects the object, presses Synthesize (the operator runs blocking when called from a script),
+opens the sidebar on the TexSynth tab (clicks on the tabs, as a user can), collapses the sub-panels
+the page is not about (clicks on their headers), screenshots the window and crops the sidebar
+(panel_<shot>.png). Then it renders the scene camera with Eevee (result_<shot>.jpg) or, for the
+fields shot, crops the viewport with the field overlay (viewport_fields.jpg).
+"""
+import os
+import sys
+import time
+import traceback
+
+import bpy
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "python_tests", "blender"))
+import harness  # noqa: E402  (imports addon/ as package `texsynth`, as installed)
+
+RENDER_SIZE = (480, 360)
+RENDER_SAMPLES = 8
+JPEG_QUALITY = 85
+
+# Per shot: object(s) to synthesize on (with their own panel values, in order), the sub-panels kept open
+# (by bl_idname; the others are collapsed), and what the result picture is.
+SHOTS = {
+    "jumpmap": dict(runs=[("Ground", dict(method="JUMPMAP", sample="moss.png", scale=2.0, seed=11)),
+                          ("Suzanne", dict(method="JUMPMAP", sample="bricks.png", scale=1.2, seed=5))],
+                    keep=("TEXSYNTH_PT_sample", "TEXSYNTH_PT_method"), result="render"),
+    "texton": dict(runs=[("Suzanne", dict(method="TEXTON", sample="bricks.png", scale=1.2, seed=5))],
+                   keep=("TEXSYNTH_PT_sample", "TEXSYNTH_PT_method"), result="render"),
+    "round": dict(runs=[("Suzanne", dict(method="ROUND", sample="moss.png", scale=0.8, seed=3,
+                                         bake_uv_map="UVMap", bake_size=512))],
+                  keep=("TEXSYNTH_PT_method", "TEXSYNTH_PT_output"), result="render"),
+    "patches": dict(runs=[("Suzanne", dict(method="PATCHES", sample="bricks.png", scale=1.2, seed=5,
+                                           bake_uv_map="UVMap", bake_size=512))],
+                    keep=("TEXSYNTH_PT_method", "TEXSYNTH_PT_output"), result="render"),
+    "particles": dict(runs=[("Ground", dict(method="PARTICLES", sample="pebbles.png", scale=2.0, seed=1,
+                                            particle_classes=3))],
+                      keep=("TEXSYNTH_PT_method", "TEXSYNTH_PT_particles"), result="render"),
+    "fields": dict(runs=[("Suzanne", dict(method="JUMPMAP", sample="bark.png", scale=1.0, seed=2,
+                                          orientation="FIELD", preset="CURVATURE", show_field=True))],
+                   keep=("TEXSYNTH_PT_orientation", "TEXSYNTH_PT_field"), result="viewport"),
+    # The whole sidebar, every sub-panel open (docs/user/addon_panel.md).
+    "full": dict(runs=[("Suzanne", dict(method="JUMPMAP", sample="bricks.png", scale=1.2, seed=5))],
+                 keep=None, result=None),
+}
+
+argv = harness.script_args()
+OUT_DIR = os.path.abspath(argv[0] if argv else os.path.join(ROOT, "out", "docs_screenshots"))
+SHOT = argv[1] if len(argv) > 1 else "jumpmap"
+CONFIG = SHOTS[SHOT]
+os.makedirs(OUT_DIR, exist_ok=True)
+
+texsynth = harness.load_addon()
+texsynth.register()
+
+
+def log(*args):
+    print("DOCSHOT", SHOT, *args, flush=True)
+
+
+def window_and_view():
+    window = bpy.context.window_manager.windows[0]
+    area = max((a for a in window.screen.areas if a.type == "VIEW_3D"), key=lambda a: a.width * a.height)
+    return window, area
+
+
+def region(area, kind):
+    return next(r for r in area.regions if r.type == kind)
+
+
+def click(window, x, y, ctrl=False):
+    window.event_simulate(type="MOUSEMOVE", value="NOTHING", x=x, y=y)
+    window.event_simulate(type="LEFTMOUSE", value="PRESS", x=x, y=y, ctrl=ctrl)
+    window.event_simulate(type="LEFTMOUSE", value="RELEASE", x=x, y=y, ctrl=ctrl)
+
+
+def screenshot(window, area):
+    """The whole window as an (H, W, 3) float array, row 0 at the bottom (Blender's order)."""
+    path = os.path.join(OUT_DIR, ".window_%s.png" % SHOT)
+    with bpy.context.temp_override(window=window, area=area):
+        bpy.ops.screen.screenshot(filepath=path)
+    image = bpy.data.images.load(path)
+    width, height = image.size
+    pixels = np.empty(width * height * image.channels, np.float32)
+    image.pixels.foreach_get(pixels)
+    bpy.data.images.remove(image)
+    os.remove(path)
+    return pixels.reshape(height, width, -1)[:, :, :3]
+
+
+def save(pixels, name, scale=1.0):
+    """Saves an (H, W, 3) bottom-first array as PNG (UI) or JPEG (renders, viewport), optionally scaled down."""
+    if scale != 1.0:
+        height, width = pixels.shape[:2]
+        rows = (np.arange(int(height * scale)) / scale).astype(int)
+        cols = (np.arange(int(width * scale)) / scale).astype(int)
+        # box filter: average the source block of each output pixel
+        step = int(round(1 / scale))
+        trimmed = pixels[:len(rows) * step, :len(cols) * step]
+        pixels = trimmed.reshape(len(rows), step, len(cols), step, 3).mean(axis=(1, 3))
+    height, width = pixels.shape[:2]
+    rgba = np.ones((height, width, 4), np.float32)
+    rgba[:, :, :3] = pixels
+    image = bpy.data.images.new(name, width, height, alpha=False)
+    image.pixels.foreach_set(rgba.ravel())
+    path = os.path.join(OUT_DIR, name)
+    image.filepath_raw = path
+    image.file_format = "JPEG" if name.endswith(".jpg") else "PNG"
+    if name.endswith(".jpg"):
+        scene = bpy.context.scene
+        scene.render.image_settings.file_format = "JPEG"
+        scene.render.image_settings.quality = JPEG_QUALITY
+        scene.view_settings.view_transform = "Standard"
+        scene.view_settings.look = "None"
+        image.save_render(path, scene=scene)
+    else:
+        image.save()
+    bpy.data.images.remove(image)
+    log("wrote", name, width, height, os.path.getsize(path))
+
+
+def header_rows(column):
+    """Sub-panel headers in one pixel column of the sidebar (x inside the panels' margin), top first, as
+    (top, bottom) rows from the top. A sub-panel body is drawn darker than the headers and the main panel:
+    each run of the lighter colour ends with a header (HEADER rows tall); runs of several headers are
+    split into HEADER-row pieces."""
+    light = np.abs(column - column[5]).max(axis=1) < 0.01  # the main panel's colour at its top
+    headers, y = [], 0
+    while y < len(light):
+        if not light[y]:
+            y += 1
+            continue
+        end = y
+        while end < len(light) and light[end]:
+            end += 1
+        if end < len(light):  # a run ending in a body: its last rows are a header
+            count = max(1, round((end - y) / HEADER)) if y > 0 and _headers_only(y, end) else 1
+            for k in range(count, 0, -1):
+                headers.append((end - k * HEADER, end - (k - 1) * HEADER))
+        y = end
+    return headers
+
+
+HEADER = 28  # px at UI scale 1 (measured on Blender 3.4's default theme)
+
+
+def _headers_only(top, bottom):
+    return (bottom - top) % HEADER == 0
+
+
+def scenario():
+    window, area = window_and_view()
+    scene = bpy.context.scene
+    props = scene.texsynth
+    space = area.spaces[0]
+    # The sidebar on its own background (not over the viewport): clean crops.
+    bpy.context.preferences.system.use_region_overlap = False
+    space.show_region_ui = True
+    # A quiet viewport: no gizmos, a grey background as in the render.
+    space.show_gizmo = False
+    yield
+    for name, values in CONFIG["runs"]:
+        values = dict(values)
+        obj = bpy.data.objects[name]
+        harness.select_only([obj])
+        props.sample_source = "FILE"
+        # Relative to scene.blend (in blend_samples/), as an artist's path next to the .blend reads.
+        props.sample_path = "//" + values.pop("sample")
+        preset = values.pop("preset", None)
+        for key, value in values.items():
+            setattr(props, key, value)
+        with bpy.context.temp_override(window=window, area=area, region=region(area, "WINDOW")):
+            if preset:
+                result = bpy.ops.texsynth.field_preset(preset=preset)
+                log("preset", preset, result)
+            start = time.perf_counter()
+            result = bpy.ops.texsynth.synthesize()
+            log("synthesize", name, values.get("method"), result, "%.1f s" % (time.perf_counter() - start))
+        yield
+    # The TexSynth tab is the sidebar's last one: click down the tab strip until below the last tab.
+    sidebar = region(area, "UI")
+    x = sidebar.x + sidebar.width - 10
+    for offset in range(150, 262, 12):
+        click(window, x, sidebar.y + sidebar.height - offset)
+        yield
+    area.tag_redraw()
+    yield
+    if CONFIG["keep"] is not None:
+        # Which sub-panels are drawn, in order (registration order is the sidebar order).
+        drawn = [cls.bl_idname for cls in texsynth.ui.panels.classes
+                 if getattr(cls, "bl_parent_id", "") == "TEXSYNTH_PT_main"
+                 and (not hasattr(cls, "poll") or cls.poll(bpy.context))]
+        pixels = screenshot(window, area)[::-1]  # top first
+        column = pixels[sidebar_rows(sidebar, pixels.shape[0]), sidebar.x + 8]
+        headers = header_rows(column)
+        log("headers", headers, "panels", drawn)
+        if len(headers) != len(drawn):
+            raise RuntimeError("found %d sub-panel headers, expected %d" % (len(headers), len(drawn)))
+        top = pixels.shape[0] - (sidebar.y + sidebar.height)
+        for (head_top, head_bottom), idname in reversed(list(zip(headers, drawn))):
+            if idname not in CONFIG["keep"]:
+                y_from_top = top + (head_top + head_bottom) // 2
+                click(window, sidebar.x + 60, pixels.shape[0] - 1 - y_from_top)
+                yield
+        for _ in range(3):  # the collapse animates
+            area.tag_redraw()
+            yield
+    if CONFIG["result"] == "viewport":
+        with bpy.context.temp_override(window=window, area=area, region=region(area, "WINDOW")):
+            from texsynth.fields import overlay
+            bpy.ops.wm.tool_set_by_id(name=overlay.COMB_TOOL_ID)
+            bpy.ops.view3d.view_selected()
+        space.shading.type = "SOLID"
+        space.shading.color_type = "TEXTURE"
+        space.overlay.show_floor = False
+        space.overlay.show_axis_x = space.overlay.show_axis_y = False
+        for _ in range(3):
+            area.tag_redraw()
+            yield
+    pixels = screenshot(window, area)
+    crop = pixels[sidebar.y:sidebar.y + sidebar.height, sidebar.x:sidebar.x + sidebar.width]
+    save(trim_bottom(crop), "panel_%s.png" % SHOT)
+    if CONFIG["result"] == "viewport":
+        view = region(area, "WINDOW")
+        # The view without the sidebar (it overlaps the region on the right) and the header.
+        width = sidebar.x - view.x
+        crop = pixels[view.y:view.y + view.height, view.x:view.x + width]
+        height = min(crop.shape[0], int(width * 0.75))
+        middle = crop.shape[0] // 2
+        crop = crop[middle - height // 2:middle - height // 2 + height]
+        save(crop, "viewport_%s.jpg" % SHOT, scale=0.5 if width > 1000 else 1.0)
+    elif CONFIG["result"] == "render":
+        scene.render.resolution_x, scene.render.resolution_y = RENDER_SIZE
+        scene.render.resolution_percentage = 100
+        scene.eevee.taa_render_samples = RENDER_SAMPLES
+        scene.render.image_settings.file_format = "JPEG"
+        scene.render.image_settings.quality = JPEG_QUALITY
+        path = os.path.join(OUT_DIR, "result_%s.jpg" % SHOT)
+        scene.render.filepath = path
+        start = time.perf_counter()
+        with bpy.context.temp_override(window=window):
+            bpy.ops.render.render(write_still=True)
+        log("wrote", os.path.basename(path), RENDER_SIZE, os.path.getsize(path),
+            "render %.1f s" % (time.perf_counter() - start))
+
+
+def sidebar_rows(sidebar, height):
+    """Rows of the sidebar in a top-first window picture."""
+    top = height - (sidebar.y + sidebar.height)
+    return slice(top, top + sidebar.height)
+
+
+def trim_bottom(crop):
+    """Drops the empty rows under the last panel (bottom-first array: they are the first rows) but 6."""
+    background = crop[0, crop.shape[1] // 2]
+    empty = np.abs(crop - background).max(axis=(1, 2)) < 0.01
+    first = int(np.argmin(empty)) if not empty.all() else 0
+    return crop[max(0, first - 6):]
+
+
+def driver():
+    steps = scenario()
+    failed = []
+
+    def tick():
+        try:
+            next(steps)
+            return 0.4
+        except StopIteration:
+            pass
+        except Exception:  # noqa: BLE001 - report and quit, or Blender stays open under Xvfb
+            traceback.print_exc()
+            failed.append(True)
+            log("FAILED")
+        if not failed:
+            log("done")
+        bpy.ops.wm.quit_blender()
+        return None
+    return tick
+
+
+bpy.app.timers.register(driver(), first_interval=1.5)
