@@ -13,12 +13,14 @@ the page is not about (clicks on their headers), screenshots the window and crop
 (panel_<shot>.png). Then it renders the scene camera with Eevee (result_<shot>.jpg) or, for the
 fields shot, crops the viewport with the field overlay (viewport_fields.jpg).
 """
+import math
 import os
 import sys
 import time
 import traceback
 
 import bpy
+import mathutils
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -44,10 +46,12 @@ SHOTS = {
                                            bake_uv_map="UVMap", bake_size=512))],
                     keep=("TEXSYNTH_PT_method", "TEXSYNTH_PT_output"), result="render"),
     "particles": dict(runs=[("Ground", dict(method="PARTICLES", sample="pebbles.png", scale=2.0, seed=1,
-                                            particle_classes=3))],
-                      keep=("TEXSYNTH_PT_method", "TEXSYNTH_PT_particles"), result="render"),
+                                            particle_classes=3, analyse=True))],
+                      keep=("TEXSYNTH_PT_method", "TEXSYNTH_PT_particles", "TEXSYNTH_PT_output"),
+                      result="render"),
     "fields": dict(runs=[("Suzanne", dict(method="JUMPMAP", sample="bark.png", scale=1.0, seed=2,
-                                          orientation="FIELD", preset="CURVATURE", show_field=True))],
+                                          orientation="FIELD", preset="AXIS", source="top", show_field=True,
+                                          field_arrow_density=0.3, field_arrow_length=1.5))],
                    keep=("TEXSYNTH_PT_orientation", "TEXSYNTH_PT_field"), result="viewport"),
     # The whole sidebar, every sub-panel open (docs/user/addon_panel.md).
     "full": dict(runs=[("Suzanne", dict(method="JUMPMAP", sample="bricks.png", scale=1.2, seed=5))],
@@ -177,12 +181,20 @@ def scenario():
         # Relative to scene.blend (in blend_samples/), as an artist's path next to the .blend reads.
         props.sample_path = "//" + values.pop("sample")
         preset = values.pop("preset", None)
+        source = values.pop("source", None)
+        analyse = values.pop("analyse", False)
         for key, value in values.items():
             setattr(props, key, value)
         with bpy.context.temp_override(window=window, area=area, region=region(area, "WINDOW")):
             if preset:
                 result = bpy.ops.texsynth.field_preset(preset=preset)
                 log("preset", preset, result)
+            if source == "top":  # a source on the top of the head: the field flows away from it
+                heights = [v.co.z for v in obj.data.vertices]
+                result = bpy.ops.texsynth.singularity(mode="SOURCE", vertex=heights.index(max(heights)))
+                log("source", result)
+            if analyse:  # Analyse Sample: the Particles panel lists the classes and shows the segmentation
+                log("analyse", bpy.ops.texsynth.particle_analyse())
             start = time.perf_counter()
             result = bpy.ops.texsynth.synthesize()
             log("synthesize", name, values.get("method"), result, "%.1f s" % (time.perf_counter() - start))
@@ -200,17 +212,27 @@ def scenario():
         drawn = [cls.bl_idname for cls in texsynth.ui.panels.classes
                  if getattr(cls, "bl_parent_id", "") == "TEXSYNTH_PT_main"
                  and (not hasattr(cls, "poll") or cls.poll(bpy.context))]
-        pixels = screenshot(window, area)[::-1]  # top first
-        column = pixels[sidebar_rows(sidebar, pixels.shape[0]), sidebar.x + 8]
-        headers = header_rows(column)
-        log("headers", headers, "panels", drawn)
-        if len(headers) != len(drawn):
-            raise RuntimeError("found %d sub-panel headers, expected %d" % (len(headers), len(drawn)))
-        top = pixels.shape[0] - (sidebar.y + sidebar.height)
-        for (head_top, head_bottom), idname in reversed(list(zip(headers, drawn))):
-            if idname not in CONFIG["keep"]:
+        # A long sidebar (Particles) may not show its last headers until others are collapsed: repeat.
+        collapsed = set()
+        for _ in range(3):
+            pixels = screenshot(window, area)[::-1]  # top first
+            column = pixels[sidebar_rows(sidebar, pixels.shape[0]), sidebar.x + 8]
+            headers = header_rows(column)
+            log("headers", headers, "panels", drawn)
+            if len(headers) > len(drawn):
+                raise RuntimeError("found %d sub-panel headers, expected %d" % (len(headers), len(drawn)))
+            top = pixels.shape[0] - (sidebar.y + sidebar.height)
+            todo = [(header, idname) for header, idname in zip(headers, drawn)
+                    if idname not in CONFIG["keep"] and idname not in collapsed]
+            for (head_top, head_bottom), idname in reversed(todo):
                 y_from_top = top + (head_top + head_bottom) // 2
                 click(window, sidebar.x + 60, pixels.shape[0] - 1 - y_from_top)
+                collapsed.add(idname)
+                yield
+            if len(headers) == len(drawn) and not todo:
+                break
+            for _ in range(3):  # the collapse animates
+                area.tag_redraw()
                 yield
         for _ in range(3):  # the collapse animates
             area.tag_redraw()
@@ -219,7 +241,14 @@ def scenario():
         with bpy.context.temp_override(window=window, area=area, region=region(area, "WINDOW")):
             from texsynth.fields import overlay
             bpy.ops.wm.tool_set_by_id(name=overlay.COMB_TOOL_ID)
-            bpy.ops.view3d.view_selected()
+        view = space.region_3d
+        view.view_perspective = "PERSP"
+        view.view_rotation = mathutils.Euler((math.radians(55), 0.0, math.radians(25))).to_quaternion()
+        view.view_location = obj.matrix_world.translation
+        view.view_distance = 3.8
+        space.overlay.show_outline_selected = False
+        space.overlay.show_extras = False
+        space.overlay.show_cursor = False
         space.shading.type = "SOLID"
         space.shading.color_type = "TEXTURE"
         space.overlay.show_floor = False
@@ -262,8 +291,10 @@ def sidebar_rows(sidebar, height):
 
 def trim_bottom(crop):
     """Drops the empty rows under the last panel (bottom-first array: they are the first rows) but 6."""
-    background = crop[0, crop.shape[1] // 2]
-    empty = np.abs(crop - background).max(axis=(1, 2)) < 0.01
+    panels = crop[:, :crop.shape[1] - 30]  # left of the tab strip (drawn in another colour down to the bottom)
+    background = panels[10, panels.shape[1] // 2]  # rows 0-2 are the region's border
+    empty = np.abs(panels - background).max(axis=(1, 2)) < 0.01
+    empty[:5] = True
     first = int(np.argmin(empty)) if not empty.all() else 0
     return crop[max(0, first - 6):]
 

@@ -36,7 +36,7 @@ failed=0
 for shot in "${shots[@]}"; do
   start=$(date +%s)
   log="$out/.${shot}.log"
-  xvfb-run -a -s "-screen 0 1600x1400x24" "$blender" --factory-startup --enable-event-simulate \
+  xvfb-run -a -s "-screen 0 1600x1800x24" "$blender" --factory-startup --enable-event-simulate \
     "$root/blend_samples/scene.blend" --python "$root/scripts/docs_screenshots.py" -- "$out" "$shot" \
     >"$log" 2>&1 || true
   if grep -q "^DOCSHOT $shot done" "$log"; then
