@@ -53,6 +53,10 @@ SHOTS = {
                                           orientation="FIELD", preset="AXIS", source="top", show_field=True,
                                           field_arrow_density=0.3, field_arrow_length=1.5))],
                    keep=("TEXSYNTH_PT_orientation", "TEXSYNTH_PT_field"), result="viewport"),
+    # Output / Bake alone (docs/user/bake.md): the Bake box of the coordinate methods.
+    "bake": dict(runs=[("Suzanne", dict(method="JUMPMAP", sample="bricks.png", scale=1.2, seed=5,
+                                        bake_uv_map="UVMap", bake_size=1024))],
+                 keep=("TEXSYNTH_PT_output",), result=None),
     # The whole sidebar, every sub-panel open (docs/user/addon_panel.md).
     "full": dict(runs=[("Suzanne", dict(method="JUMPMAP", sample="bricks.png", scale=1.2, seed=5))],
                  keep=None, result=None),
@@ -104,14 +108,10 @@ def screenshot(window, area):
 
 def save(pixels, name, scale=1.0):
     """Saves an (H, W, 3) bottom-first array as PNG (UI) or JPEG (renders, viewport), optionally scaled down."""
-    if scale != 1.0:
-        height, width = pixels.shape[:2]
-        rows = (np.arange(int(height * scale)) / scale).astype(int)
-        cols = (np.arange(int(width * scale)) / scale).astype(int)
-        # box filter: average the source block of each output pixel
+    if scale != 1.0:  # a box filter: each output pixel averages its step x step block
         step = int(round(1 / scale))
-        trimmed = pixels[:len(rows) * step, :len(cols) * step]
-        pixels = trimmed.reshape(len(rows), step, len(cols), step, 3).mean(axis=(1, 3))
+        height, width = (pixels.shape[0] // step) * step, (pixels.shape[1] // step) * step
+        pixels = pixels[:height, :width].reshape(height // step, step, width // step, step, 3).mean(axis=(1, 3))
     height, width = pixels.shape[:2]
     rgba = np.ones((height, width, 4), np.float32)
     rgba[:, :, :3] = pixels
@@ -148,7 +148,8 @@ def header_rows(column):
         while end < len(light) and light[end]:
             end += 1
         if end < len(light):  # a run ending in a body: its last rows are a header
-            count = max(1, round((end - y) / HEADER)) if y > 0 and _headers_only(y, end) else 1
+            # The first run is the main panel and the first header; later runs are only headers.
+            count = (end - y) // HEADER if headers and (end - y) % HEADER == 0 else 1
             for k in range(count, 0, -1):
                 headers.append((end - k * HEADER, end - (k - 1) * HEADER))
         y = end
@@ -156,10 +157,6 @@ def header_rows(column):
 
 
 HEADER = 28  # px at UI scale 1 (measured on Blender 3.4's default theme)
-
-
-def _headers_only(top, bottom):
-    return (bottom - top) % HEADER == 0
 
 
 def scenario():

@@ -4,7 +4,7 @@
 # (under Xvfb) and a result per method (scripts/docs_screenshots.py, one Blender per shot, on
 # blend_samples/scene.blend). Installs xvfb with apt-get when xvfb-run is missing.
 # Usage: scripts/docs_screenshots.sh [--blender PATH] [--out DIR] [SHOT...]
-#   SHOT: jumpmap texton round patches particles fields full (default: all)
+#   SHOT: jumpmap texton round patches particles fields bake full (default: all)
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 blender=blender
@@ -19,7 +19,7 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
-[ ${#shots[@]} -gt 0 ] || shots=(jumpmap texton round patches particles fields full)
+[ ${#shots[@]} -gt 0 ] || shots=(jumpmap texton round patches particles fields bake full)
 if ! command -v xvfb-run >/dev/null 2>&1; then
   echo "docs_screenshots: installing xvfb" >&2
   sudo_cmd=""; [ "$(id -u)" -eq 0 ] || sudo_cmd=sudo
