@@ -273,6 +273,10 @@ def scenario():
         scene.render.image_settings.quality = JPEG_QUALITY
         path = os.path.join(OUT_DIR, "result_%s.jpg" % SHOT)
         scene.render.filepath = path
+        # No metadata (file path, date, render time): the same picture gives the same bytes.
+        for name in scene.render.bl_rna.properties.keys():
+            if name.startswith("use_stamp"):
+                setattr(scene.render, name, False)
         start = time.perf_counter()
         with bpy.context.temp_override(window=window):
             bpy.ops.render.render(write_still=True)
