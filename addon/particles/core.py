@@ -22,6 +22,9 @@ MIN_BACKGROUND_SHARE = 0.02  # a sample whose background class holds less is "al
 PARTICLE_ID_NAME = "particle_id"
 ROTATION_NAME, SCALE_NAME, CLASS_NAME = "rotation", "scale", "class"
 ANALYSIS_CACHE_PREFIX = "particles-"
+BACKGROUND_PREFIX = "particles-background-"
+# Bump when scene.save_background writes other pixels for the same background array.
+BACKGROUND_FORMAT = 1
 
 
 def sample_for_analysis(pixels_top_first):
@@ -111,6 +114,14 @@ def analysis_key(sample, settings, labels=None):
               tuple(tuple(int(c) for c in pair) for pair in settings.particle_merges),
               bool(settings.tileable), int(settings.seed))
     return digest(sample, labels) + "-" + hashlib.blake2b(repr(params).encode(), digest_size=8).hexdigest()
+
+
+def background_file_name(background):
+    """The cache file name of an analysis' filled background (analysis.background). Keyed on the array
+    itself: it is what the PNG is written from, so every input of the analysis (sample, label image, class
+    count, blur, minimum area, merges, background class, tileable, seed) and the native code that fills it
+    are covered, and only an identical background shares a file."""
+    return "%s%s-%d.png" % (BACKGROUND_PREFIX, digest(np.asarray(background)), BACKGROUND_FORMAT)
 
 
 def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=analyses):

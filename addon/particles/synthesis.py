@@ -138,11 +138,12 @@ class Job:
 
     def _prepare_background(self, objects):
         """The analysis' filled background as a file in the cache folder, synthesized by the UV method."""
-        key = core.analysis_key(self.sample_array, self.settings)
-        path = os.path.join(self.cache_dir, "particles-background-%s.png" % key[:16])
+        background = self.analysis.background
+        path = os.path.join(self.cache_dir, core.background_file_name(background))
         os.makedirs(self.cache_dir, exist_ok=True)
-        if not os.path.isfile(path):
-            scene.save_background(self.analysis.background, path)
+        height, width = background.shape[:2]
+        if not scene.background_file_usable(path, width, height):  # missing, damaged or another size
+            scene.save_background(background, path)
         uv_settings = Settings(**{**self.settings.__dict__, "method": self.settings.particle_background})
         self.background_job = uv_synthesis.Job(objects, sources.Sample(path=path), uv_settings,
                                                self.cache_dir, self.material_mode, self.scene).prepare()

@@ -14,11 +14,6 @@ from ..core.settings import AUTO_HISTOGRAM_MIN_FIDELITY, AUTO_TEXTON_LINEAR_PERI
 from .encoding import check_result, mapping_groups_rgba
 
 
-def default_cache_dir(base):
-    """Cache folder under a Blender user resource folder (or any base folder)."""
-    return os.path.join(base, "texsynth")
-
-
 def cache_status(sample, settings, cache_dir):
     """'fresh' | 'missing' | 'stale' for the sample's cached preprocessing."""
     module = native.require()
