@@ -136,6 +136,30 @@ def test_analysis_is_cached_on_disk_and_a_corrupt_file_is_rebuilt(tmp_path):
     assert source == "built"
 
 
+def test_the_background_file_name_follows_the_filled_background():
+    # The background PNG is written from analysis.background alone, so its name is that array's digest:
+    # a label image or any analysis setting that changes the fill changes the name, and only an identical
+    # fill shares a file (the old name came from the sample's pixels alone).
+    sample = pebbles()
+    base = core.analyse(sample, settings(), cache=core.AnalysisCache())[0].background
+    name = core.background_file_name(base)
+    assert name == core.background_file_name(base.copy())
+    assert name.startswith(core.BACKGROUND_PREFIX) and name.endswith("-%d.png" % core.BACKGROUND_FORMAT)
+    labels = np.zeros(sample.shape[:2], np.int32)
+    labels[8:18, 8:18] = 1  # one stone as the only particle: the other stones stay in the background
+    differing = 0
+    for changes, label_image in ((dict(particle_classes=2), None), (dict(particle_min_area=200), None),
+                                 (dict(particle_blur=1.5), None), (dict(seed=9), None), ({}, labels)):
+        other = core.analyse(sample, settings(**changes), label_image, cache=core.AnalysisCache())[0].background
+        same = other.shape == base.shape and np.array_equal(other, base)
+        assert (core.background_file_name(other) == name) == same, changes
+        differing += not same
+    assert differing >= 2
+    tweaked = base.copy()
+    tweaked[0, 0, 0] += 0.25
+    assert core.background_file_name(tweaked) != name
+
+
 def test_class_rows_count_the_drawn_particles():
     analysis, _ = core.analyse(pebbles(), settings(), cache=core.AnalysisCache())
     rows = core.class_rows(analysis)
