@@ -164,6 +164,8 @@ def test_patch_memory_advice_names_only_changes_that_apply_and_an_image_size_tha
 
 def test_an_exemplar_saved_with_other_parameters_is_not_reused(tmp_path):
     native = pytest.importorskip("texsynth_native")
+    addon_native = addon_package.load("native")
+    addon_native._module, addon_native._reason, addon_native._tried = native, None, True  # one copy of the module
     sample = np.random.default_rng(8).random((40, 40, 3)).astype(np.float32)
     exemplar, how = patches_core.ExemplarCache().get(sample, 16, False, str(tmp_path))
     assert how == "built"
