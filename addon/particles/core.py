@@ -116,12 +116,15 @@ def analysis_key(sample, settings, labels=None):
     return digest(sample, labels) + "-" + hashlib.blake2b(repr(params).encode(), digest_size=8).hexdigest()
 
 
-def background_file_name(background):
-    """The cache file name of an analysis' filled background (analysis.background). Keyed on the array
-    itself: it is what the PNG is written from, so every input of the analysis (sample, label image, class
-    count, blur, minimum area, merges, background class, tileable, seed) and the native code that fills it
-    are covered, and only an identical background shares a file."""
-    return "%s%s-%d.png" % (BACKGROUND_PREFIX, digest(np.asarray(background)), BACKGROUND_FORMAT)
+def background_file_path(cache_dir, background, sample, labels=None):
+    """Where an analysis' filled background (analysis.background) is cached as a PNG. The folder is keyed on
+    the array itself: it is all the PNG is written from, so every input of the analysis (sample, label image,
+    class count, blur, minimum area, merges, background class, tileable, seed) and the native code that fills
+    it are covered, and only an identical background shares a file. The file name says which sample (and label
+    image) it came from; it becomes the Blender image's name, so it is kept as it was (the sample part of
+    analysis_key) and does not change with settings the artist never sees in it."""
+    folder = "%s%s-%d" % (BACKGROUND_PREFIX, digest(np.asarray(background)), BACKGROUND_FORMAT)
+    return os.path.join(cache_dir, folder, "%s%s.png" % (BACKGROUND_PREFIX, digest(sample, labels)[:16]))
 
 
 def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=analyses):

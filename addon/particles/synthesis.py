@@ -89,6 +89,7 @@ class Job:
             labels = None
             if self.label_pixels is not None:
                 labels = core.labels_from_image(self.label_pixels, width, height)
+            self.labels = labels
         with self.timings.phase("preprocess"):
             self.analysis, source = core.analyse(self.sample_array, settings, labels, self.cache_dir, self.token)
         self.report.notes += core.check_usable(self.analysis)
@@ -139,8 +140,8 @@ class Job:
     def _prepare_background(self, objects):
         """The analysis' filled background as a file in the cache folder, synthesized by the UV method."""
         background = self.analysis.background
-        path = os.path.join(self.cache_dir, core.background_file_name(background))
-        os.makedirs(self.cache_dir, exist_ok=True)
+        path = core.background_file_path(self.cache_dir, background, self.sample_array, self.labels)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
         height, width = background.shape[:2]
         if not scene.background_file_usable(path, width, height):  # missing, damaged or another size
             scene.save_background(background, path)

@@ -689,9 +689,9 @@ def test_a_failed_particle_write_leaves_the_scene_and_the_mesh_unchanged():
 
 
 def test_the_background_file_follows_the_analysis_and_a_damaged_one_is_rewritten():
-    """The background PNG is named after the filled background itself, so a label image (or any setting that
-    changes the fill) gets its own file; a truncated file or one of another size under that name is written
-    again, through a temporary file renamed into place."""
+    """The background PNG's folder is named after the filled background itself, so a label image (or any
+    setting that changes the fill) gets its own file; a truncated file or one of another size there is
+    written again, through a temporary file renamed into place."""
     from texsynth.bridge import sources
     clean()
     target = plane(size=4.0, cuts=20)
@@ -721,7 +721,8 @@ def test_the_background_file_follows_the_analysis_and_a_damaged_one_is_rewritten
         assert prepared(labels) == labelled and open(labelled, "rb").read() == whole
     harness.save_png(labelled, np.ones((8, 8, 4), np.float32))  # a valid PNG of another size
     assert prepared(labels) == labelled and open(labelled, "rb").read() == whole
-    assert not [name for name in os.listdir(cache) if name.startswith(".")], os.listdir(cache)  # no temporary left
+    written = [name for _, _, names in os.walk(cache) for name in names]
+    assert not [name for name in written if name.startswith(".")], written  # no temporary file left
 
 
 def test_the_worker_thread_runs_the_job_as_the_modal_operator_does():
