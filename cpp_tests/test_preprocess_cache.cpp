@@ -3,6 +3,7 @@
 
 #include <cstring>
 #include <fstream>
+#include <unordered_map>
 
 #include "synthetic_texture.hpp"
 #include "temp_dir.hpp"
@@ -186,6 +187,40 @@ TEST_F(Cache, PreprocessCachedHitsMissesAndRecomputesCorruptFiles) {
   texsynth::PreprocessParams other = *params_;
   other.jump_candidates = 3;
   EXPECT_NE(texsynth::cache_file_path(cache_dir, 1, other), texsynth::cache_file_path(cache_dir, 1, *params_));
+}
+
+// Two seeds whose params_hash (32 bits, in the file name) collide share a file name: the file's stored
+// parameters, not the hash, must decide whether it is used. Found by a birthday search (~80 000 seeds).
+TEST_F(Cache, CollidingParamsHashWithOtherStoredParametersIsStale) {
+  std::unordered_map<uint32_t, uint64_t> seen;
+  texsynth::PreprocessParams a = *params_, b = *params_;
+  for (uint64_t seed = 0;; ++seed) {
+    ASSERT_LT(seed, uint64_t(1) << 24) << "no params_hash collision found";
+    b.seed = seed;
+    const auto [it, inserted] = seen.emplace(texsynth::params_hash(b), seed);
+    if (!inserted) {
+      a.seed = it->second;
+      break;
+    }
+  }
+  ASSERT_EQ(texsynth::params_hash(a), texsynth::params_hash(b));
+  ASSERT_FALSE(texsynth::same_params(a, b));
+  const std::string cache_dir = dir_.file("collide");
+  const uint64_t hash = texsynth::image_hash(*image_);
+  const std::string path = texsynth::cache_file_path(cache_dir, hash, b);
+  ASSERT_EQ(path, texsynth::cache_file_path(cache_dir, hash, a));
+
+  EXPECT_EQ(texsynth::preprocess_cached(*image_, a, cache_dir).cache_status, "miss");
+  EXPECT_EQ(texsynth::cache_state(path, hash, a), texsynth::CacheState::kFresh);
+  EXPECT_EQ(texsynth::cache_state(path, hash, b), texsynth::CacheState::kStale);
+  const auto recomputed = texsynth::preprocess_cached(*image_, b, cache_dir);
+  EXPECT_FALSE(recomputed.cache_hit);
+  EXPECT_EQ(recomputed.cache_status, "recomputed-corrupt");
+  EXPECT_EQ(recomputed.params.seed, b.seed);
+  expect_same(recomputed, texsynth::preprocess(*image_, b));
+  EXPECT_EQ(texsynth::load_preprocessed(path, hash).params.seed, b.seed);  // written over a's file
+  EXPECT_EQ(texsynth::cache_state(path, hash, b), texsynth::CacheState::kFresh);
+  EXPECT_EQ(texsynth::cache_state(path, hash, a), texsynth::CacheState::kStale);
 }
 
 TEST(CacheNames, FollowTheDocumentedPattern) {

@@ -22,6 +22,9 @@ MIN_BACKGROUND_SHARE = 0.02  # a sample whose background class holds less is "al
 PARTICLE_ID_NAME = "particle_id"
 ROTATION_NAME, SCALE_NAME, CLASS_NAME = "rotation", "scale", "class"
 ANALYSIS_CACHE_PREFIX = "particles-"
+BACKGROUND_PREFIX = "particles-background-"
+# Bump when scene.save_background writes other pixels for the same background array.
+BACKGROUND_FORMAT = 1
 
 
 def sample_for_analysis(pixels_top_first):
@@ -118,6 +121,17 @@ def analysis_key(sample, settings, labels=None):
     if particle_touching(settings):  # issue 30; off: the keys (and cached analyses) of before stay valid
         params += ("touching",)
     return digest(sample, labels) + "-" + hashlib.blake2b(repr(params).encode(), digest_size=8).hexdigest()
+
+
+def background_file_path(cache_dir, background, sample, labels=None):
+    """Where an analysis' filled background (analysis.background) is cached as a PNG. The folder is keyed on
+    the array itself: it is all the PNG is written from, so every input of the analysis (sample, label image,
+    class count, blur, minimum area, merges, background class, tileable, seed) and the native code that fills
+    it are covered, and only an identical background shares a file. The file name says which sample (and label
+    image) it came from; it becomes the Blender image's name, so it is kept as it was (the sample part of
+    analysis_key) and does not change with settings the artist never sees in it."""
+    folder = "%s%s-%d" % (BACKGROUND_PREFIX, digest(np.asarray(background)), BACKGROUND_FORMAT)
+    return os.path.join(cache_dir, folder, "%s%s.png" % (BACKGROUND_PREFIX, digest(sample, labels)[:16]))
 
 
 def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=analyses):

@@ -8,11 +8,14 @@ bridge/mesh_io.py; this module makes the objects, images, materials and node gro
 Every created object carries TAG = the target's name and CLASS_TAG = its class, so Clear and re-synthesis
 find exactly what a run made.
 """
+import itertools
+import os
+
 import bpy
 import numpy as np
 
 from .. import compat
-from ..bridge import mesh_io
+from ..bridge import mesh_io, sources
 from ..core.names import fit_name
 from ..shading import surface_material
 from . import core, outputs
@@ -31,6 +34,7 @@ PREVIEW_PREFIX = "TexSynth Segmentation: "
 GROUP_PREFIX = "TexSynth Instances: "
 MODIFIER_NAME = "TexSynth Instances"
 _TEMP = "~TexSynth new "
+_temporary_numbers = itertools.count()  # background files written by this process
 
 
 def decal_name(target_name, class_id):
@@ -328,17 +332,36 @@ def clear(target_name):
 
 
 def save_background(pixels_bottom_first, path, float_buffer=False):
-    """Writes the analysis' filled background (row 0 = bottom) as a PNG through a temporary image."""
+    """Writes the analysis' filled background (row 0 = bottom) as a PNG through a temporary image, to a
+    temporary file in the same folder renamed over `path`: a reader (another Blender sharing the cache
+    folder, or a run after a crash) never sees a partial file under the final name."""
     height, width = pixels_bottom_first.shape[:2]
     rgba = np.ones((height, width, 4), np.float32)
     rgba[:, :, :3] = pixels_bottom_first[:, :, :3] if pixels_bottom_first.shape[2] >= 3 else \
         pixels_bottom_first[:, :, :1]
+    folder, name = os.path.split(path)
+    temporary = os.path.join(folder, ".%s.tmp.%d.%d.png" % (name, os.getpid(), next(_temporary_numbers)))
     image = bpy.data.images.new(_TEMP + "background", width, height, alpha=True, float_buffer=float_buffer)
     try:
         image.pixels.foreach_set(np.clip(rgba, 0.0, 1.0).ravel())
-        image.filepath_raw = path
+        image.filepath_raw = temporary
         image.file_format = "PNG"
         image.save()
+        os.replace(temporary, path)
     finally:
         bpy.data.images.remove(image)
+        if os.path.exists(temporary):  # the save or the rename failed
+            os.remove(temporary)
     return path
+
+
+def background_file_usable(path, width, height):
+    """True if `path` decodes (as the background's UV method will read it) to a width x height image; a
+    truncated or damaged file, or one of another size, is to be written again rather than used."""
+    if not os.path.isfile(path):
+        return False
+    try:
+        pixels = sources.decode_sample_file(path)
+    except ValueError:  # SettingsError / HeaderError: a header or pixels Blender cannot read
+        return False
+    return pixels.shape[:2] == (height, width)

@@ -89,6 +89,7 @@ class Job:
             labels = None
             if self.label_pixels is not None:
                 labels = core.labels_from_image(self.label_pixels, width, height)
+            self.labels = labels
         with self.timings.phase("preprocess"):
             self.analysis, source = core.analyse(self.sample_array, settings, labels, self.cache_dir, self.token)
         self.report.notes += core.check_usable(self.analysis)
@@ -138,11 +139,12 @@ class Job:
 
     def _prepare_background(self, objects):
         """The analysis' filled background as a file in the cache folder, synthesized by the UV method."""
-        key = core.analysis_key(self.sample_array, self.settings)
-        path = os.path.join(self.cache_dir, "particles-background-%s.png" % key[:16])
-        os.makedirs(self.cache_dir, exist_ok=True)
-        if not os.path.isfile(path):
-            scene.save_background(self.analysis.background, path)
+        background = self.analysis.background
+        path = core.background_file_path(self.cache_dir, background, self.sample_array, self.labels)
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        height, width = background.shape[:2]
+        if not scene.background_file_usable(path, width, height):  # missing, damaged or another size
+            scene.save_background(background, path)
         uv_settings = Settings(**{**self.settings.__dict__, "method": self.settings.particle_background})
         self.background_job = uv_synthesis.Job(objects, sources.Sample(path=path), uv_settings,
                                                self.cache_dir, self.material_mode, self.scene).prepare()

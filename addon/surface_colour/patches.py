@@ -36,16 +36,20 @@ class ExemplarCache:
 
     @staticmethod
     def key(sample, patch_size, tileable):
+        """(file-name key, native key). The native key (patch_exemplar_key) covers the format version and
+        every parameter patch_exemplar uses, defaults included; the file stores it and the load checks it."""
+        native_key = int(native.require().patch_exemplar_key(sample, patch_size=int(patch_size),
+                                                              tileable=bool(tileable)))
         digest = hashlib.blake2b(digest_size=16)
         digest.update(str(sample.shape).encode())
         digest.update(np.ascontiguousarray(sample).data)
-        digest.update(repr((int(patch_size), bool(tileable), 2)).encode())
-        return digest.hexdigest()
+        digest.update(repr((int(patch_size), bool(tileable), native_key)).encode())
+        return digest.hexdigest(), native_key
 
     def get(self, sample, patch_size, tileable, cache_dir="", cancel=None):
         """(exemplar, how): how is 'memory', 'disk' or 'built'."""
         module = native.require()
-        key = self.key(sample, patch_size, tileable)
+        key, native_key = self.key(sample, patch_size, tileable)
         with self.lock:
             if self.entry is not None and self.entry[0] == key:
                 return self.entry[1], "memory"
@@ -53,9 +57,9 @@ class ExemplarCache:
         exemplar, how = None, "built"
         if path and os.path.exists(path):
             try:
-                exemplar, how = module.load_patch_exemplar(path), "disk"
+                exemplar, how = module.load_patch_exemplar(path, native_key), "disk"
             except ValueError:
-                exemplar = None  # stale or corrupt: rebuilt and overwritten below
+                exemplar = None  # another key, stale or corrupt: rebuilt and overwritten below
         if exemplar is None:
             extra = {} if cancel is None else {"cancel": cancel}
             exemplar = module.patch_exemplar(sample, patch_size=int(patch_size),

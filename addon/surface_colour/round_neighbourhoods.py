@@ -13,9 +13,10 @@ from .core import smallest_sample_side, target_density, working_sample
 
 
 class ContextCache(BoundedCache):
-    """The last few direction-invariant contexts (points, rings, order): a new field, seed or sample on
-    the same mesh, UV map, target and scale re-synthesizes without rebuilding them (the paper's point:
-    neighbourhoods do not depend on the field). Bounded, since a 1024² context holds ~0.3 GB."""
+    """The last direction-invariant context (points, rings, order): a new field, seed or sample on the
+    same mesh, UV map, target and scale re-synthesizes without rebuilding it (the paper's point:
+    neighbourhoods do not depend on the field). One only (BoundedCache's capacity 1), since a 1024² context
+    holds ~0.3 GB."""
 
     @staticmethod
     def key(mesh_arrays, triangles, corner_uvs, target, texels_per_unit, settings):

@@ -23,11 +23,6 @@ def patch_zone(method):
     return TEXTON_PATCH_ZONE if method == "TEXTON" else 0.0
 
 
-def default_cache_dir(base):
-    """Cache folder under a Blender user resource folder (or any base folder)."""
-    return os.path.join(base, "texsynth")
-
-
 def cache_status(sample, settings, cache_dir):
     """'fresh' | 'missing' | 'stale' for the sample's cached preprocessing."""
     module = native.require()

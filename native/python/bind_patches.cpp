@@ -20,6 +20,22 @@
 namespace py = pybind11;
 using namespace texsynth_py;
 
+namespace {
+
+// The parameters patch_exemplar() builds with; patch_exemplar_key() hashes the same ones, so a cache key
+// covers every default the add-on does not pass.
+texsynth::ExemplarParams exemplar_params(const texsynth::ExemplarSample& sample, int patch_size, bool tileable,
+                                         uint64_t seed) {
+  texsynth::ExemplarParams params;
+  params.patch_size = texsynth::fit_patch_size(sample.width, sample.height, patch_size, tileable);
+  params.tileable = tileable;
+  params.seed = seed;
+  params.full_index = true;
+  return params;
+}
+
+}  // namespace
+
 void bind_patches(py::module_& m) {
   py::class_<texsynth::PatchField, std::shared_ptr<texsynth::PatchField>>(
       m, "PatchField",
@@ -144,11 +160,7 @@ void bind_patches(py::module_& m) {
          py::object cancel) {
         FloatArray px = float_array(pixels, "sample");
         const texsynth::ExemplarSample sample = sample_view<texsynth::ExemplarSample>(px);
-        texsynth::ExemplarParams params;
-        params.patch_size = texsynth::fit_patch_size(sample.width, sample.height, patch_size, tileable);
-        params.tileable = tileable;
-        params.seed = seed;
-        params.full_index = true;
+        texsynth::ExemplarParams params = exemplar_params(sample, patch_size, tileable, seed);
         params.max_megabytes = max_megabytes;
         auto index = std::make_shared<texsynth::ExemplarIndex>();
         *index = cancellable(cancel, [&](const CallControl& control) {
@@ -163,6 +175,18 @@ void bind_patches(py::module_& m) {
       "Analyses a sample (H, W, 3|4) float, row 0 = bottom, for vector-field patches: appearance and the "
       "full-patch index. A sample too small for patch_size gets the largest multiple of 4 that fits "
       "(PatchExemplar.patch_size says which). ValueError on bad input; cancel: a CancelToken.");
+
+  m.def(
+      "patch_exemplar_key",
+      [](py::object pixels, int patch_size, bool tileable, uint64_t seed) {
+        FloatArray px = float_array(pixels, "sample");
+        const texsynth::ExemplarSample sample = sample_view<texsynth::ExemplarSample>(px);
+        return texsynth::exemplar_key(sample, exemplar_params(sample, patch_size, tileable, seed));
+      },
+      py::arg("sample"), py::kw_only(), py::arg("patch_size") = 32, py::arg("tileable") = false, py::arg("seed") = 0,
+      "The key patch_exemplar() with these arguments stores in its PatchExemplar (.key), without building it: "
+      "pass it to load_patch_exemplar(path, key) so a file made from other pixels or parameters is refused. "
+      "Covers the pixels, size, channels, format version and every parameter (the fitted patch size included).");
 
   // The add-on checks settings and estimates memory with these, before any work: the limits and the
   // plan live here only.

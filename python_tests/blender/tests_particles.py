@@ -689,6 +689,43 @@ def test_a_failed_particle_write_leaves_the_scene_and_the_mesh_unchanged():
     assert names() == before and harness.mesh_hash(target.data) == hashed and not target.material_slots
 
 
+def test_the_background_file_follows_the_analysis_and_a_damaged_one_is_rewritten():
+    """The background PNG's folder is named after the filled background itself, so a label image (or any
+    setting that changes the fill) gets its own file; a truncated file or one of another size there is
+    written again, through a temporary file renamed into place."""
+    from texsynth.bridge import sources
+    clean()
+    target = plane(size=4.0, cuts=20)
+    props = configure(scale=1.5)
+    cache = tempfile.mkdtemp(dir=FOLDER)
+
+    def prepared(label_pixels=None):
+        job = synthesis.Job([target], Sample(path=props.sample_path), props.to_settings(), cache,
+                            label_pixels=label_pixels).prepare()
+        path = job.background_job.sample.path
+        stored = sources.decode_sample_file(path)  # row 0 = top, uint8 RGBA
+        expected = np.clip(job.analysis.background[::-1, :, :3], 0.0, 1.0) * 255.0
+        assert stored.shape[:2] == expected.shape[:2], (path, stored.shape)
+        assert np.abs(stored[..., :3].astype(np.float32) - expected).max() <= 1.0, path
+        return path
+
+    drawn = prepared()
+    labels = np.zeros((64, 96, 4), np.float32)
+    labels[..., 3] = 1.0
+    labels[8:18, 8:18, 0] = 1.0  # one square particle: another filled background
+    labelled = prepared(labels)
+    assert labelled != drawn and os.path.isfile(drawn)
+    whole = open(labelled, "rb").read()
+    for damaged in (whole[:len(whole) // 2], whole[:60]):
+        with open(labelled, "wb") as handle:
+            handle.write(damaged)
+        assert prepared(labels) == labelled and open(labelled, "rb").read() == whole
+    harness.save_png(labelled, np.ones((8, 8, 4), np.float32))  # a valid PNG of another size
+    assert prepared(labels) == labelled and open(labelled, "rb").read() == whole
+    written = [name for _, _, names in os.walk(cache) for name in names]
+    assert not [name for name in written if name.startswith(".")], written  # no temporary file left
+
+
 def test_the_worker_thread_runs_the_job_as_the_modal_operator_does():
     import time
     clean()
@@ -957,6 +994,7 @@ FULL_RUN_TESTS = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_
                   "test_the_worker_thread_runs_the_job_as_the_modal_operator_does",
                   "test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_along_its_normal",
                   "test_a_failed_particle_write_leaves_the_scene_and_the_mesh_unchanged",
+                  "test_the_background_file_follows_the_analysis_and_a_damaged_one_is_rewritten",
                   "test_probability_from_a_vertex_group_thins_the_particles",
                   "test_baking_composites_the_decals_over_the_background",
                   "test_baking_refuses_a_target_edited_since_its_particles_and_changes_nothing",

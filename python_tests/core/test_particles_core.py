@@ -3,6 +3,7 @@
 images, merges, the analysis cache and the refusals of unusable samples, the segmentation preview, atlas
 packing, decal rectangles and instance frames. Expected values are worked out from the inputs."""
 import math
+import os
 
 import re
 
@@ -134,6 +135,35 @@ def test_analysis_is_cached_on_disk_and_a_corrupt_file_is_rebuilt(tmp_path):
     files[0].write_bytes(bytes(data))
     _, source = core.analyse(sample, settings(), cache_dir=str(tmp_path), cache=core.AnalysisCache())
     assert source == "built"
+
+
+def test_the_background_file_follows_the_filled_background():
+    # The background PNG is written from analysis.background alone, so its folder is that array's digest:
+    # a label image or any analysis setting that changes the fill gets another file, and only an identical
+    # fill shares one (the old path came from the sample's pixels alone). The file name (the Blender
+    # image's name) names the sample and label image.
+    sample = pebbles()
+    base = core.analyse(sample, settings(), cache=core.AnalysisCache())[0].background
+    path = core.background_file_path("cache", base, sample)
+    assert path == core.background_file_path("cache", base.copy(), sample.copy())
+    folder, name = os.path.split(path)
+    assert os.path.dirname(folder) == "cache" and os.path.basename(folder).startswith(core.BACKGROUND_PREFIX)
+    assert folder.endswith("-%d" % core.BACKGROUND_FORMAT)
+    assert name == core.BACKGROUND_PREFIX + core.analysis_key(sample, settings())[:16] + ".png"
+    labels = np.zeros(sample.shape[:2], np.int32)
+    labels[8:18, 8:18] = 1  # one stone as the only particle: the other stones stay in the background
+    differing = 0
+    for changes, label_image in ((dict(particle_classes=2), None), (dict(particle_min_area=200), None),
+                                 (dict(particle_blur=1.5), None), (dict(seed=9), None), ({}, labels)):
+        other = core.analyse(sample, settings(**changes), label_image, cache=core.AnalysisCache())[0].background
+        same = other.shape == base.shape and np.array_equal(other, base)
+        other_folder = os.path.dirname(core.background_file_path("cache", other, sample, label_image))
+        assert (other_folder == folder) == same, changes
+        differing += not same
+    assert differing >= 2
+    tweaked = base.copy()
+    tweaked[0, 0, 0] += 0.25
+    assert os.path.dirname(core.background_file_path("cache", tweaked, sample)) != folder
 
 
 def test_class_rows_count_the_drawn_particles():

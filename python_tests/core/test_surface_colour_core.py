@@ -160,3 +160,27 @@ def test_patch_memory_advice_names_only_changes_that_apply_and_an_image_size_tha
                                         surface_pixels, 4, 1.0, (512, 512))
     assert "Patch Sampling mode (CLI --mode sampling)" in advice and "image" not in advice, advice
     assert "larger patches" not in advice, advice  # 64 is the largest patch size
+
+
+def test_an_exemplar_saved_with_other_parameters_is_not_reused(tmp_path):
+    native = pytest.importorskip("texsynth_native")
+    addon_native = addon_package.load("native")
+    addon_native._module, addon_native._reason, addon_native._tried = native, None, True  # one copy of the module
+    sample = np.random.default_rng(8).random((40, 40, 3)).astype(np.float32)
+    exemplar, how = patches_core.ExemplarCache().get(sample, 16, False, str(tmp_path))
+    assert how == "built"
+    (path,) = tmp_path.glob("patches-*.tsx")
+    assert patches_core.ExemplarCache().get(sample, 16, False, str(tmp_path))[1] == "disk"
+    # Files under the same name made with another patch size, seed or tiling, or from other pixels:
+    # each is refused by its stored key and rebuilt, never used.
+    for other in (native.patch_exemplar(sample, patch_size=8), native.patch_exemplar(sample, patch_size=16, seed=3),
+                  native.patch_exemplar(sample, patch_size=16, tileable=True),
+                  native.patch_exemplar(sample[::-1].copy(), patch_size=16)):
+        other.save(str(path))
+        rebuilt, how = patches_core.ExemplarCache().get(sample, 16, False, str(tmp_path))
+        assert how == "built" and rebuilt.key == exemplar.key != other.key
+        assert native.load_patch_exemplar(str(path)).key == exemplar.key  # written over the stale file
+    # Every parameter is in the file name too: another patch size or tiling has its own file.
+    patches_core.ExemplarCache().get(sample, 8, False, str(tmp_path))
+    patches_core.ExemplarCache().get(sample, 16, True, str(tmp_path))
+    assert len(list(tmp_path.glob("patches-*.tsx"))) == 3

@@ -198,3 +198,15 @@ def test_patch_limits_and_level_plan_come_from_the_module():
     # The estimate grows with the sample (512² at 32 px patches: about 0.47 GB, measured 0.46 GB).
     small, large = (tn.estimate_patch_exemplar_bytes(s, s, 3, 32) for s in (128, 512))
     assert 0.3e9 < large < 0.7e9 and large > 10 * small
+
+
+def test_exemplar_key_is_the_key_patch_exemplar_stores():
+    # The add-on loads its cache file with this key, so every parameter patch_exemplar uses must change it.
+    sample = np.random.default_rng(6).random((40, 40, 3)).astype(np.float32)
+    key = tn.patch_exemplar_key(sample, patch_size=16)
+    assert key == tn.patch_exemplar(sample, patch_size=16).key
+    assert tn.patch_exemplar_key(sample, patch_size=64) == tn.patch_exemplar(sample, patch_size=64).key  # fitted
+    others = {tn.patch_exemplar_key(sample, patch_size=8), tn.patch_exemplar_key(sample, patch_size=16, seed=1),
+              tn.patch_exemplar_key(sample, patch_size=16, tileable=True),
+              tn.patch_exemplar_key(sample[::-1].copy(), patch_size=16)}
+    assert key not in others and len(others) == 4

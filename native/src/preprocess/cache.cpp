@@ -57,6 +57,14 @@ uint32_t params_hash(const PreprocessParams& params) {
   return uint32_t(h ^ (h >> 32));
 }
 
+bool same_params(const PreprocessParams& a, const PreprocessParams& b) {
+  // Byte for byte as stored, so a file's parameters compare exactly as written.
+  ByteWriter wa, wb;
+  put_params(wa, a);
+  put_params(wb, b);
+  return wa.bytes == wb.bytes;
+}
+
 std::string cache_file_path(const std::string& cache_dir, uint64_t sample_hash, const PreprocessParams& params) {
   char name[64];
   std::snprintf(name, sizeof(name), "%016llx-%08x.tscache", static_cast<unsigned long long>(sample_hash),
@@ -206,7 +214,7 @@ CacheState cache_state(const std::string& path, uint64_t sample_hash, const Prep
   if (!fs::exists(path, ec)) return CacheState::kMissing;
   try {
     const Preprocessed cached = load_preprocessed(path, sample_hash);
-    return params_hash(cached.params) == params_hash(params) ? CacheState::kFresh : CacheState::kStale;
+    return same_params(cached.params, params) ? CacheState::kFresh : CacheState::kStale;
   } catch (const CacheError&) {
     return CacheState::kStale;
   }

@@ -153,7 +153,7 @@ Preprocessed preprocess_cached(const Image& image, const PreprocessParams& param
   if (std::filesystem::exists(path, ec)) {
     try {
       Preprocessed cached = load_preprocessed(path, hash);
-      if (params_hash(cached.params) == params_hash(params)) {
+      if (same_params(cached.params, params)) {  // not just the file name's 32-bit hash
         cached.cache_hit = true;
         cached.cache_status = "hit";
         return cached;

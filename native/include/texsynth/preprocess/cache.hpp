@@ -29,12 +29,16 @@ uint64_t cache_checksum(const void* data, size_t size);
 
 // 32-bit fingerprint of everything in the params that changes the result (and the format version).
 uint32_t params_hash(const PreprocessParams& params);
+// Every field params_hash covers, compared in full: the 32-bit hash in the file name can collide, so a
+// cache is only used when its stored parameters equal the requested ones.
+bool same_params(const PreprocessParams& a, const PreprocessParams& b);
 
 // "<cache_dir>/<sample_hash:016x>-<params_hash:08x>.tscache"
 std::string cache_file_path(const std::string& cache_dir, uint64_t sample_hash, const PreprocessParams& params);
 
 enum class CacheState { kFresh, kMissing, kStale };
-// Fresh = file exists, validates, and matches hash and params. Never throws CacheError.
+// Fresh = file exists, validates, and matches the sample hash and every parameter (same_params).
+// Never throws CacheError.
 CacheState cache_state(const std::string& path, uint64_t sample_hash, const PreprocessParams& params);
 
 }  // namespace texsynth
