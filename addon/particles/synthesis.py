@@ -113,7 +113,8 @@ class Job:
             raise SettingsError("this build of texsynth_native lacks %s: rebuild with scripts/build.sh"
                                          % ", ".join(missing))
         if settings.particle_background != "NONE" and self.only_class is None:
-            self._prepare_background([item.obj for item in self.items])
+            with self.timings.phase("background"):  # its preprocessing (the background job's own phases)
+                self._prepare_background([item.obj for item in self.items])
         return self
 
     def _read(self, obj):
@@ -170,7 +171,8 @@ class Job:
         try:
             if self.background_job is not None:
                 progress(0.0, "TexSynth: background")
-                self.background_job.compute()
+                with self.timings.phase("background"):
+                    self.background_job.compute()
             for index, item in enumerate(self.items):
                 if self.cancelled:
                     raise module.Cancelled("cancelled")
@@ -316,7 +318,8 @@ class Job:
             for entry in self.background_job.items:  # no background where the particles could not be written
                 if entry[0].name not in written:
                     entry[2] = None
-            background = self.background_job.apply()
+            with self.timings.phase("background"):
+                background = self.background_job.apply()
             self.report.notes += background.notes
             for name, message in background.failures:
                 if name in self.report.objects:  # particles without their background: taken out again
