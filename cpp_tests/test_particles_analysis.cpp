@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "particle_fixtures.hpp"
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/particles/analysis.hpp"
@@ -24,33 +25,14 @@ using texsynth::EntrySource;
 using texsynth::ParticleAnalysis;
 using texsynth::ParticleAnalysisParams;
 
-struct Colour {
-  float r, g, b;
-};
+using particle_fixtures::add_noise;
+using particle_fixtures::Colour;
+using particle_fixtures::Scene;
+
 constexpr Colour kGround{0.2f, 0.3f, 0.25f};
 constexpr Colour kStone{0.8f, 0.7f, 0.3f};
 
-struct Scene {
-  int W = 0, H = 0;
-  std::vector<float> px;  // W x H x 3, row 0 at the bottom
-  texsynth::ParticleSample view() const { return {px.data(), W, H, 3}; }
-  void set(int x, int y, Colour c) {
-    float* p = &px[(size_t(y) * W + x) * 3];
-    p[0] = c.r, p[1] = c.g, p[2] = c.b;
-  }
-};
-
-Scene flat(int W, int H, Colour c = kGround) {
-  Scene s{W, H, std::vector<float>(size_t(W) * H * 3)};
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) s.set(x, y, c);
-  return s;
-}
-
-void add_noise(Scene& s, float amplitude, uint64_t seed) {
-  texsynth::Rng rng(seed);
-  for (float& v : s.px) v += float(amplitude * (2 * rng.uniform() - 1));
-}
+Scene flat(int W, int H, Colour c = kGround) { return particle_fixtures::flat(W, H, c); }
 
 struct Disc {
   double cx, cy, r;

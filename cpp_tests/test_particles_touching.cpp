@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "particle_fixtures.hpp"
 #include "texsynth/common/rng.hpp"
 #include "texsynth/particles/analysis.hpp"
 
@@ -17,22 +18,9 @@ namespace {
 using texsynth::ParticleAnalysis;
 using texsynth::ParticleAnalysisParams;
 
-struct Scene {
-  int W = 0, H = 0;
-  std::vector<float> px;  // W x H x 3, row 0 at the bottom
-  texsynth::ParticleSample view() const { return {px.data(), W, H, 3}; }
-  void set(int x, int y, float v) {
-    float* p = &px[(size_t(y) * W + x) * 3];
-    p[0] = v, p[1] = 0.9f * v, p[2] = 0.8f * v;
-  }
-};
-
-Scene flat(int W, int H, float v) {
-  Scene s{W, H, std::vector<float>(size_t(W) * H * 3)};
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) s.set(x, y, v);
-  return s;
-}
+using particle_fixtures::add_noise;
+using particle_fixtures::flat;
+using particle_fixtures::Scene;
 
 // Ellipse (centre, half axes, angle in radians), wrapped around the sample when tileable.
 void paint_ellipse(Scene& s, double cx, double cy, double a, double b, double angle, float v, bool wrap = false) {
@@ -44,11 +32,6 @@ void paint_ellipse(Scene& s, double cx, double cy, double a, double b, double an
       const double u = (dx * c + dy * sn) / a, w = (-dx * sn + dy * c) / b;
       if (u * u + w * w <= 1) s.set(x, y, v);
     }
-}
-
-void add_noise(Scene& s, float amplitude, uint64_t seed) {
-  texsynth::Rng rng(seed);
-  for (float& v : s.px) v += float(amplitude * (2 * rng.uniform() - 1));
 }
 
 ParticleAnalysisParams touching_params(int classes = 2) {

@@ -29,6 +29,10 @@ from texsynth.bridge.sources import Sample  # noqa: E402
 sys.path.insert(0, harness.SAMPLES_DIR)
 import particle_instances  # noqa: E402
 
+# python_tests/: the mesh helpers shared with the native tests.
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+import mesh_arrays  # noqa: E402
+
 GROUND = (0.2, 0.3, 0.25)
 STONE = (0.9, 0.2, 0.1)
 LEAF = (0.1, 0.6, 0.1)
@@ -928,15 +932,8 @@ def overlapping_decals_render(engine, stack):
     positions, triangles = positions.reshape(-1, 3), triangles.reshape(-1, 3)
     module = native.require()
     walk = module.surface_walk_mesh(positions, triangles)
-    anchors = []
-    for x in (-0.2, 0.2):  # squares 0.8 wide: they overlap on x in [-0.2, 0.2]
-        p = positions[triangles].astype(np.float64)
-        e1, e2, q = p[:, 1, :2] - p[:, 0, :2], p[:, 2, :2] - p[:, 0, :2], np.array([x, 0.05]) - p[:, 0, :2]
-        det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-        b1 = (q[:, 0] * e2[:, 1] - q[:, 1] * e2[:, 0]) / det
-        b2 = (e1[:, 0] * q[:, 1] - e1[:, 1] * q[:, 0]) / det
-        t = int(np.flatnonzero((b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1))[0])
-        anchors.append((t, (b1[t], b2[t])))
+    # Squares 0.8 wide: they overlap on x in [-0.2, 0.2].
+    anchors = [mesh_arrays.locate(positions, triangles, (x, 0.05)) for x in (-0.2, 0.2)]
     lift = outputs.decal_lift(0, outputs.bbox_diagonal(positions))
     if not stack:
         lift["stack_step"] = 0.0

@@ -205,19 +205,37 @@ struct Scratch {
 
 float atlas(double s0, double s1, double f) { return float(s0 * (1 - f) + s1 * f); }
 
-Patch build_patch(const SurfaceWalkMesh& mesh, const TriangleMeshInput& in, const DecalParticle& p, uint32_t stamp,
-                  const DecalOptions& o, double lift, double cos_max, Scratch& sc) {
+// A particle's rectangle as it lies on the surface: the anchor, its smooth normal and tangent frame, and the
+// corners in that frame. Computed once per particle, for the stacking and the patch.
+struct Footprint {
+  V3 centre, normal, u, v;
+  std::array<double, 4> rect{};
+  double radius = 0;  // the farthest corner: a sphere round the centre holds the whole rectangle
+};
+
+Footprint footprint_of(const WalkMesh& walk, const TriangleMeshInput& in, const DecalParticle& p) {
+  Footprint f;
+  f.centre = surface_position(in, p.anchor);
+  f.normal = smooth_normal(walk, in, p.anchor);
+  f.u = normalized_or(project_to_plane(p.axis, f.normal), any_perpendicular(f.normal));
+  f.v = cross(f.normal, f.u);
+  f.rect = p.rect;
+  const auto& r = p.rect;
+  f.radius = std::sqrt(std::max(r[0] * r[0], r[2] * r[2]) + std::max(r[1] * r[1], r[3] * r[3]));
+  return f;
+}
+
+Patch build_patch(const SurfaceWalkMesh& mesh, const TriangleMeshInput& in, const DecalParticle& p,
+                  const Footprint& foot, uint32_t stamp, const DecalOptions& o, double lift, double cos_max,
+                  Scratch& sc) {
   Patch out;
   const WalkMesh& walk = mesh.walk;
   const int32_t t0 = p.anchor.triangle;
   if (walk.tris[size_t(t0)].degenerate) return out;
-  const V3 x0 = surface_position(in, p.anchor);
-  const V3 n0 = smooth_normal(walk, in, p.anchor);
-  const V3 u = normalized_or(project_to_plane(p.axis, n0), any_perpendicular(n0));
-  const V3 v = cross(n0, u);
+  const V3 x0 = foot.centre, n0 = foot.normal, u = foot.u, v = foot.v;
   const auto& r = p.rect;
   const double rect_area = (r[2] - r[0]) * (r[3] - r[1]);
-  const double radius = std::sqrt(std::max(r[0] * r[0], r[2] * r[2]) + std::max(r[1] * r[1], r[3] * r[3]));
+  const double radius = foot.radius;
 
   uint64_t unshared = 0;
   FaceClipper clipper(r, unshared);
@@ -345,13 +363,6 @@ std::vector<DecalParticle> checked_particles(const SurfaceWalkMesh& mesh, const 
   return out;
 }
 
-// A particle's rectangle as it lies on the surface: the anchor, its tangent frame and the corners in it.
-struct Footprint {
-  V3 centre, u, v;
-  std::array<double, 4> rect{};
-  double radius = 0;  // the farthest corner: a sphere round the centre holds the whole rectangle
-};
-
 // Rectangles k and j overlap in k's tangent plane (j's corners projected there): no separating axis among the
 // four edge normals. Neighbouring decals lie on nearly one plane, so the projection is close to the surface.
 bool footprints_overlap(const Footprint& k, const Footprint& j) {
@@ -392,24 +403,11 @@ bool footprints_overlap(const Footprint& k, const Footprint& j) {
 // the particles after the bound keep level 0 (counted in DecalStats::unstacked).
 constexpr int64_t kStackTestsPerParticle = 256;
 
-std::vector<int32_t> stack_levels(const SurfaceWalkMesh& mesh, const TriangleMeshInput& in,
-                                  const std::vector<DecalParticle>& ps, int32_t cap, int64_t* unstacked) {
-  const size_t n = ps.size();
+std::vector<int32_t> stack_levels(const std::vector<Footprint>& foot, int32_t cap, int64_t* unstacked) {
+  const size_t n = foot.size();
   std::vector<int32_t> level(n, 0);
-  std::vector<Footprint> foot(n);
   double widest = 0;
-  for (size_t i = 0; i < n; ++i) {
-    const DecalParticle& p = ps[i];
-    Footprint& f = foot[i];
-    const V3 n0 = smooth_normal(mesh.walk, in, p.anchor);
-    f.centre = surface_position(in, p.anchor);
-    f.u = normalized_or(project_to_plane(p.axis, n0), any_perpendicular(n0));
-    f.v = cross(n0, f.u);
-    f.rect = p.rect;
-    const auto& r = p.rect;
-    f.radius = std::sqrt(std::max(r[0] * r[0], r[2] * r[2]) + std::max(r[1] * r[1], r[3] * r[3]));
-    widest = std::max(widest, f.radius);
-  }
+  for (const Footprint& f : foot) widest = std::max(widest, f.radius);
   if (n < 2 || !(widest > 0)) return level;
   const double cell = 2 * widest;
   // Clamped before the cast: a tiny footprint far from the origin gives a quotient beyond int64.
@@ -472,7 +470,11 @@ DecalMesh build_decal_mesh(const SurfaceWalkMesh& mesh, const DecalParticle* par
   const TriangleMeshInput input = mesh.input();
   const double cos_max = std::cos(o.max_normal_angle * kPi / 180);
   int64_t unstacked = 0;
-  const std::vector<int32_t> level = o.stack_step > 0 ? stack_levels(mesh, input, in, o.max_level, &unstacked)
+  std::vector<Footprint> foot(static_cast<size_t>(count));
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, count, 256), [&](const tbb::blocked_range<int64_t>& range) {
+    for (int64_t i = range.begin(); i < range.end(); ++i) foot[size_t(i)] = footprint_of(mesh.walk, input, in[size_t(i)]);
+  });
+  const std::vector<int32_t> level = o.stack_step > 0 ? stack_levels(foot, o.max_level, &unstacked)
                                                       : std::vector<int32_t>(size_t(count), 0);
   throw_if_cancelled(o.cancel);
   std::vector<Patch> patches(static_cast<size_t>(count));
@@ -493,7 +495,8 @@ DecalMesh build_decal_mesh(const SurfaceWalkMesh& mesh, const DecalParticle* par
     for (int64_t k = range.begin(); k < range.end(); ++k) {
       const int64_t i = order[size_t(k)];
       const double lift = o.offset + double(level[size_t(i)]) * o.stack_step;
-      patches[size_t(i)] = build_patch(mesh, input, in[size_t(i)], uint32_t(i + 1), o, lift, cos_max, sc);
+      patches[size_t(i)] = build_patch(mesh, input, in[size_t(i)], foot[size_t(i)], uint32_t(i + 1), o, lift,
+                                             cos_max, sc);
     }
   });
   throw_if_cancelled(o.cancel);
