@@ -25,6 +25,19 @@ def blender(*args, blend_file=None, env=None, timeout=HANG_SECONDS):
     return subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=timeout, env=full_env)
 
 
+def crash_logs(output):
+    """The crash logs Blender wrote ("Writing: <file>.crash.txt" in its output), as one text: its backtrace
+    names the native function that crashed, which the test output alone does not."""
+    texts = []
+    for path in sorted(set(re.findall(r"Writing: (\S+\.crash\.txt)", output))):
+        try:
+            with open(path, errors="replace") as handle:
+                texts.append("== %s\n%s" % (path, handle.read()[-8000:]))
+        except OSError as error:
+            texts.append("== %s: %s" % (path, error))
+    return "\n".join(texts)
+
+
 def cli(*cli_args, blend_file=None, env=None):
     """Runs the headless CLI (with the contract double when the real synthesizer is not built)."""
     if addon_package.real_synthesizer_available():

@@ -43,7 +43,8 @@ def test_an_artists_day_keeps_every_invariant():
                                   "--warmup", str(WARMUP), "--rss-bound-mb", str(RSS_BOUND_MB),
                                   "--report", report_path)
     output = blender_run.without_blender_noise(process.stdout + process.stderr)
-    assert os.path.isfile(report_path), "no report written (exit code %d):\n%s" % (process.returncode, output[-6000:])
+    assert os.path.isfile(report_path), "no report written (exit code %d):\n%s\n%s" % (
+        process.returncode, output[-6000:], blender_run.crash_logs(process.stdout + process.stderr))
     with open(report_path) as handle:
         report = json.load(handle)
     start = output.rfind("== TexSynth workflow soak")

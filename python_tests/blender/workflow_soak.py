@@ -67,6 +67,7 @@ Prints per-operator counts, the violations and the RSS curve's summary; --report
 """
 import argparse
 import collections
+import faulthandler
 import hashlib
 import json
 import math
@@ -1128,6 +1129,8 @@ def parse_args(argv):
 
 def main():
     args = parse_args(harness.script_args())
+    # A crash (in Blender or in TexSynth's native code) then prints the Python stack: the step and operator.
+    faulthandler.enable()
     if native.get() is None:
         print("workflow_soak: texsynth_native is not available: %s" % native.reason())
         sys.exit(2)
