@@ -1,0 +1,70 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Pure helpers of bench_particles_corpus.py (issue 30, "Use the benchmark corpus"): densities, class shares,
+the typical-element range and the share of placed particles inside it. numpy only, no native module.
+"""
+import numpy as np
+
+from touching_metrics import AREA_SLACK, ASPECT_SLACK
+
+# The sample's typical element: its complete particles' area and box aspect between these percentiles
+# (fragments and merged blobs of a segmentation sit in the tails), widened by touching_metrics' slack.
+TYPICAL_PERCENTILES = (10.0, 90.0)
+
+
+def aspect_of(halves):
+    """Long / short half extent of (n, 2) box halves."""
+    h = np.asarray(halves, np.float64).reshape(-1, 2)
+    return h.max(1) / np.maximum(h.min(1), 1e-9)
+
+
+def typical_range(area, aspect, percentiles=TYPICAL_PERCENTILES):
+    """(area lo, hi, aspect lo, hi): the percentiles of the reference particles' area and aspect, widened by
+    AREA_SLACK and ASPECT_SLACK (aspect never below 1). None without reference particles."""
+    area, aspect = np.asarray(area, np.float64), np.asarray(aspect, np.float64)
+    if len(area) == 0:
+        return None
+    a0, a1 = np.percentile(area, percentiles)
+    s0, s1 = np.percentile(aspect, percentiles)
+    return (float(a0 / AREA_SLACK), float(a1 * AREA_SLACK), float(max(1.0, s0 / ASPECT_SLACK)),
+            float(s1 * ASPECT_SLACK))
+
+
+def in_range_share(area, aspect, rng):
+    """Share (0..1) of particles whose area and aspect lie within rng = typical_range(...); nan if none."""
+    area, aspect = np.asarray(area, np.float64), np.asarray(aspect, np.float64)
+    if len(area) == 0 or rng is None:
+        return float("nan")
+    a0, a1, s0, s1 = rng
+    return float(np.mean((area >= a0) & (area <= a1) & (aspect >= s0) & (aspect <= s1)))
+
+
+def class_shares(classes, class_ids):
+    """Share of each id of class_ids among classes (zeros when classes is empty)."""
+    classes = np.asarray(classes).ravel()
+    if len(classes) == 0:
+        return np.zeros(len(class_ids))
+    return np.array([np.count_nonzero(classes == c) for c in class_ids], np.float64) / len(classes)
+
+
+def worst_share_error(placed_classes, sample_counts, class_ids):
+    """max over class_ids of |share among the placed - share among the sample's particles| (sample_counts:
+    particles per class id, indexable by id)."""
+    counts = np.array([sample_counts[c] for c in class_ids], np.float64)
+    if counts.sum() == 0:
+        return float("nan")
+    return float(np.max(np.abs(class_shares(placed_classes, class_ids) - counts / counts.sum())))
+
+
+def density_ratio(placed_count, placed_area_px, sample_count, sample_area_px):
+    """(placed per px^2) / (sample's per px^2); nan when the sample has none."""
+    if sample_count == 0 or placed_area_px <= 0:
+        return float("nan")
+    return (placed_count / placed_area_px) / (sample_count / sample_area_px)
+
+
+def goal_share(values, test):
+    """Share of the finite values passing test (a predicate); nan values count as failures."""
+    values = list(values)
+    if not values:
+        return float("nan")
+    return sum(1 for v in values if v is not None and v == v and test(v)) / len(values)
