@@ -164,6 +164,8 @@ struct LevelState {
 struct Scratch {
   std::vector<float> bin_acc, bin_w;
   std::vector<int32_t> bin_dom;
+  std::vector<float> bin_uv;         // image: 2 per entry, the ring point's UV
+  std::vector<int32_t> bin_island;   // image: the ring point's UV island (-1: no point)
   std::vector<float> tmpl, weight;
   std::vector<int> valid;
   std::vector<int32_t> seen;
@@ -233,6 +235,14 @@ class LevelSynth {
     s.weight.assign(size_t(P), 0.f);     // 1 where coloured
     s.valid.clear();
     const double turns = (double(st_.angle[i]) - kTwoPi / 4) / kTwoPi;  // sample +x is the field turned by -90°
+    const bool image = ctx_.target == RoundTarget::kImage;
+    float centre_u = 0, centre_v = 0;
+    const int32_t centre_island = image ? ctx_.triangle_island[L_.triangle[i]] : -1;
+    if (centre_island >= 0) {
+      const float* uv = &ctx_.corner_uvs[6 * size_t(L_.triangle[i])];
+      const float b1 = L_.barycentric[2 * size_t(i)], b2 = L_.barycentric[2 * size_t(i) + 1], b0 = 1.f - b1 - b2;
+      centre_u = b0 * uv[0] + b1 * uv[2] + b2 * uv[4], centre_v = b0 * uv[1] + b1 * uv[3] + b2 * uv[5];
+    }
     for (int k = 0; k < P; ++k) {
       const int m = tmpl_ring_[k], bins = ring_bins(m);
       double x = turns * bins + tmpl_bin_offset_[k];
@@ -242,6 +252,28 @@ class LevelSynth {
       if (b0 >= bins) b0 = 0, w = 0.f;
       const int b1 = b0 + 1 == bins ? 0 : b0 + 1;
       const int e0 = ring_offset(m) + b0, e1 = ring_offset(m) + b1;
+      // Between two ring points of one island, the template point is read where it lies: the UV offsets
+      // from the centre interpolated by angle (exact where the UV map is linear over the ring). Blending
+      // the two bins' colours instead blurs by how far the field turns from the rings' reference tangent,
+      // which comes from the triangulation.
+      if (w > 0.f && centre_island >= 0 && s.bin_island[e0] == centre_island && s.bin_island[e1] == centre_island) {
+        const double step = kTwoPi / bins, inv_sin = 1.0 / std::sin(step);
+        const float a0 = float(std::sin((1.0 - w) * step) * inv_sin), a1 = float(std::sin(w * step) * inv_sin);
+        const float u = centre_u + a0 * (s.bin_uv[2 * size_t(e0)] - centre_u) + a1 * (s.bin_uv[2 * size_t(e1)] - centre_u);
+        const float v = centre_v + a0 * (s.bin_uv[2 * size_t(e0) + 1] - centre_v) +
+                        a1 * (s.bin_uv[2 * size_t(e1) + 1] - centre_v);
+        float acc[C] = {};
+        float wsum = 0, wbest = 0;
+        int32_t dom = -1;
+        read_texels<C>(u, v, centre_island, acc, wsum, wbest, dom);
+        if (wsum >= kMinColourWeight) {
+          const float inv = 1.f / wsum;
+          for (int c = 0; c < C; ++c) s.tmpl[size_t(c) * P + k] = acc[c] * inv;
+          s.weight[k] = 1.f;
+          s.valid.push_back(k);
+          continue;
+        }
+      }
       const float W = (1 - w) * s.bin_w[e0] + w * s.bin_w[e1];
       if (!(W >= kMinColourWeight)) continue;
       const float inv = 1.f / W;
@@ -283,6 +315,33 @@ class LevelSynth {
   }
 
  private:
+  // Adds point q's colour with weight w (nothing when q has none yet); dom: the heaviest point so far.
+  template <int C>
+  void add_colour(int32_t q, float w, float* acc, float& wsum, float& wbest, int32_t& dom) const {
+    if (q < 0 || w <= 0.f || !st_.has[q]) return;
+    const float* col = &st_.colour[size_t(q) * C];
+    for (int c = 0; c < C; ++c) acc[c] += w * col[c];
+    wsum += w;
+    if (w > wbest) wbest = w, dom = q;
+  }
+
+  // Image target: bilinear over this level's texels of one island at (u, v), unnormalised.
+  template <int C>
+  void read_texels(float u, float v, int32_t island, float* acc, float& wsum, float& wbest, int32_t& dom) const {
+    const float X = u * float(L_.width) - 0.5f, Y = v * float(L_.height) - 0.5f;
+    const float fx0 = std::floor(X), fy0 = std::floor(Y);
+    const int32_t x0 = int32_t(fx0), y0 = int32_t(fy0);
+    const float tx = X - fx0, ty = Y - fy0;
+    for (int k = 0; k < 4; ++k) {
+      const int32_t x = x0 + (k & 1), y = y0 + (k >> 1);
+      if (x < 0 || y < 0 || x >= L_.width || y >= L_.height) continue;
+      int32_t q = L_.texel_point[size_t(y) * L_.width + x];
+      if (q < -1) q = -2 - q;  // gutter texel: its nearest covered texel
+      if (q < 0 || L_.island[q] != island) continue;
+      add_colour<C>(q, ((k & 1) ? tx : 1 - tx) * ((k >> 1) ? ty : 1 - ty), acc, wsum, wbest, dom);
+    }
+  }
+
   // Ring bins of point i: unnormalised colour sums, weights and the dominant coloured point.
   template <int C>
   void gather_bins(int32_t i, Scratch& s) const {
@@ -291,6 +350,7 @@ class LevelSynth {
     s.bin_dom.assign(size_t(E_), -1);
     const RingPoint* block = L_.rings_data.point_block(i);
     const bool image = ctx_.target == RoundTarget::kImage;
+    if (image) s.bin_uv.assign(2 * size_t(E_), 0.f), s.bin_island.assign(size_t(E_), -1);
     for (int e = 0; e < E_; ++e) {
       const RingPoint& rp = block[e];
       if (rp.triangle < 0) continue;
@@ -298,13 +358,6 @@ class LevelSynth {
       float* acc = &s.bin_acc[size_t(e) * C];
       float wsum = 0, wbest = 0;
       int32_t dom = -1;
-      auto add = [&](int32_t q, float w) {
-        if (q < 0 || w <= 0.f || !st_.has[q]) return;
-        const float* col = &st_.colour[size_t(q) * C];
-        for (int c = 0; c < C; ++c) acc[c] += w * col[c];
-        wsum += w;
-        if (w > wbest) wbest = w, dom = q;
-      };
       if (image) {
         // (triangle, barycentrics) -> UV of that triangle -> bilinear over this level's texels of
         // the same island (a walk that crossed a seam reads the other island's texels).
@@ -312,19 +365,10 @@ class LevelSynth {
         if (island < 0) continue;
         const float* uv = &ctx_.corner_uvs[6 * size_t(rp.triangle)];
         const float u = b0 * uv[0] + b1 * uv[2] + b2 * uv[4], v = b0 * uv[1] + b1 * uv[3] + b2 * uv[5];
-        const float X = u * float(L_.width) - 0.5f, Y = v * float(L_.height) - 0.5f;
-        const float fx0 = std::floor(X), fy0 = std::floor(Y);
-        const int32_t x0 = int32_t(fx0), y0 = int32_t(fy0);
-        const float tx = X - fx0, ty = Y - fy0;
-        for (int k = 0; k < 4; ++k) {
-          const int32_t x = x0 + (k & 1), y = y0 + (k >> 1);
-          if (x < 0 || y < 0 || x >= L_.width || y >= L_.height) continue;
-          int32_t q = L_.texel_point[size_t(y) * L_.width + x];
-          if (q < -1) q = -2 - q;  // gutter texel: its nearest covered texel
-          if (q < 0 || L_.island[q] != island) continue;
-          add(q, ((k & 1) ? tx : 1 - tx) * ((k >> 1) ? ty : 1 - ty));
-        }
+        s.bin_uv[2 * size_t(e)] = u, s.bin_uv[2 * size_t(e) + 1] = v, s.bin_island[e] = island;
+        read_texels<C>(u, v, island, acc, wsum, wbest, dom);
       } else {
+        auto add = [&](int32_t q, float w) { add_colour<C>(q, w, acc, wsum, wbest, dom); };
         const int32_t* c = &ctx_.triangles[3 * size_t(rp.triangle)];
         add(ctx_.vertex_point[c[0]], b0);
         add(ctx_.vertex_point[c[1]], b1);
