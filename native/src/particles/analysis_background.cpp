@@ -88,6 +88,23 @@ std::pair<int64_t, int64_t> interior_cells(const ParticleAnalysis& a, const std:
   return {particles, pixels};
 }
 
+std::pair<int64_t, int64_t> eroded_window(const ParticleAnalysis& a) {
+  std::vector<int32_t> reach;
+  for (const Particle& p : a.particles)
+    if (p.complete) reach.push_back((std::max(p.x1 - p.x0, p.y1 - p.y0) + 2) / 2);
+  if (reach.empty()) return {0, 0};
+  const size_t rank = std::min(reach.size() - 1, size_t(kParticleReachPercentile * double(reach.size())));
+  std::nth_element(reach.begin(), reach.begin() + ptrdiff_t(rank), reach.end());
+  const int32_t m = reach[rank];
+  const int64_t w = int64_t(a.width) - 2 * int64_t(m), h = int64_t(a.height) - 2 * int64_t(m);
+  if (w <= 0 || h <= 0) return {0, 0};
+  int64_t inside = 0;
+  for (const Particle& p : a.particles)
+    inside += p.centroid_x >= float(m) && p.centroid_x < float(a.width - m) && p.centroid_y >= float(m) &&
+              p.centroid_y < float(a.height - m);
+  return {inside, w * h};
+}
+
 void fill_background(ParticleAnalysis& a, const ParticleSample& s, uint64_t seed, const std::atomic<bool>* cancel) {
   const int32_t W = a.width, H = a.height, C = a.channels;
   const size_t N = size_t(W) * size_t(H);

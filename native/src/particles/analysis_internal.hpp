@@ -62,6 +62,11 @@ std::vector<NeighbourHit> search_neighbours(const ParticleAnalysis& a, int32_t i
 
 // Density cells and background fill (analysis_background.cpp).
 std::pair<int64_t, int64_t> interior_cells(const ParticleAnalysis& a, const std::atomic<bool>* cancel);
+// (particles whose centroid lies at least m px inside the border, the pixels of that window), m = the
+// kParticleReachPercentile of the complete particles' half bounding-box sides: a particle the border cuts
+// has its true centre within m of the border, so the window counts each particle once, by where it is.
+// (0, 0) when no particle is complete or the window is empty.
+std::pair<int64_t, int64_t> eroded_window(const ParticleAnalysis& a);
 void fill_background(ParticleAnalysis& a, const ParticleSample& s, uint64_t seed, const std::atomic<bool>* cancel);
 
 }  // namespace particle_detail
