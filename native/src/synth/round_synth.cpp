@@ -237,7 +237,7 @@ class LevelSynth {
     const double turns = (double(st_.angle[i]) - kTwoPi / 4) / kTwoPi;  // sample +x is the field turned by -90°
     const bool image = ctx_.target == RoundTarget::kImage;
     float centre_u = 0, centre_v = 0;
-    const int32_t centre_island = image ? ctx_.triangle_island[L_.triangle[i]] : -1;
+    const int32_t centre_island = image && L_.triangle[i] >= 0 ? ctx_.triangle_island[L_.triangle[i]] : -1;
     if (centre_island >= 0) {
       const float* uv = &ctx_.corner_uvs[6 * size_t(L_.triangle[i])];
       const float b1 = L_.barycentric[2 * size_t(i)], b2 = L_.barycentric[2 * size_t(i) + 1], b0 = 1.f - b1 - b2;
