@@ -279,7 +279,8 @@ def bake(obj, request, context=None, progress=None):
         material = None
         if request.material != "NONE":
             material = baked_material(obj, image, uv_map, request.material == "ASSIGN")
-        keep_unused(material if material is not None else image)
+        if request.material != "ASSIGN":  # the image (no material) or the material not assigned is the output
+            keep_unused(material if material is not None else image)
         success = True
     finally:
         for material in materials:

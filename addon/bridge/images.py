@@ -46,10 +46,12 @@ def take_name(image, name):
 
 
 def keep_unused(datablock):
-    """Gives an output nothing uses yet (a baked image with no material, a baked material not assigned, a
-    surface-colour image with material mode Layers Only) a fake user, so saving the .blend keeps it: a
-    datablock with no user is dropped by the save, whatever the report said. Returns it."""
-    if datablock is not None and datablock.users == 0:
+    """Gives an output TexSynth does not assign (a baked image with no material, a baked material not
+    assigned, a surface-colour image with material mode Layers Only) a fake user, so saving the .blend keeps
+    it: a datablock with no user is dropped by the save, whatever the report said. Whatever users it has now
+    do not count: take_name gave it those of the output it replaced (a material of the artist's showing the
+    last result), and they may go. Returns it."""
+    if datablock is not None:
         datablock.use_fake_user = True
     return datablock
 

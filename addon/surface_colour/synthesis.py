@@ -250,7 +250,8 @@ class Job:
             images.take_name(image, target.image_name)
             material = surface_material.apply(item.obj, self.material_mode, fit_name(MATERIAL_PREFIX, item.obj.name),
                                               image=image, uv_map=item.uv_map)
-            images.keep_unused(image)  # Layers Only: the image is the output, and nothing uses it yet
+            if material is None:
+                images.keep_unused(image)  # Layers Only: the image is the output, and nothing assigns it
         except Exception:
             if image.name.startswith(images.TEMP_PREFIX):  # not yet in place of an older image
                 bpy.data.images.remove(image)

@@ -310,6 +310,30 @@ def test_layers_only_image_survives_save_and_reload():
     assert image.packed_file is not None and harness.pixel_digest(image) == digest
 
 
+def test_layers_only_image_survives_when_the_image_it_replaced_was_shown_elsewhere():
+    # Found by the workflow soak (seed 109): a material of the artist's showed the previous result; the new
+    # image takes its users, so it still had one when the run ended and got no fake user; once that material
+    # no longer shows it, the save drops the result the report named.
+    obj = plane()
+    run([obj])  # shown by TexSynth's material: no fake user
+    viewer = bpy.data.materials.new("Viewer")
+    viewer.use_nodes = True
+    node = viewer.node_tree.nodes.new("ShaderNodeTexImage")
+    node.image = bpy.data.images["TexSynth Round: Plane"]
+    obj.data.materials.clear()
+    for material in [m for m in bpy.data.materials if m.name.startswith("TexSynth")]:
+        bpy.data.materials.remove(material)
+    run([obj], material_mode="NONE")
+    image = bpy.data.images["TexSynth Round: Plane"]
+    assert node.image == image  # the new result took the old one's users
+    digest = harness.pixel_digest(image)
+    node.image = None
+    harness.save_and_reload("round_shown.blend")
+    image = bpy.data.images.get("TexSynth Round: Plane")
+    assert image is not None, sorted(i.name for i in bpy.data.images)
+    assert harness.pixel_digest(image) == digest
+
+
 def test_a_uv_map_made_for_a_mesh_without_one_is_active_and_bake_works_after():
     # Smart UV Project on a mesh with no UV map: the mesh had no active UV map (index -1) and must not be left
     # with that index now that it has one, or Cycles' bake refuses it ("No active UV layer found").

@@ -256,12 +256,20 @@ FP_PREFIX = {"objects": "object:", "meshes": "mesh:", "materials": "material:", 
 # still be there after a save + reload; one a later run replaced (nothing uses it any more) may go.
 OUTPUTS = {"images": ("TexSynth Baked: ", "TexSynth Round: ", "TexSynth Patches: "),
            "materials": ("TexSynth Baked: ",)}
+# Which step makes which of them. Another step can still change one: memfile undo brings back an image
+# with no user that a branch (undo, then another step) had dropped, and the next step's fingerprint then
+# shows it (found with seed 109): that image is an orphan, not an output.
+OUTPUT_MAKERS = {"round": {"images": ("TexSynth Round: ",)},
+                 "patches": {"images": ("TexSynth Patches: ",)},
+                 "bake": {"images": ("TexSynth Baked: ",), "materials": ("TexSynth Baked: ",)},
+                 "surface_bake": {"images": ("TexSynth Baked: ",), "materials": ("TexSynth Baked: ",)}}
 
 
-def outputs_made(before, after):
-    """{(kind, name): made with no user} for the OUTPUTS a step made or rewrote (fingerprint before -> after)."""
+def outputs_made(op, before, after):
+    """{(kind, name): made with no user} for the OUTPUTS step `op` made or rewrote (fingerprint before ->
+    after)."""
     made = {}
-    for kind, prefixes in OUTPUTS.items():
+    for kind, prefixes in OUTPUT_MAKERS.get(op, {}).items():
         for item in getattr(bpy.data, kind):
             key = FP_PREFIX[kind] + item.name
             if item.name.startswith(prefixes) and before.get(key) != after.get(key):
@@ -462,12 +470,12 @@ class Soak:
     def resync(self, label="resync"):
         """After a violation the state and the undo stack no longer match the history: start a new one."""
         bpy.ops.ed.undo_push(message=label)
-        self.history = [(label, fingerprint())]
+        self.history = [(label, fingerprint(), dict(self.unused_outputs))]
 
     def push(self, label):
         """An edit outside an operator (sidebar settings, selection, an annotation): one undo step, as the UI does."""
         bpy.ops.ed.undo_push(message=label)
-        self.history.append((label, fingerprint()))
+        self.history.append((label, fingerprint(), dict(self.unused_outputs)))
         del self.history[:-HISTORY]
 
     @property
@@ -513,9 +521,10 @@ class Soak:
         counts["finished"] += 1
         if expect == "fail":
             self.violation("unexpected_success", ["the operator finished with bad settings"])
-        self.history.append((self.op, after))
+        self.unused_outputs.update(outputs_made(self.op, before, after))
+        # With the outputs known then: an undo that is not redone (a branch) takes back what the step made.
+        self.history.append((self.op, after, dict(self.unused_outputs)))
         del self.history[:-HISTORY]
-        self.unused_outputs.update(outputs_made(before, after))
         rng = self.rng
         if rerun and rng.random() < self.args.p_rerun:
             counts["rerun"] += 1
@@ -544,7 +553,7 @@ class Soak:
             if bad:
                 self.resync()
                 return status
-            self.history.append((self.op + " (again)", after))
+            self.history.append((self.op + " (again)", after, dict(self.unused_outputs)))
             del self.history[:-HISTORY]
         if rng.random() < self.args.p_undo:
             self.undo_redo()
@@ -566,7 +575,7 @@ class Soak:
                 self.resync()
                 return
             counts["undo"] += 1
-            label, expected = self.history[-1 - i]
+            label, expected, _ = self.history[-1 - i]
             _, bad = self.expect_state("undo", expected, ["%d undo(s) back to after %r" % (i, label)])
             if bad:
                 self.resync()
@@ -580,13 +589,14 @@ class Soak:
                     self.resync()
                     return
                 counts["redo"] += 1
-                label, expected = self.history[-1 - i]
+                label, expected, _ = self.history[-1 - i]
                 _, bad = self.expect_state("redo", expected, ["redo to after %r" % label])
                 if bad:
                     self.resync()
                     return
         else:
             del self.history[-depth:]
+            self.unused_outputs = dict(self.history[-1][2])
             counts["branch"] += 1
 
     # -- the model: what should succeed ---------------------------------------------------------
@@ -998,7 +1008,7 @@ class Soak:
         # A load empties the undo stack, and background mode does not start one (ed.undo's poll: "Undo
         # disabled at startup in background-mode") until the next ed.undo_push.
         bpy.ops.ed.undo_push(message="Reload")
-        self.history = [("reload", loaded)]
+        self.history = [("reload", loaded, dict(self.unused_outputs))]
 
     OPERATORS = (("jumpmap", 10), ("texton", 6), ("round", 6), ("patches", 5), ("particles", 5),
                  ("particle_analyse", 4), ("particle_class", 3), ("field_preset", 5), ("comb", 5), ("strokes", 2),
@@ -1011,7 +1021,7 @@ class Soak:
     def run(self):
         setup_scene()
         bpy.ops.ed.undo_push(message="Setup")
-        self.history = [("setup", fingerprint())]
+        self.history = [("setup", fingerprint(), dict(self.unused_outputs))]
         names = [name for name, _ in self.OPERATORS]
         weights = [weight for _, weight in self.OPERATORS]
         if self.args.only:
