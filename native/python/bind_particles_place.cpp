@@ -29,7 +29,7 @@ py::dict placement_stats(const texsynth::PlacementStats& s) {
   py::list classes;
   for (const auto& c : s.classes)
     classes.append(stats_dict("class", c.class_id, "placed", c.placed, "hidden", c.hidden, "thinned", c.thinned,
-                              "filled", c.filled, "expected", c.expected, "rejected_overlap", c.rejected_overlap,
+                              "filled", c.filled, "expected", c.expected, "rejected_overlap", c.rejected_overlap, "crowded", c.crowded,
                               "walls", c.walls, "excluded", c.excluded, "seeds", c.seeds, "reseeded", c.reseeded,
                               "reseed_rounds", c.reseed_rounds, "cap", c.cap, "capped", c.capped, "random", c.random));
   return stats_dict("classes", classes, "components", s.components, "walks", s.walks, "capped", s.capped, "seconds",

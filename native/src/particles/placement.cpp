@@ -204,6 +204,8 @@ class Placer {
   double surface_px_ = 0;    // the surface in sample pixels^2 under the local pixel size and density
   std::vector<int32_t> dart_tris_;  // triangles where particles may stand..
   std::vector<double> dart_cdf_;    // ..and their cumulative area x density / pixel^2
+  std::vector<double> tri_px_;      // per triangle: area x density / pixel^2 (0 where none may stand)
+  std::vector<V3> tri_centre_, tri_normal_;
   ClassGrid all_;            // every placed particle (conflicts)
   std::vector<uint8_t> output_;  // per class: rows output
 
@@ -232,10 +234,13 @@ class Placer {
     ClassPlacementStats& st;
     Rng rng;
     ClassGrid grid;
+    ClassGrid triangles;  // triangle centroids, for the local count control's expected count
+    double crowd_radius_px = 0;
     int64_t count = 0;
     bool stop = false;
   };
   bool accept(ClassRun& run, Placed&& c);
+  bool crowded(const ClassRun& run, const Placed& c) const;
   void thin(ClassRun& run, size_t first);
   bool try_seed(ClassRun& run, const SurfacePoint& at, PlacementOrigin origin);
   void propagate(ClassRun& run, std::vector<int32_t> frontier, int32_t class_index, int32_t num_classes);
@@ -656,6 +661,43 @@ bool Placer::accept(ClassRun& run, Placed&& c) {
   return true;
 }
 
+// The class's particles within the disc round c that expects kPlacementCrowdCount of them (sample density x
+// the local density override): at least (1 + kPlacementCrowdSlack) x that many. Where the disc leaves the
+// surface (a boundary) it holds fewer, so edges are never refused for lack of room.
+bool Placer::crowded(const ClassRun& run, const Placed& c) const {
+  if (!(run.crowd_radius_px > 0)) return false;
+  const double radius = run.crowd_radius_px * c.l.pixel, inv_r2 = 1 / (radius * radius);
+  // Counts weighted by (1 - d^2 / r^2)^2: a lattice's weighted count hardly depends on where the disc sits,
+  // where a plain count in a disc swings by the points on its rim (an exact grid was refused children).
+  auto weight = [&](V3 d) {
+    const double q = 1 - dot(d, d) * inv_r2;
+    return q > 0 ? q * q : 0.0;
+  };
+  // The expected count from the surface inside the disc (triangles by centroid): a disc that leaves the
+  // surface at a boundary expects fewer. Fewer than kPlacementCrowdTriangles centroids inside (a coarse mesh):
+  // the whole disc's count.
+  double surface = 0;
+  int32_t inside = 0;
+  run.triangles.near(c.l.position, radius, [&](int32_t t) {
+    const double w = weight(tri_centre_[size_t(t)] - c.l.position);
+    if (w > 0 && dot(tri_normal_[size_t(t)], c.l.normal) > 0) surface += w * tri_px_[size_t(t)], ++inside;
+    return false;
+  });
+  const double nominal = kPlacementCrowdCount * c.l.density;
+  const double expected = inside >= kPlacementCrowdTriangles ? surface * run.cp.density_px : nominal;
+  // A disc that mostly leaves the surface (a corner) holds too few particles for their count to mean
+  // anything: an exact grid's particle on a plane's corner counted 5.2 against 4 expected and was refused.
+  if (expected < kPlacementCrowdCovered * nominal) return false;
+  const double limit = (1 + kPlacementCrowdSlack) * expected;
+  double n = 0;
+  run.grid.near(c.l.position, radius, [&](int32_t j) {
+    const Placed& o = placed_[size_t(j)];
+    if (dot(o.l.normal, c.l.normal) >= 0) n += weight(o.l.position - c.l.position);
+    return n >= limit;
+  });
+  return n >= limit;
+}
+
 bool Placer::try_seed(ClassRun& run, const SurfacePoint& at, PlacementOrigin origin) {
   const int32_t sprite = run.cp.complete[run.rng.below(uint32_t(run.cp.complete.size()))];
   const double jitter = 1 + p_.size_jitter * (2 * run.rng.uniform() - 1);
@@ -778,6 +820,10 @@ void Placer::propagate(ClassRun& run, std::vector<int32_t> frontier, int32_t cla
         run.st.rejected_overlap++;
         continue;
       }
+      if (crowded(run, c)) {
+        run.st.crowded++;
+        continue;
+      }
       if (accept(run, std::move(c))) next.push_back(int32_t(placed_.size()) - 1);
     }
     frontier.swap(next);
@@ -793,6 +839,16 @@ void Placer::prepare_darts() {
     if (component_[size_t(t)] < 0) return;
     const Local l = local({t, 1.0 / 3, 1.0 / 3}, V3{0, 0, 1});
     if (!l.empty()) per[size_t(t)] = area_[size_t(t)] * l.density / (l.pixel * l.pixel);
+  });
+  tri_px_.assign(size_t(in_.num_triangles), 0.0);
+  tri_centre_.assign(size_t(in_.num_triangles), V3{});
+  tri_normal_.assign(size_t(in_.num_triangles), V3{});
+  parallel_triangles([&](int32_t t) {
+    const int32_t* k = in_.triangles + 3 * size_t(t);
+    const V3 a = mesh_position(in_, k[0]), b = mesh_position(in_, k[1]), c = mesh_position(in_, k[2]);
+    tri_centre_[size_t(t)] = (a + b + c) * (1.0 / 3);
+    tri_normal_[size_t(t)] = normalized_or(cross(b - a, c - a), V3{0, 0, 1});
+    tri_px_[size_t(t)] = std::max(per[size_t(t)], 0.0);
   });
   double acc = 0;
   for (int32_t t = 0; t < in_.num_triangles; ++t) {  // fixed order
@@ -900,6 +956,13 @@ PlacedParticles Placer::run() {
     margin_px_ = cp.margin_px;
     run.grid.cell = cell_for(cp.max_radius_px, cp.margin_px);
     run.grid.origin = lower_;
+    if (cp.density_px > 0) {
+      // The weight's integral over the disc is a third of its area.
+      run.crowd_radius_px = std::sqrt(3 * kPlacementCrowdCount / (kPi * cp.density_px));
+      run.triangles.cell = std::max(2 * run.crowd_radius_px * unit, extent / double(int64_t(1) << 19));
+      run.triangles.origin = lower_;
+      for (int32_t t : dart_tris_) run.triangles.insert(t, tri_centre_[size_t(t)], 0.0);
+    }
     report(ci, last + 1, 0);
     const size_t first = placed_.size();
     if (cp.random) {
