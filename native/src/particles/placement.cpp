@@ -952,7 +952,7 @@ PlacedParticles Placer::run() {
     st.random = cp.random;
     st.cap = class_cap(cp);
     st.expected = cp.density_px * surface_px_;
-    ClassRun run{cp, st, Rng(hash_combine(p_.seed, kClassStreamSalt), uint64_t(cp.id) + 1), {}};
+    ClassRun run{cp, st, Rng(hash_combine(p_.seed, kClassStreamSalt), uint64_t(cp.id) + 1), {}, {}};
     margin_px_ = cp.margin_px;
     run.grid.cell = cell_for(cp.max_radius_px, cp.margin_px);
     run.grid.origin = lower_;
