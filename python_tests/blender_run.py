@@ -25,17 +25,23 @@ def blender(*args, blend_file=None, env=None, timeout=HANG_SECONDS):
     return subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=timeout, env=full_env)
 
 
-def crash_logs(output):
-    """The crash logs Blender wrote ("Writing: <file>.crash.txt" in its output), as one text: its backtrace
-    names the native function that crashed, which the test output alone does not."""
-    texts = []
+def read_crash_logs(output):
+    """{path: text} of the crash logs Blender wrote ("Writing: <file>.crash.txt" in its output) that can be
+    read: their backtrace names the native function that crashed, which the test output alone does not."""
+    logs = {}
     for path in sorted(set(re.findall(r"Writing: (\S+\.crash\.txt)", output))):
         try:
             with open(path, errors="replace") as handle:
-                texts.append("== %s\n%s" % (path, handle.read()[-8000:]))
+                logs[path] = handle.read()[-8000:]
         except OSError as error:
-            texts.append("== %s: %s" % (path, error))
-    return "\n".join(texts)
+            logs[path] = error
+    return logs
+
+
+def crash_logs(output):
+    """The crash logs of read_crash_logs as one text for a failure message (or why one could not be read)."""
+    return "\n".join("== %s%s" % (path, ": %s" % text if isinstance(text, OSError) else "\n" + text)
+                     for path, text in read_crash_logs(output).items())
 
 
 def cli(*cli_args, blend_file=None, env=None):
