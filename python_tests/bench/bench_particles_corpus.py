@@ -40,7 +40,6 @@ Sheet: per sample, the sample (1 sample width) and the plane's central 2 x 2 sam
 over the tiled filled background, bench_particles_arrangement.composite) at the same pixel scale, labelled.
 """
 import argparse
-import ast
 import json
 import math
 import os
@@ -61,6 +60,7 @@ import particle_metrics as pm  # noqa: E402
 import particles_corpus_metrics as pcm  # noqa: E402
 from bench_particles_arrangement import composite, placed_boxes, plane_mesh, sample_boxes  # noqa: E402
 from bench_round_quality import write_png  # noqa: E402
+from sheet_text import draw_text  # noqa: E402
 
 CORPUS = os.path.join(ROOT, "out", "corpus")
 # element-like samples of other categories (issue 30's list), after every `element` one
@@ -192,28 +192,6 @@ def run(name, info, d, args):
 
 # ------------------------------------------------------------------------------------------- sheet
 
-def font():
-    """The 5 x 7 glyphs of corpus_sheets.py (read from its source: that module needs Blender's bpy)."""
-    with open(os.path.join(HERE, "corpus_sheets.py")) as handle:
-        tree = ast.parse(handle.read())
-    for node in tree.body:
-        if isinstance(node, ast.Assign) and any(getattr(t, "id", "") == "FONT" for t in node.targets):
-            return ast.literal_eval(node.value)
-    return {}
-
-
-def draw_text(canvas, glyphs, text, y, x, colour=(1.0, 1.0, 1.0)):
-    for char in text.upper():
-        glyph = glyphs.get(char, glyphs.get(" "))
-        if glyph is None or x + 5 > canvas.shape[1]:
-            break
-        for r, bits in enumerate(glyph.split()):
-            for c, bit in enumerate(bits):
-                if bit == "1":
-                    canvas[y + r, x + c] = colour
-        x += 6
-
-
 def resize(img, size):
     """Nearest-pixel (down) or box (up) resample of (H, W, 3) to size x size (row 0 = top)."""
     h, w = img.shape[:2]
@@ -230,7 +208,6 @@ def resize(img, size):
 
 
 def sheet(rows, pictures, path, png_dir):
-    glyphs = font()
     label, gap, per_row = 10, 4, 2
     cell_w = CELL + 2 * CELL + gap
     n_rows = int(math.ceil(len(rows) / per_row))
@@ -240,7 +217,7 @@ def sheet(rows, pictures, path, png_dir):
         x = (i % per_row) * (cell_w + gap)
         text = "%s d%.2f nn%.2f/%.2f t%.2f" % (row["name"], row["density"], row["ks_synth"], row["ks_halves"],
                                                 row["typical"])
-        draw_text(canvas, glyphs, text, y + 1, x + 1, (1.0, 1.0, 1.0) if row["nn_within"] else (1.0, 0.6, 0.5))
+        draw_text(canvas, text, y + 1, x + 1, (1.0, 1.0, 1.0) if row["nn_within"] else (1.0, 0.6, 0.5))
         sample_cell = resize(np.asarray(sample, np.float64), CELL)
         canvas[y + label:y + label + CELL, x:x + CELL] = sample_cell
         canvas[y + label:y + label + 2 * CELL, x + CELL + gap:x + CELL + gap + 2 * CELL] = np.asarray(pic)[..., :3]
