@@ -661,9 +661,10 @@ bool Placer::accept(ClassRun& run, Placed&& c) {
   return true;
 }
 
-// The class's particles within the disc round c that expects kPlacementCrowdCount of them (sample density x
-// the local density override): at least (1 + kPlacementCrowdSlack) x that many. Where the disc leaves the
-// surface (a boundary) it holds fewer, so edges are never refused for lack of room.
+// Whether the class's particles round c, counted with a weight that falls to 0 at the rim of a disc sized to
+// expect kPlacementCrowdCount of them (sample density x the local density override), reach
+// (1 + kPlacementCrowdSlack) x the weighted count the surface inside that disc expects. A disc that leaves
+// the surface (a boundary) expects fewer, so edges are never refused for lack of room.
 bool Placer::crowded(const ClassRun& run, const Placed& c) const {
   if (!(run.crowd_radius_px > 0)) return false;
   const double radius = run.crowd_radius_px * c.l.pixel, inv_r2 = 1 / (radius * radius);
