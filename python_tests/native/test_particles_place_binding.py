@@ -269,3 +269,29 @@ def test_local_count_control_spreads_a_class_over_the_whole_surface():
     classes = placed["stats"]["classes"]
     assert sum(c["crowded"] for c in classes) > 0 and not any(c["capped"] for c in classes), classes
     assert 0.85 <= ratio <= 1.2, ratio
+
+
+def test_thinning_takes_the_excess_where_the_propagation_packed_it():
+    """Issue 30: the propagation still packs more round its seeds than elsewhere (within the local count
+    control's 1.3 x), and a class over its expected count was thinned uniformly, which kept that excess: on the
+    paving_bricks plane the middle 2 x 2 sample widths held 1.10 x the whole plane's density (seeds 1-3: 1.10,
+    1.09, 1.12; centre cell 1.17, 1.16, 1.11). Thinning now drops particles with a chance that rises with
+    their local count ratio: 0.98-0.99, centre cell 0.96-1.05."""
+    import paths
+    sample = np.ascontiguousarray(np.asarray(tn.load_image(paths.BENCH + "/placement_paving_bricks.png"),
+                                             np.float32)[..., :3])
+    a = tn.particle_analysis(sample, classes=4, blur=1.0, seed=0, tileable=False)
+    width = sample.shape[1] / 512.0
+    pos, tris = jittered_plane(n=150, spacing=3 * width / 150, jitter=0.0)
+    field = np.tile(np.array([0.0, 1.0, 0.0], np.float32), (len(pos), 1))
+    mesh = tn.surface_walk_mesh(pos, tris)
+    middles, centres = [], []
+    for seed in (1, 2, 3):
+        placed = tn.place_particles(a, mesh, field, sample_world_width=width, seed=seed)
+        assert sum(c["thinned"] for c in placed["stats"]["classes"]) > 0  # the thinning is what is tested
+        p = placed["position"][:, :2] / width
+        per_cell = len(p) / 9.0
+        middles.append(np.all((p >= 0.5) & (p < 2.5), axis=1).sum() / 4.0 / per_cell)
+        centres.append(np.all((p >= 1.0) & (p < 2.0), axis=1).sum() / per_cell)
+    assert abs(np.mean(middles) - 1.0) <= 0.05, middles
+    assert np.mean(centres) <= 1.08, centres

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -240,6 +241,12 @@ class Placer {
     bool stop = false;
   };
   bool accept(ClassRun& run, Placed&& c);
+  struct LocalCount {
+    double weighted = 0;  // the class's particles round c, weighted (1 - d^2 / r^2)^2
+    double expected = 0;  // the same weighted count the surface inside the disc expects
+    double nominal = 0;   // what a disc wholly on the surface expects
+  };
+  LocalCount local_count(const ClassRun& run, const Placed& c, double stop_factor) const;
   bool crowded(const ClassRun& run, const Placed& c) const;
   void thin(ClassRun& run, size_t first);
   bool try_seed(ClassRun& run, const SurfacePoint& at, PlacementOrigin origin);
@@ -661,22 +668,21 @@ bool Placer::accept(ClassRun& run, Placed&& c) {
   return true;
 }
 
-// Whether the class's particles round c, counted with a weight that falls to 0 at the rim of a disc sized to
-// expect kPlacementCrowdCount of them (sample density x the local density override), reach
-// (1 + kPlacementCrowdSlack) x the weighted count the surface inside that disc expects. A disc that leaves
-// the surface (a boundary) expects fewer, so edges are never refused for lack of room.
-bool Placer::crowded(const ClassRun& run, const Placed& c) const {
-  if (!(run.crowd_radius_px > 0)) return false;
+// The class's particles round c, counted with a weight that falls to 0 at the rim of a disc sized to expect
+// kPlacementCrowdCount of them (sample density x the local density override), and the weighted count the
+// surface inside that disc expects (triangles by centroid; fewer than kPlacementCrowdTriangles inside, a
+// coarse mesh: the whole disc's). A disc that leaves the surface (a boundary) expects fewer. With
+// stop_factor > 0, counting stops at stop_factor x expected, and a disc that mostly leaves the surface (a
+// corner: expected below kPlacementCrowdCovered x nominal) is not counted at all.
+Placer::LocalCount Placer::local_count(const ClassRun& run, const Placed& c, double stop_factor) const {
+  LocalCount out;
   const double radius = run.crowd_radius_px * c.l.pixel, inv_r2 = 1 / (radius * radius);
-  // Counts weighted by (1 - d^2 / r^2)^2: a lattice's weighted count hardly depends on where the disc sits,
-  // where a plain count in a disc swings by the points on its rim (an exact grid was refused children).
+  // Weighted, a lattice's count hardly depends on where the disc sits, where a plain count in a disc
+  // swings by the points on its rim (an exact grid was refused children).
   auto weight = [&](V3 d) {
     const double q = 1 - dot(d, d) * inv_r2;
     return q > 0 ? q * q : 0.0;
   };
-  // The expected count from the surface inside the disc (triangles by centroid): a disc that leaves the
-  // surface at a boundary expects fewer. Fewer than kPlacementCrowdTriangles centroids inside (a coarse mesh):
-  // the whole disc's count.
   double surface = 0;
   int32_t inside = 0;
   run.triangles.near(c.l.position, radius, [&](int32_t t) {
@@ -684,19 +690,26 @@ bool Placer::crowded(const ClassRun& run, const Placed& c) const {
     if (w > 0 && dot(tri_normal_[size_t(t)], c.l.normal) > 0) surface += w * tri_px_[size_t(t)], ++inside;
     return false;
   });
-  const double nominal = kPlacementCrowdCount * c.l.density;
-  const double expected = inside >= kPlacementCrowdTriangles ? surface * run.cp.density_px : nominal;
-  // A disc that mostly leaves the surface (a corner) holds too few particles for their count to mean
-  // anything: an exact grid's particle on a plane's corner counted 5.2 against 4 expected and was refused.
-  if (expected < kPlacementCrowdCovered * nominal) return false;
-  const double limit = (1 + kPlacementCrowdSlack) * expected;
-  double n = 0;
+  out.nominal = kPlacementCrowdCount * c.l.density;
+  out.expected = inside >= kPlacementCrowdTriangles ? surface * run.cp.density_px : out.nominal;
+  if (stop_factor > 0 && out.expected < kPlacementCrowdCovered * out.nominal) return out;
+  const double stop_at = stop_factor > 0 ? stop_factor * out.expected : std::numeric_limits<double>::infinity();
   run.grid.near(c.l.position, radius, [&](int32_t j) {
     const Placed& o = placed_[size_t(j)];
-    if (dot(o.l.normal, c.l.normal) >= 0) n += weight(o.l.position - c.l.position);
-    return n >= limit;
+    if (dot(o.l.normal, c.l.normal) >= 0) out.weighted += weight(o.l.position - c.l.position);
+    return out.weighted >= stop_at;
   });
-  return n >= limit;
+  return out;
+}
+
+// Whether the class already holds (1 + kPlacementCrowdSlack) x the count the surface round c expects.
+bool Placer::crowded(const ClassRun& run, const Placed& c) const {
+  if (!(run.crowd_radius_px > 0)) return false;
+  // A disc that mostly leaves the surface (a corner) holds too few particles for their count to mean
+  // anything: an exact grid's particle on a plane's corner counted 5.2 against 4 expected and was refused.
+  const LocalCount n = local_count(run, c, 1 + kPlacementCrowdSlack);
+  if (n.expected < kPlacementCrowdCovered * n.nominal) return false;
+  return n.weighted >= (1 + kPlacementCrowdSlack) * n.expected;
 }
 
 bool Placer::try_seed(ClassRun& run, const SurfacePoint& at, PlacementOrigin origin) {
@@ -897,11 +910,27 @@ void Placer::thin(ClassRun& run, size_t first) {
   const size_t n = placed_.size() - first;
   if (global_capped_ || !(double(n) > (1 + kPlacementDensitySlack) * expected) || n >= (size_t(1) << 32)) return;
   const size_t drop = n - size_t(std::llround(expected));
-  std::vector<uint32_t> index(n);
-  for (size_t i = 0; i < n; ++i) index[i] = uint32_t(i);
-  for (size_t i = 0; i < drop; ++i) {
-    std::swap(index[i], index[i + run.rng.below(uint32_t(n - i))]);
-    Placed& c = placed_[first + index[i]];
+  // Where the propagation packed more than elsewhere (round its seeds; a boundary it could not fill),
+  // more go: particle i is kept with a chance that falls as its local count ratio rises (weighted sampling
+  // without replacement, keys -ln(u) x ratio^kPlacementThinExponent, largest dropped). A uniform choice
+  // kept the excess where it was: the middle of a plane 3 samples wide held 1.18 x the sample's density.
+  std::vector<double> ratio(n, 1.0);
+  if (run.crowd_radius_px > 0)
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 256), [&](const tbb::blocked_range<size_t>& r) {
+      throw_if_cancelled(p_.cancel);
+      for (size_t i = r.begin(); i < r.end(); ++i) {
+        const LocalCount lc = local_count(run, placed_[first + i], 0.0);
+        ratio[i] = lc.weighted / std::max(lc.expected, kPlacementCrowdCovered * lc.nominal);
+      }
+    });
+  std::vector<std::pair<double, uint32_t>> key(n);
+  for (size_t i = 0; i < n; ++i) {
+    const double u = (double(run.rng.next_u32()) + 0.5) * (1.0 / 4294967296.0);  // (0, 1)
+    key[i] = {-std::log(u) * std::pow(ratio[i], kPlacementThinExponent), uint32_t(i)};
+  }
+  std::nth_element(key.begin(), key.begin() + std::ptrdiff_t(drop), key.end(), std::greater<>());
+  for (size_t k = 0; k < drop; ++k) {
+    Placed& c = placed_[first + key[k].second];
     (c.visible ? run.st.placed : run.st.hidden)--;  // hidden: by the probability override
     c.visible = false;
     run.st.thinned++;

@@ -68,8 +68,9 @@
 //    sample pixels^2 (area x density override / pixel size^2 per triangle). Propagation fills every gap
 //    an irregular arrangement leaves (60 pebbles per 256^2 at random: 1.4-1.9 x the sample's density with
 //    one class): a class holding more than (1 + kPlacementDensitySlack) x its expected count has particles
-//    chosen uniformly from its stream hidden down to the expected count (stats: thinned). They stay in its
-//    arrangement (they keep its particles apart). A class below (1 - kPlacementDensitySlack) x its
+//    hidden down to the expected count, drawn from its stream with more weight where its local count is
+//    higher (kPlacementThinExponent; stats: thinned). They stay in its arrangement (they keep its
+//    particles apart). A class below (1 - kPlacementDensitySlack) x its
 //    expected count after re-seeding (other classes took its room, or its lattice could not close) gets
 //    darts like a random class up to it, or until kPlacementFillMisses darts in a row found no room
 //    (origin filled; stats: filled). Within the slack nothing changes, so lattices whose count the border
@@ -113,6 +114,8 @@ constexpr int64_t kPlacementFillMisses = 256;       // filling a class stops aft
 // its children) and the jittered-disc plane test's nearest-neighbour KS within its bound (0.25: 0.224 for
 // 0.223; 0.3: 0.208; without the control 0.195).
 constexpr double kPlacementCrowdCount = 16.0;
+// Thinning keeps a particle with a chance that falls as (its local count ratio)^this: 0 = uniform.
+constexpr double kPlacementThinExponent = 2.0;
 constexpr double kPlacementCrowdSlack = 0.3;
 constexpr int32_t kPlacementCrowdTriangles = 8;  // fewer centroids in the disc: its expected count is nominal
 constexpr double kPlacementCrowdCovered = 0.4;  // a disc expecting less than this x nominal (a corner) refuses nothing
