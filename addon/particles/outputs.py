@@ -190,8 +190,8 @@ def euler_xyz(x_axes, z_axes):
 
 def instance_frames(placed, analysis):
     """rotation (n, 3) Euler XYZ with X along the particle's box axis and Z along the normal, and scale
-    (n, 3) = box width, box height (world units) and their geometric mean (an instance of unit size covers
-    the particle's box)."""
+    (n, 3) = box width, box height (world units) and their geometric mean (an object of unit size centred
+    on its origin covers the particle's box; fit_instances fits others)."""
     sprites = np.asarray(placed["sprite"], np.int64)
     theta_s = np.asarray(analysis.particles["box_angle"], np.float64)[sprites] if sprites.size else np.zeros(0)
     box_axes = rotate_in_plane(placed["sprite_axis"], placed["normal"], theta_s)
@@ -200,6 +200,42 @@ def instance_frames(placed, analysis):
     size = np.asarray(placed["pixel_size"], np.float64)[:, None] * 2.0 * half
     scale = np.column_stack([size, np.sqrt(np.maximum(size[:, 0] * size[:, 1], 0.0))])
     return rotation, np.ascontiguousarray(scale, dtype=np.float32)
+
+
+def fit_instances(position, axis, normal, scale, class_ids, child_bounds):
+    """Points and scales that put each instance's own bounding box on its particle's box, whatever size
+    and origin the instanced object was modelled with: child_bounds[class % len] is that object's local
+    (min xyz, max xyz), or None to place it as it is (a unit object centred on its origin covers the box).
+    x and y are scaled to the box, z by the same factor as the box's mean side; the point moves by the
+    scaled box centre along the particle's X axis and Y = normal x X, so the footprint's centre is the
+    particle's. Unfitted, a thorn modelled from its base to +Y reached half a box into its neighbour."""
+    position = np.array(position, np.float64).reshape(-1, 3)
+    scale = np.array(scale, np.float64).reshape(-1, 3)
+    if not child_bounds or not len(position):
+        return position.astype(np.float32), scale.astype(np.float32)
+    lower = np.zeros((len(child_bounds), 3))
+    extent = np.ones((len(child_bounds), 3))
+    fitted = np.zeros(len(child_bounds), bool)
+    for index, bounds in enumerate(child_bounds):
+        if bounds is None:
+            continue
+        low, high = np.asarray(bounds[0], np.float64), np.asarray(bounds[1], np.float64)
+        size = high - low
+        if np.all(np.isfinite(size)) and size[0] > 1e-9 and size[1] > 1e-9:
+            lower[index], extent[index], fitted[index] = low, size, True
+    child = np.asarray(class_ids, np.int64) % len(child_bounds)
+    use = fitted[child]
+    factor = np.ones_like(scale)
+    factor[:, 0] = scale[:, 0] / extent[child, 0]
+    factor[:, 1] = scale[:, 1] / extent[child, 1]
+    factor[:, 2] = scale[:, 2] / np.sqrt(extent[child, 0] * extent[child, 1])
+    centre = lower[child, :2] + 0.5 * extent[child, :2]
+    x_axis = np.asarray(axis, np.float64).reshape(-1, 3)
+    y_axis = np.cross(np.asarray(normal, np.float64).reshape(-1, 3), x_axis)
+    shift = -(centre[:, 0] * factor[:, 0])[:, None] * x_axis - (centre[:, 1] * factor[:, 1])[:, None] * y_axis
+    position = np.where(use[:, None], position + shift, position)
+    scale = np.where(use[:, None], factor, scale)
+    return np.ascontiguousarray(position, np.float32), np.ascontiguousarray(scale, np.float32)
 
 
 def bbox_diagonal(positions):

@@ -10,6 +10,7 @@ find exactly what a run made.
 """
 import itertools
 import os
+import re
 
 import bpy
 import numpy as np
@@ -135,6 +136,23 @@ def instance_group(collection):
         bpy.data.node_groups.remove(group)
         raise
     return group
+
+
+def _natural_key(name):
+    """Blender's natural, case-insensitive name order (digits compared as numbers)."""
+    return [(0, int(part), "") if part.isdigit() else (1, 0, part.lower()) for part in re.split(r"(\d+)", name)]
+
+
+def instance_child_bounds(collection):
+    """Each child the instance group can pick, in its order (Collection Info's separated children, sorted
+    by name): an object's local bounding box (min xyz, max xyz), or None for a child collection (placed as
+    it is)."""
+    children = [(child.name, None) for child in collection.children]
+    for obj in collection.objects:
+        corners = np.array([tuple(corner) for corner in obj.bound_box], np.float64)
+        children.append((obj.name, (corners.min(axis=0), corners.max(axis=0))))
+    children.sort(key=lambda child: _natural_key(child[0]))
+    return [bounds for _, bounds in children]
 
 
 class Creation:

@@ -62,6 +62,7 @@ class Job:
         self.token = None
         self.cancelled = False
         self.analysis = None
+        self.child_bounds = None  # per child of the instance collection, as the node group picks them
 
     # -- main thread --------------------------------------------------------------------------
 
@@ -81,6 +82,7 @@ class Job:
             if not self.collection.all_objects:
                 raise SettingsError("instance collection %r is empty: add the objects to place per class"
                                              % self.collection.name)
+        self.child_bounds = scene.instance_child_bounds(self.collection) if self.collection is not None else None
         self.token = module.CancelToken()
         with self.timings.phase("read"):
             pixels, self.sample_srgb = sources.read_sample_pixels(self.sample)
@@ -263,7 +265,9 @@ class Job:
                     part["sprite_axis"], part["normal"],
                     np.asarray(self.analysis.particles["box_angle"], np.float64)[part["sprite"]])
                 _, scale = outputs.instance_frames(part, self.analysis)
-                out.points = dict(position=part["position"], axis=rotation_axes, normal=part["normal"], scale=scale)
+                position, scale = outputs.fit_instances(part["position"], rotation_axes, part["normal"], scale,
+                                                        np.full(rows.size, c), self.child_bounds)
+                out.points = dict(position=position, axis=rotation_axes, normal=part["normal"], scale=scale)
             item.outputs.append(out)
 
     def _build_atlas(self, module, item):

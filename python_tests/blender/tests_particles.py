@@ -982,7 +982,65 @@ def test_overlapping_decals_of_one_class_render_whole_in_cycles():
     overlap_check("CYCLES")
 
 
-FULL_RUN_TESTS = ("test_synthesize_makes_decals_per_class_with_ids_matching_the_placed_count",
+def instance_footprints(target_name):
+    """Every instance of a target's points as a rectangle on the z = 0 plane: (centre, x axis, y axis, half
+    extents) of the instanced object's own bounding box under the instance's world matrix."""
+    rects = []
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    for inst in depsgraph.object_instances:
+        if not (inst.is_instance and inst.parent is not None and inst.parent.original.get(scene.TAG) == target_name):
+            continue
+        matrix = np.array(inst.matrix_world, np.float64)
+        corners = np.array([tuple(c) for c in inst.object.original.bound_box], np.float64) @ matrix[:3, :3].T
+        corners = corners[:, :2] + matrix[:2, 3]
+        x_axis = matrix[:2, 0] / np.linalg.norm(matrix[:2, 0])
+        y_axis = np.array([-x_axis[1], x_axis[0]])
+        local = corners @ np.column_stack([x_axis, y_axis])
+        low, high = local.min(axis=0), local.max(axis=0)
+        rects.append(((low + high) / 2 @ np.vstack([x_axis, y_axis]), x_axis, y_axis, (high - low) / 2))
+    return rects
+
+
+def unit_box_collection(name="TexSynth Test Boxes"):
+    """A collection holding one unit cube centred on its origin: its instances cover their particles'
+    boxes exactly, with or without fitting."""
+    import bmesh
+    collection = bpy.data.collections.new(name)
+    mesh = bpy.data.meshes.new("Box")
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=1.0)
+    bm.to_mesh(mesh)
+    bm.free()
+    collection.objects.link(bpy.data.objects.new("Box", mesh))
+    return collection
+
+
+def test_instances_cover_their_particles_boxes_whatever_the_object_was_modelled_as():
+    """Issue 30: the example thorn is modelled from its base at the origin to +Y, 0.37 wide, and was scaled
+    as if a unit object centred on its origin, so it reached half a box beyond its particle and left most
+    of the box's width empty. Each object's own bounding box is now fitted to its particle's box: the
+    thorns' footprints equal those of unit cubes placed by the same run (same seed, same placement)."""
+    footprints = {}
+    for key in ("thorns", "boxes"):
+        clean()
+        target = plane(size=4.0, cuts=40)
+        collection = particle_instances.make_collection() if key == "thorns" else unit_box_collection()
+        assert full_run(target, scale=1.5, particle_output="INSTANCES", particle_collection=collection,
+                        particle_background="NONE", particle_classes=2) == {"FINISHED"}
+        footprints[key] = instance_footprints("Plane")
+    thorns, boxes = footprints["thorns"], footprints["boxes"]
+    assert len(thorns) == len(boxes) > 10, (len(thorns), len(boxes))
+    box_centres = np.array([rect[0] for rect in boxes])
+    side = float(np.median([2 * rect[3].min() for rect in boxes]))
+    for centre, x_axis, _, half in thorns:
+        k = int(np.argmin(np.linalg.norm(box_centres - centre, axis=1)))
+        assert np.linalg.norm(box_centres[k] - centre) < 1e-3 * side, (centre, box_centres[k], side)
+        assert abs(abs(float(np.dot(x_axis, boxes[k][1]))) - 1.0) < 1e-4
+        assert np.allclose(half, boxes[k][3], atol=1e-3 * side), (half, boxes[k][3])
+
+
+FULL_RUN_TESTS = ("test_instances_cover_their_particles_boxes_whatever_the_object_was_modelled_as",
+                  "test_synthesize_makes_decals_per_class_with_ids_matching_the_placed_count",
                   "test_resynthesizing_one_class_gives_the_same_rows_and_leaves_the_others",
                   "test_undo_removes_what_synthesize_made", "test_cancel_leaves_nothing_behind",
                   "test_eevee_render_of_synthesized_decals_moves_towards_the_particle_colour",

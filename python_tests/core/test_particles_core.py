@@ -358,3 +358,38 @@ def test_a_run_over_the_particle_cap_is_refused_with_the_scale_that_fits():
     suggested = float(found.group(2))
     assert core.expected_particles(analysis, suggested, 10.0) <= int(expected / 9) < \
         core.expected_particles(analysis, suggested * 0.95, 10.0)
+
+
+def _footprint(position, axis, normal, scale, bounds):
+    """World corners of an instance's own XY bounding box (z at its lower bound) under the frame
+    (X = axis, Z = normal, Y = Z x X) and per-axis scale: what the Instance on Points node draws."""
+    y_axis = np.cross(normal, axis)
+    low, high = np.asarray(bounds[0], float), np.asarray(bounds[1], float)
+    return np.array([position + x * scale[0] * axis + y * scale[1] * y_axis + low[2] * scale[2] * normal
+                     for x in (low[0], high[0]) for y in (low[1], high[1])])
+
+
+def test_instances_are_fitted_to_their_particles_boxes():
+    """Each instanced object's own bounding box lands on its particle's box (centre and sides), whatever its
+    modelled size and origin; an object without bounds is placed as given."""
+    thorn = ((-0.185, 0.0, 0.0), (0.185, 1.0, 0.355))       # the example thorn: origin at its base end
+    pebble = ((-2.0, -3.0, -1.0), (6.0, 1.0, 1.0))           # 8 x 4, off-centre
+    axis = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [np.sqrt(0.5), np.sqrt(0.5), 0.0]])
+    normal = np.tile([0.0, 0.0, 1.0], (3, 1))
+    centre = np.array([[0.0, 0.0, 0.0], [5.0, 1.0, 0.0], [-3.0, 2.0, 0.5]])
+    box = np.array([[0.2, 0.4, np.sqrt(0.08)], [0.5, 0.1, np.sqrt(0.05)], [0.3, 0.3, 0.3]])
+    classes = [0, 1, 2]  # children wrap: class 2 is child 0 again
+    position, scale = outputs.fit_instances(centre, axis, normal, box, classes, [thorn, pebble])
+    for i, bounds in enumerate([thorn, pebble, thorn]):
+        corners = _footprint(position[i], axis[i], normal[i], scale[i], bounds)
+        y_axis = np.cross(normal[i], axis[i])
+        local = (corners - centre[i]) @ np.column_stack([axis[i], y_axis])
+        assert np.allclose(local.min(axis=0), -0.5 * box[i, :2], atol=1e-6), (i, local)
+        assert np.allclose(local.max(axis=0), 0.5 * box[i, :2], atol=1e-6), (i, local)
+    # z grows with the box's mean side: the thorn keeps its height-to-footprint proportion
+    assert np.isclose(scale[0, 2], box[0, 2] / np.sqrt(0.37 * 1.0), rtol=1e-6)
+    # unfitted (the old output), the thorn's footprint sat half a box off the particle
+    corners = _footprint(centre[0], axis[0], normal[0], box[0], thorn)
+    assert corners[:, 1].min() >= 0.0 and corners[:, 1].max() > 0.35
+    same_position, same_scale = outputs.fit_instances(centre, axis, normal, box, classes, [None])
+    assert np.allclose(same_position, centre) and np.allclose(same_scale, box)
