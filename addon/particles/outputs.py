@@ -203,16 +203,18 @@ def instance_frames(placed, analysis):
 
 
 def fit_instances(position, axis, normal, scale, class_ids, child_bounds):
-    """Points and scales that put each instance's own bounding box on its particle's box, whatever size
-    and origin the instanced object was modelled with: child_bounds[class % len] is that object's local
-    (min xyz, max xyz), or None to place it as it is (a unit object centred on its origin covers the box).
-    x and y are scaled to the box, z by the same factor as the box's mean side; the point moves by the
-    scaled box centre along the particle's X axis and Y = normal x X, so the footprint's centre is the
-    particle's. Unfitted, a thorn modelled from its base to +Y reached half a box into its neighbour."""
+    """(position, axis, scale) that put each instanced object inside its particle's box, whatever size and
+    origin it was modelled with: child_bounds[class % len] is that object's local (min xyz, max xyz), or
+    None to place it as given (a unit object centred on its origin covers the box). The object keeps its
+    proportions: turned a quarter about the normal when that lines its longer side up with the box's,
+    scaled by one factor until its footprint meets the box's sides, and moved so the centres meet.
+    Unfitted, a thorn modelled from its base to +Y reached half a box beyond its particle."""
     position = np.array(position, np.float64).reshape(-1, 3)
+    axis = np.array(axis, np.float64).reshape(-1, 3)
+    normal = np.asarray(normal, np.float64).reshape(-1, 3)
     scale = np.array(scale, np.float64).reshape(-1, 3)
     if not child_bounds or not len(position):
-        return position.astype(np.float32), scale.astype(np.float32)
+        return position.astype(np.float32), axis.astype(np.float32), scale.astype(np.float32)
     lower = np.zeros((len(child_bounds), 3))
     extent = np.ones((len(child_bounds), 3))
     fitted = np.zeros(len(child_bounds), bool)
@@ -225,17 +227,20 @@ def fit_instances(position, axis, normal, scale, class_ids, child_bounds):
             lower[index], extent[index], fitted[index] = low, size, True
     child = np.asarray(class_ids, np.int64) % len(child_bounds)
     use = fitted[child]
-    factor = np.ones_like(scale)
-    factor[:, 0] = scale[:, 0] / extent[child, 0]
-    factor[:, 1] = scale[:, 1] / extent[child, 1]
-    factor[:, 2] = scale[:, 2] / np.sqrt(extent[child, 0] * extent[child, 1])
+    width, height = extent[child, 0], extent[child, 1]
+    # A quarter turn (X -> the box's Y) when the object's longer side would lie across the box's longer side.
+    turn = (width >= height) != (scale[:, 0] >= scale[:, 1])
+    box_x = np.where(turn, scale[:, 1], scale[:, 0])
+    box_y = np.where(turn, scale[:, 0], scale[:, 1])
+    x_axis = np.where(turn[:, None], np.cross(normal, axis), axis)
+    y_axis = np.cross(normal, x_axis)
+    factor = np.minimum(box_x / width, box_y / height)
     centre = lower[child, :2] + 0.5 * extent[child, :2]
-    x_axis = np.asarray(axis, np.float64).reshape(-1, 3)
-    y_axis = np.cross(np.asarray(normal, np.float64).reshape(-1, 3), x_axis)
-    shift = -(centre[:, 0] * factor[:, 0])[:, None] * x_axis - (centre[:, 1] * factor[:, 1])[:, None] * y_axis
+    shift = -(centre[:, 0] * factor)[:, None] * x_axis - (centre[:, 1] * factor)[:, None] * y_axis
     position = np.where(use[:, None], position + shift, position)
-    scale = np.where(use[:, None], factor, scale)
-    return np.ascontiguousarray(position, np.float32), np.ascontiguousarray(scale, np.float32)
+    axis = np.where(use[:, None], x_axis, axis)
+    scale = np.where(use[:, None], np.repeat(factor[:, None], 3, axis=1), scale)
+    return tuple(np.ascontiguousarray(a, np.float32) for a in (position, axis, scale))
 
 
 def bbox_diagonal(positions):

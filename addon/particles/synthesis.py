@@ -265,8 +265,8 @@ class Job:
                     part["sprite_axis"], part["normal"],
                     np.asarray(self.analysis.particles["box_angle"], np.float64)[part["sprite"]])
                 _, scale = outputs.instance_frames(part, self.analysis)
-                position, scale = outputs.fit_instances(part["position"], rotation_axes, part["normal"], scale,
-                                                        np.full(rows.size, c), self.child_bounds)
+                position, rotation_axes, scale = outputs.fit_instances(
+                    part["position"], rotation_axes, part["normal"], scale, np.full(rows.size, c), self.child_bounds)
                 out.points = dict(position=position, axis=rotation_axes, normal=part["normal"], scale=scale)
             item.outputs.append(out)
 

@@ -369,27 +369,33 @@ def _footprint(position, axis, normal, scale, bounds):
                      for x in (low[0], high[0]) for y in (low[1], high[1])])
 
 
-def test_instances_are_fitted_to_their_particles_boxes():
-    """Each instanced object's own bounding box lands on its particle's box (centre and sides), whatever its
-    modelled size and origin; an object without bounds is placed as given."""
+def test_instances_are_fitted_inside_their_particles_boxes():
+    """Each instanced object's own bounding box lands inside its particle's box, centred, touching the
+    box's sides along one axis, with the object's proportions and its longer side along the box's; an
+    object without bounds is placed as given."""
     thorn = ((-0.185, 0.0, 0.0), (0.185, 1.0, 0.355))       # the example thorn: origin at its base end
     pebble = ((-2.0, -3.0, -1.0), (6.0, 1.0, 1.0))           # 8 x 4, off-centre
     axis = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [np.sqrt(0.5), np.sqrt(0.5), 0.0]])
     normal = np.tile([0.0, 0.0, 1.0], (3, 1))
     centre = np.array([[0.0, 0.0, 0.0], [5.0, 1.0, 0.0], [-3.0, 2.0, 0.5]])
-    box = np.array([[0.2, 0.4, np.sqrt(0.08)], [0.5, 0.1, np.sqrt(0.05)], [0.3, 0.3, 0.3]])
+    box = np.array([[0.2, 0.4, np.sqrt(0.08)], [0.1, 0.5, np.sqrt(0.05)], [0.6, 0.3, np.sqrt(0.18)]])
     classes = [0, 1, 2]  # children wrap: class 2 is child 0 again
-    position, scale = outputs.fit_instances(centre, axis, normal, box, classes, [thorn, pebble])
-    for i, bounds in enumerate([thorn, pebble, thorn]):
-        corners = _footprint(position[i], axis[i], normal[i], scale[i], bounds)
+    bounds = [thorn, pebble, thorn]
+    position, fitted_axis, scale = outputs.fit_instances(centre, axis, normal, box, classes, [thorn, pebble])
+    for i in range(3):
+        corners = _footprint(position[i], fitted_axis[i], normal[i], scale[i], bounds[i])
         y_axis = np.cross(normal[i], axis[i])
-        local = (corners - centre[i]) @ np.column_stack([axis[i], y_axis])
-        assert np.allclose(local.min(axis=0), -0.5 * box[i, :2], atol=1e-6), (i, local)
-        assert np.allclose(local.max(axis=0), 0.5 * box[i, :2], atol=1e-6), (i, local)
-    # z grows with the box's mean side: the thorn keeps its height-to-footprint proportion
-    assert np.isclose(scale[0, 2], box[0, 2] / np.sqrt(0.37 * 1.0), rtol=1e-6)
+        local = (corners - centre[i]) @ np.column_stack([axis[i], y_axis])  # in the particle's box frame
+        low, high = local.min(axis=0), local.max(axis=0)
+        assert np.allclose(low + high, 0.0, atol=1e-6), (i, local)                      # centred
+        assert np.all(high <= 0.5 * box[i, :2] + 1e-6), (i, high)                        # inside
+        assert np.isclose((high / (0.5 * box[i, :2])).max(), 1.0, atol=1e-6), (i, high)  # touching
+        size = np.asarray(bounds[i][1]) - np.asarray(bounds[i][0])
+        assert np.isclose(max(high) / min(high), max(size[:2]) / min(size[:2]), rtol=1e-5)  # proportions
+        assert (high[0] >= high[1]) == (box[i, 0] >= box[i, 1]), (i, high)               # long side along
+        assert np.allclose(scale[i], scale[i, 0])                                         # one factor
     # unfitted (the old output), the thorn's footprint sat half a box off the particle
     corners = _footprint(centre[0], axis[0], normal[0], box[0], thorn)
     assert corners[:, 1].min() >= 0.0 and corners[:, 1].max() > 0.35
-    same_position, same_scale = outputs.fit_instances(centre, axis, normal, box, classes, [None])
-    assert np.allclose(same_position, centre) and np.allclose(same_scale, box)
+    same = outputs.fit_instances(centre, axis, normal, box, classes, [None])
+    assert np.allclose(same[0], centre) and np.allclose(same[1], axis) and np.allclose(same[2], box)
