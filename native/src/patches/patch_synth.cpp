@@ -566,7 +566,8 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
       out.stats.energy.push_back(energy);
       out.stats.changed.push_back(double(changed) / std::max(1, np));
       const bool last = it + 1 == p.iterations || (it > 0 && out.stats.changed.back() < kStopChanged);
-      // E-step: per sample, the weighted mean of its patches' proposals (a gather in patch order).
+      // E-step: per sample, a discrete vote among its patches' proposals (or, !discrete, their weighted
+      // mean; a gather in patch order).
       tbb::parallel_for(tbb::blocked_range<int32_t>(0, num_samples, 4096), [&](const tbb::blocked_range<int32_t>& r) {
         std::vector<double> acc(static_cast<size_t>(C));
         std::vector<float> prop(static_cast<size_t>(C)), best(static_cast<size_t>(C));
