@@ -24,7 +24,8 @@
 //  - paste: the whole patch is written; samples that were already settled are cross-faded over the
 //    boundary zone (weight distance-from-border / W_E), so the seam lies where the band was matched.
 // Texture optimisation (§4.3; vector_field_patches.md, "Texture optimisation"): starts from the
-// patch-sampling result; each iteration matches every patch against the full index (M-step, in parallel)
+// patch-sampling result; each iteration matches every patch against the full index and the copies already
+// under it (M-step, in parallel)
 // and sets each sample by a discrete vote among its patches' proposals (E-step; by default the proposal of
 // the patch with the largest ω = (d² + ε²)^((r − 2) / 2), damped in the boundary zone), with r the robust
 // exponent ([10]'s 0.8; the paper's |X − Z|^−0.8 is r = 1.2) and ε² = 1e-6 per dimension, which keeps exact
