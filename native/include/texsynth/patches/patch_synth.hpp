@@ -57,7 +57,7 @@ struct PatchSynthParams {
   PatchMode mode = PatchMode::kSampling;
   double tolerance = 1.2;          // >= 1: candidates within tolerance × the best band distance
   int candidates = 16;             // ANN shortlist, 1..256
-  int iterations = 6;              // optimisation: 1..50 (the last is the discrete vote)
+  int iterations = 6;              // optimisation: 1..50
   double robust_exponent = 0.8;    // r in (0, 2]
   uint64_t seed = 0;
   int boundary_width = 4;          // W_E: the zone matched and cross-faded, 1 .. patch_size / 2
