@@ -99,7 +99,7 @@ class Settings:
     patch_size: int = 32            # w_B, a multiple of 4
     patch_boundary: int = 4         # W_E: the boundary zone matched and cross-faded
     patch_tolerance: float = 1.2    # candidates within this factor of the best match are equally likely
-    patch_iterations: int = 6       # OPTIMISATION: EM iterations (the last one a discrete vote)
+    patch_iterations: int = 6       # OPTIMISATION: EM iterations (each E-step a discrete vote)
     # PARTICLES (particles/core.py): segmentation, then placement and output.
     particle_classes: int = 4        # k-means classes (ignored with a label image)
     particle_blur: float = 1.0       # Gaussian sigma in sample pixels before k-means

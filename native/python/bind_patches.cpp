@@ -318,8 +318,8 @@ void bind_patches(py::module_& m) {
       py::arg("field"), py::arg("exemplar"), py::arg("sample"), py::arg("positions"), py::arg("normals"),
       py::arg("triangles"), py::arg("barycentrics"), py::kw_only(), py::arg("mode") = "sampling",
       py::arg("seed") = 0, py::arg("centre_spacing") = 0.5, py::arg("levels") = 3, py::arg("boundary_width") = 4, py::arg("tolerance") = 1.2, py::arg("candidates") = 16,
-      py::arg("iterations") = 6, py::arg("robust_exponent") = 0.8, py::arg("exhaustive") = true, py::arg("discrete") = false,
-      py::arg("vote") = "mean",
+      py::arg("iterations") = 6, py::arg("robust_exponent") = 0.8, py::arg("exhaustive") = true, py::arg("discrete") = true,
+      py::arg("vote") = "patch",
       py::arg("cancel") = py::none(),
       "Vector-field patch synthesis onto N surface samples (positions (N, 3), normals (N, 3) or None, triangles "
       "(N,), barycentrics (N, 2) in the field's mesh): mode 'sampling' (§5) or 'optimisation' (§4.3, from the "

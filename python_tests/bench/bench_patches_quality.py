@@ -36,6 +36,8 @@ Modes: sampling (centre_spacing 0.5) and optimisation (centre_spacing 0.25, robu
    process before synthesis, per sample; exemplar preprocessing of bricks upscaled to 256^2 (goal <= 5 s).
 6. levels: optimisation with 1, 2 and 3 resolution levels on bricks, moss and bark: detail, seams, p11 and
    (bricks) the median grain error, with the seconds the coarser levels took.
+7. corpus (only when asked: --parts corpus): sampling against optimisation, detail and p11, on --corpus samples
+   (blend_samples/, else TEXSYNTH_CORPUS_SAMPLES, default out/corpus/samples).
 
 Pictures (PNG, row 0 = top) go to --out: results, seam masks, orientation-error maps.
 """
@@ -450,6 +452,30 @@ def part_levels(bench):
                 out["stats"].get("seconds_coarse", 0.0), out["seconds"], own), flush=True)
 
 
+CORPUS = ("brick_small,paving_bricks,slate_paving,square_tiles_grey,flagstones,gravel,grass,cracked_rock,"
+          "bricks,bark,moss,pebbles,cobbles,marble_tiles_grey,dried_mud,fish_scales")
+
+
+def part_corpus(bench):
+    """Issue 29: optimisation against sampling, detail and p11, on blend_samples/ and the corpus samples
+    (TEXSYNTH_CORPUS_SAMPLES, default out/corpus/samples; grey samples as RGB)."""
+    folder = os.environ.get("TEXSYNTH_CORPUS_SAMPLES", os.path.join(ROOT, "out", "corpus", "samples"))
+    print("\n== 7. corpus: sampling vs optimisation, constant field, %d^2; detail, p11 ==" % bench.args.size)
+    for name in bench.args.corpus.split(","):
+        path = os.path.join(ROOT, "blend_samples", name + ".png")
+        path = path if os.path.exists(path) else os.path.join(folder, name + ".png")
+        sample = bench.sample(path)
+        if sample.shape[2] == 1:
+            bench.samples[path] = sample = np.ascontiguousarray(np.repeat(sample, 3, axis=2))
+        figures = []
+        for mode in MODES:
+            out = bench.run(path, "const", mode, tag="corpus_%s_%s" % (name, mode))
+            figures.append("%s %.3f %.5f" % (mode, detail(out["image"], sample),
+                                             nearest_patch(out["image"], sample, 11, 600,
+                                                           np.random.default_rng(bench.args.seed))))
+        print("%-18s %s" % (name, "   ".join(figures)), flush=True)
+
+
 def peak_rss_mb():
     """VmHWM (peak resident set, MB); ru_maxrss where /proc is missing."""
     try:
@@ -593,6 +619,7 @@ def parse_args(argv=None):
     parser.add_argument("--perf-optimisation", default="256,512", help="part 5, optimisation mode")
     parser.add_argument("--out", default=os.path.join(ROOT, "out", "patches_quality"))
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--corpus", default=CORPUS, help="part corpus (not run by default): sample names")
     parser.add_argument("--perf-worker", help=argparse.SUPPRESS)
     return parser.parse_args(argv)
 
@@ -610,7 +637,7 @@ def main():
     for name in ("bricks", "moss", "bark"):
         write_png(os.path.join(args.out, "sample_%s.png" % name), bench.sample(name))
     for part, function in (("structure", part_structure), ("progressive", part_progressive), ("seams", part_seams),
-                           ("exponent", part_exponent), ("levels", part_levels)):
+                           ("exponent", part_exponent), ("levels", part_levels), ("corpus", part_corpus)):
         if part in parts:
             function(bench)
     if "perf" in parts:

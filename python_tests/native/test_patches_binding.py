@@ -210,3 +210,37 @@ def test_exemplar_key_is_the_key_patch_exemplar_stores():
               tn.patch_exemplar_key(sample, patch_size=16, tileable=True),
               tn.patch_exemplar_key(sample[::-1].copy(), patch_size=16)}
     assert key not in others and len(others) == 4
+
+
+def test_optimisation_keeps_the_small_brick_pattern_as_well_as_sampling():
+    """Issue 29: optimisation averaged the corpus' small brick pattern (96²) into long strips (head joints
+    gone, one pink). Each sample took the proposal nearest the RGB mean of its ~10 overlapping patches; their
+    matches disagree on where the sparse head joints lie, so the mean and the pick were brick. Now every E-step
+    keeps the best patch's proposal, and the M-step also tries the copies already under each patch. On a 192²
+    plane, means over seeds 1-3 (one seed's ratio spreads +-10 %): detail and nearest 11 x 11 patch distance
+    within 10 % of sampling mode's (before: detail 0.67 of sampling's, distance 1.36 x; now 1.04 and 0.98)."""
+    import sys
+    import paths
+    sys.path.insert(0, paths.BENCH)
+    import bench_patches_quality as bpq
+    from bench_round_quality import load_sample, nearest_patch
+    sample = load_sample(paths.BENCH + "/tessellation_brick_small.png")[1]
+    res, cells = 192, 16
+    pos, tris = bpq.plane_mesh(cells)
+    up = np.tile(np.float32([0, 1, 0]), (len(pos), 1))
+    field = tn.patch_field(pos, tris, up, spacing=1.0 / res)
+    points, tri, bary = bpq.lattice(res, cells)
+    normals = np.tile(np.float32([0, 0, 1]), (len(points), 1))
+    exemplar = tn.patch_exemplar(sample, patch_size=32, seed=1)
+    figures = {}
+    for mode, spacing in (("sampling", 0.5), ("optimisation", 0.3)):
+        runs = []
+        for seed in (1, 2, 3):
+            out = tn.synthesize_patches(field, exemplar, sample, points, normals, tri, bary, mode=mode, seed=seed,
+                                        centre_spacing=spacing)
+            image = out["colour"].reshape(res, res, -1)[..., :3]
+            runs.append((bpq.detail(image, sample), nearest_patch(image, sample, 11, 400, np.random.default_rng(1))))
+        figures[mode] = np.mean(runs, axis=0)
+    (detail_s, p11_s), (detail_o, p11_o) = figures["sampling"], figures["optimisation"]
+    assert detail_o >= 0.9 * detail_s, figures
+    assert p11_o <= 1.1 * p11_s, figures

@@ -213,6 +213,52 @@ std::vector<std::pair<double, int32_t>> ranked_candidates(const PatchIndex& inde
   return out;
 }
 
+// Exact distance over the known cells between a query and one origin's raw features.
+double masked_distance(const PatchIndex& index, const ExemplarAppearance& app, const std::vector<float>& raw,
+                       const std::vector<uint8_t>& valid, int32_t id, std::vector<float>& feature) {
+  feature.resize(raw.size());
+  index.raw_feature(app, id, feature.data());
+  const int d = index.appearance_dims;
+  double dist = 0;
+  for (size_t c = 0; c < valid.size(); ++c)
+    if (valid[c])
+      for (int e = 0; e < d; ++e) {
+        const double diff = double(feature[c * d + e]) - raw[c * d + e];
+        dist += diff * diff;
+      }
+  return dist;
+}
+
+// Optimisation's M-step also tries the origins the patch's current exemplar coordinates imply (the
+// copies already under it, at most kCoherent, the most common first). Without them a patch straddling
+// two pasted pieces matched a plain region (no exact match; L2 prefers the mean) and plain regions
+// spread level by level: dried mud kept 0.41 of sampling's detail, sparse cracks gone (issue 29).
+constexpr size_t kCoherent = 8;
+void coherent_candidates(const PatchCoverage& cov, int32_t q, const std::vector<float>& source, const PatchIndex& index,
+                         std::vector<int32_t>& ids) {
+  ids.clear();
+  for (int64_t e = cov.patch_start[q]; e < cov.patch_start[size_t(q) + 1]; ++e) {
+    const int32_t s = cov.patch_sample[e];
+    const float sx = source[2 * size_t(s)], sy = source[2 * size_t(s) + 1];
+    if (!(sx >= 0 && sy >= 0)) continue;
+    const int32_t ox = int32_t(std::lround(sx - 0.5 - (cov.patch_uv[2 * e] - kPatchGridMargin)));
+    const int32_t oy = int32_t(std::lround(sy - 0.5 - (cov.patch_uv[2 * e + 1] - kPatchGridMargin)));
+    if (ox < 0 || oy < 0 || ox >= index.origins_x || oy >= index.origins_y) continue;
+    ids.push_back(oy * index.origins_x + ox);
+  }
+  std::sort(ids.begin(), ids.end());
+  std::vector<std::pair<int64_t, int32_t>> runs;  // (-count, id): the most common first, ties by id
+  for (size_t a = 0; a < ids.size();) {
+    size_t b = a;
+    while (b < ids.size() && ids[b] == ids[a]) ++b;
+    runs.push_back({-int64_t(b - a), ids[a]});
+    a = b;
+  }
+  std::sort(runs.begin(), runs.end());
+  ids.clear();
+  for (size_t k = 0; k < runs.size() && k < kCoherent; ++k) ids.push_back(runs[k].second);
+}
+
 // Per grid point, the distance (in grid steps, 3-4 chamfer) to the nearest unknown point of the w × w
 // inner region. False when the inner region is fully known (the patch has nothing to fill).
 bool frontier_distance(const GridColours& g, int w, std::vector<float>& dist) {
@@ -544,11 +590,15 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
         GridColours gc(n, C);
         std::vector<float> qraw, qwin, qred, qfeat;
         std::vector<uint8_t> qvalid, quse;
+        std::vector<int32_t> qorigins;
         for (int32_t q = r.begin(); q < r.end(); ++q) {
           gc.splat(cov, q, out.colour, settled);
           patch_query(gc, full, ix.appearance.space, qraw, qvalid, qwin);
           if (std::find(qvalid.begin(), qvalid.end(), 1) == qvalid.end()) continue;
-          const auto ranked = ranked_candidates(full, ix.appearance, qraw, qvalid, p.candidates, false, qred, qfeat);
+          auto ranked = ranked_candidates(full, ix.appearance, qraw, qvalid, p.candidates, false, qred, qfeat);
+          coherent_candidates(cov, q, out.source, full, qorigins);
+          for (const int32_t id : qorigins) ranked.push_back({masked_distance(full, ix.appearance, qraw, qvalid, id, qfeat), id});
+          std::sort(ranked.begin(), ranked.end());
           quse.assign(size_t(n) * n, 0);
           for (size_t g = 0; g < quse.size(); ++g) quse[g] = gc.weight[g] >= kKnownWeight;
           next[q] = refine_origin(gc, quse, full, sample, ix.tileable, ranked.front().second);
@@ -566,7 +616,8 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
       out.stats.energy.push_back(energy);
       out.stats.changed.push_back(double(changed) / std::max(1, np));
       const bool last = it + 1 == p.iterations || (it > 0 && out.stats.changed.back() < kStopChanged);
-      // E-step: per sample, the weighted mean of its patches' proposals (a gather in patch order).
+      // E-step: per sample, a discrete vote among its patches' proposals (or, !discrete, their weighted
+      // mean; a gather in patch order).
       tbb::parallel_for(tbb::blocked_range<int32_t>(0, num_samples, 4096), [&](const tbb::blocked_range<int32_t>& r) {
         std::vector<double> acc(static_cast<size_t>(C));
         std::vector<float> prop(static_cast<size_t>(C)), best(static_cast<size_t>(C));

@@ -24,12 +24,13 @@
 //  - paste: the whole patch is written; samples that were already settled are cross-faded over the
 //    boundary zone (weight distance-from-border / W_E), so the seam lies where the band was matched.
 // Texture optimisation (§4.3; vector_field_patches.md, "Texture optimisation"): starts from the
-// patch-sampling result; each iteration matches every patch against the full index (M-step, in parallel)
-// and sets each sample to the weighted mean of its patches' proposals (E-step), ω = (d² + ε²)^((r − 2) / 2)
-// with r the robust exponent ([10]'s 0.8; the paper's |X − Z|^−0.8 is r = 1.2) and ε² = 1e-6 per dimension,
-// which keeps exact copies finite. Least squares blurs; the last iteration is a discrete vote instead
-// ([8]): each sample keeps the proposal nearest the weighted mean. It stops early when fewer than 1 % of
-// the patches change their match.
+// patch-sampling result; each iteration matches every patch against the full index and the copies already
+// under it (M-step, in parallel)
+// and sets each sample by a discrete vote among its patches' proposals (E-step; by default the proposal of
+// the patch with the largest ω = (d² + ε²)^((r − 2) / 2), damped in the boundary zone), with r the robust
+// exponent ([10]'s 0.8; the paper's |X − Z|^−0.8 is r = 1.2) and ε² = 1e-6 per dimension, which keeps exact
+// copies finite. The paper's least-squares E-step (the weighted RGB mean) stays as an option: it averaged
+// sparse structure away (issue 29). It stops early when fewer than 1 % of the patches change their match.
 #include <atomic>
 #include <cstdint>
 #include <vector>
@@ -43,12 +44,12 @@ constexpr int kPatchGridMargin = 1;
 
 enum class PatchMode { kSampling, kOptimisation };
 
-// The discrete vote that ends the optimisation, measured on 256² planes (README, Vector-field patches):
-//  - kNearestMean: each sample keeps the proposal nearest the weighted mean (the paper's [8];
-//    vector_field_patches.md, "Texture optimisation"): mortar lines stay continuous, but a stochastic
-//    sample loses ~16 % of its detail (moss 0.84 of the sample's mean gradient);
-//  - kBestPatch: each sample keeps the proposal of its best-matching patch, damped within the boundary
-//    zone: whole-patch detail (moss 1.02) but more broken mortar lines on bricks.
+// The discrete vote of the E-step (vector_field_patches.md, "Texture optimisation"; docs/benchmarks.md):
+//  - kBestPatch (default): each sample keeps the proposal of its best-matching patch, damped within the
+//    boundary zone: the structure of whole patches (small bricks keep their head joints);
+//  - kNearestMean: each sample keeps the proposal nearest the weighted RGB mean (the paper's [8]): where the
+//    overlapping matches disagree on sparse structure (head joints of an irregular wall) the mean, and so
+//    the pick, is the majority's plain brick: the 96² brick sample kept 0.57 of its detail.
 // Keeping the most interior patch's proposal (a Voronoi of patch cores) broke the most lines.
 enum class PatchVote { kNearestMean, kBestPatch };
 
@@ -56,14 +57,16 @@ struct PatchSynthParams {
   PatchMode mode = PatchMode::kSampling;
   double tolerance = 1.2;          // >= 1: candidates within tolerance × the best band distance
   int candidates = 16;             // ANN shortlist, 1..256
-  int iterations = 6;              // optimisation: 1..50 (the last is the discrete vote)
+  int iterations = 6;              // optimisation: 1..50
   double robust_exponent = 0.8;    // r in (0, 2]
   uint64_t seed = 0;
   int boundary_width = 4;          // W_E: the zone matched and cross-faded, 1 .. patch_size / 2
   bool exhaustive = true;          // sampling: exact masked search over every origin (false: the HNSW
                                    // shortlist of the masked projection, which misses partial matches)
-  bool discrete = false;           // optimisation: every E-step a discrete vote, not only the last
-  PatchVote vote = PatchVote::kNearestMean;
+  // Optimisation: every E-step a discrete vote (false: the weighted RGB mean, the last one a vote; its
+  // blur fed the next M-step and levels, issue 29).
+  bool discrete = true;
+  PatchVote vote = PatchVote::kBestPatch;
   // Optimisation: start from these exemplar coordinates (samples × 2, pixel x covers [x, x + 1); < 0:
   // none) instead of a patch-sampling pass: the previous level of a multi-resolution optimisation.
   const float* initial_source = nullptr;
