@@ -14,13 +14,21 @@ from ..core.settings import AUTO_HISTOGRAM_MIN_FIDELITY, AUTO_TEXTON_LINEAR_PERI
 from .encoding import check_result, mapping_groups_rgba
 
 # Texton method: each face shows its own patch beyond this distance from its edges (barycentric-like units, 1/3
-# at a triangle's centre) and fades to the vertex mappings toward them (shading/blend_groups.py).
-TEXTON_PATCH_ZONE = 0.15
+# at a triangle's centre) and fades to the vertex mappings toward them (shading/blend_groups.py). Variance and
+# histogram blending keep the contrast through the fade, so where it mixes distinct patches the fade is itself an
+# edge: at 0.15 (1-3 px on faces of 10-40 px) it raised the seam ratio above the unblended render on small
+# samples, where most zones mix distinct patches (docs/algorithms/texton_strings.md, "Small samples"). Linear
+# blending dims the mixture instead and keeps the narrower zone (a wider one washes out more detail).
+TEXTON_PATCH_ZONE = 0.3
+TEXTON_LINEAR_PATCH_ZONE = 0.15
 
 
-def patch_zone(method):
-    """The blend shader's own-patch zone of a UV method (0: the jump map blends everywhere)."""
-    return TEXTON_PATCH_ZONE if method == "TEXTON" else 0.0
+def patch_zone(method, mode="HISTOGRAM"):
+    """The blend shader's own-patch zone of a UV method for a resolved blend mode (0: the jump map blends
+    everywhere)."""
+    if method != "TEXTON":
+        return 0.0
+    return TEXTON_LINEAR_PATCH_ZONE if mode == "LINEAR" else TEXTON_PATCH_ZONE
 
 
 def cache_status(sample, settings, cache_dir):

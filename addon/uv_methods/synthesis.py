@@ -166,7 +166,8 @@ class Job:
         if self.material_mode != "NONE" and any(item[2] is not None for item in self.items):
             image = self.sample.shader_image()
             self.shading.with_colour_space(image.colorspace_settings.name == "sRGB")
-            inputs = blend_groups.blend_inputs(self.shading, image, uv_core.patch_zone(self.settings.method))
+            zone = uv_core.patch_zone(self.settings.method, self.shading.mode)
+            inputs = blend_groups.blend_inputs(self.shading, image, zone)
         for obj, arrays, result in self.items:
             if result is None:
                 continue
@@ -195,7 +196,7 @@ def blend_inputs(image, mode="HISTOGRAM", cache_dir=None, method="JUMPMAP"):
     settings = Settings(blend_mode=mode, method=method).validate()
     srgb = image.colorspace_settings.name == "sRGB"
     blend = blend_shading(sources.Sample(image=image).native_input(), settings, cache_dir or sources.default_cache_dir(), srgb)
-    return blend_groups.blend_inputs(blend, image, uv_core.patch_zone(method))
+    return blend_groups.blend_inputs(blend, image, uv_core.patch_zone(method, blend.mode))
 
 
 def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None, scene=None,

@@ -39,13 +39,13 @@ import numpy as np  # noqa: E402
 import blend_metrics  # noqa: E402
 import harness  # noqa: E402
 
-# <method>[_<blend mode>]: no suffix = the default, histogram-preserving blending.
+# <method>[_<blend mode>]: no suffix = histogram-preserving blending; _auto = what Auto picks for the sample.
 MODES = ("tiling", "tiling_shifted", "tiling_rotated", "box", "jumpmap", "jumpmap_variance", "jumpmap_linear", "jumpmap_noblend",
-         "texton", "texton_variance", "texton_linear", "texton_noblend")
+         "texton", "texton_auto", "texton_variance", "texton_linear", "texton_noblend")
 
 
 def blend_mode_of(mode):
-    return {"noblend": "LINEAR", "variance": "VARIANCE", "linear": "LINEAR"}.get(mode.rpartition("_")[2], "HISTOGRAM")
+    return {"noblend": "LINEAR", "variance": "VARIANCE", "linear": "LINEAR", "auto": "AUTO"}.get(mode.rpartition("_")[2], "HISTOGRAM")
 PROFILE_DISTANCE = 10
 
 
@@ -58,6 +58,8 @@ def parse_args():
     parser.add_argument("--seed", type=int, default=3)
     parser.add_argument("--out", default=os.path.join(ROOT, "out", "bench_blend"))
     parser.add_argument("--scenes", default="plane,curved", help="plane and/or curved")
+    parser.add_argument("--allow-oversized", action="store_true",
+                        help="let faces be larger than the sample (64^2 samples at 1 texel/px)")
     args = parser.parse_args(harness.script_args())
     args.modes = [m for m in args.modes.split(",") if m]
     unknown = set(args.modes) - set(MODES)
@@ -169,13 +171,13 @@ def render(scene, path):
     return pixels.reshape(scene.render.resolution_y, scene.render.resolution_x, 4)[::-1].astype(np.float64)
 
 
-def synthesize(obj, sample_path, mode, world_size, seed, cache_dir, axis):
+def synthesize(obj, sample_path, mode, world_size, seed, cache_dir, axis, allow_oversized=False):
     from texsynth.bridge import sources
     from texsynth.core import settings as core_settings
     from texsynth.uv_methods import synthesis
     method = "TEXTON" if mode.startswith("texton") else "JUMPMAP"
     settings = core_settings.Settings(method=method, sample_world_size=world_size, seed=seed, axis=axis,
-                                 blend=not mode.endswith("_noblend"))
+                                 blend=not mode.endswith("_noblend"), allow_oversized=allow_oversized)
     report = synthesis.synthesize([obj], sources.Sample(path=sample_path), settings, cache_dir=cache_dir,
                                   material_mode="NONE")
     if report.failures:
@@ -226,7 +228,8 @@ def apply_mode(obj, mode, image, world_size, args, cache_dir, axis=(0.0, 0.0, 1.
                                       (0.5, 0.5) if mode == "tiling_shifted" else (0.0, 0.0),
                                       math.radians(3.0) if mode == "tiling_rotated" else 0.0)
     else:
-        synthesize(obj, os.path.abspath(args.sample), mode, world_size, args.seed, cache_dir, axis)
+        synthesize(obj, os.path.abspath(args.sample), mode, world_size, args.seed, cache_dir, axis,
+                   args.allow_oversized)
         material = texsynth_material(image, blend_mode_of(mode), cache_dir,
                                      "TEXTON" if mode.startswith("texton") else "JUMPMAP")
     obj.data.materials.clear()

@@ -12,6 +12,8 @@ import sys
 import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "bench"))
+import blend_metrics  # noqa: E402
 import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -28,10 +30,13 @@ from texsynth.bridge import sources  # noqa: E402
 PIXELS = 128
 CACHE = tempfile.mkdtemp(prefix="texsynth_shading_tests_")
 MOSS = os.path.join(harness.SAMPLES_DIR, "moss.png")
+# 96^2 tileable bricks (GPL-3+, committed for the tessellation test).
+BRICK_SMALL = os.path.join(harness.ROOT, "python_tests", "bench", "tessellation_brick_small.png")
 
 
-def plane_scene():
-    """A 2 x 2 plane of 8 x 8 jittered cells (2 triangles each) seen from above, filling the frame."""
+def plane_scene(pixels=PIXELS):
+    """A 2 x 2 plane of 8 x 8 jittered cells (2 triangles each) seen from above, filling the frame.
+    Returns (object, scene, triangles): triangles (T, 3) vertex indices into obj's positions."""
     harness.reset_scene()
     cells, rng = 8, np.random.default_rng(5)
     grid = np.linspace(-1.0, 1.0, cells + 1)
@@ -57,11 +62,11 @@ def plane_scene():
     scene.camera = camera
     texsynth.compat.use_eevee(scene)
     scene.eevee.taa_render_samples = 1
-    scene.render.resolution_x = scene.render.resolution_y = PIXELS
+    scene.render.resolution_x = scene.render.resolution_y = pixels
     scene.render.resolution_percentage = 100
     scene.view_settings.view_transform = "Standard"
     scene.render.filepath = os.path.join(CACHE, "frame.png")
-    return obj, scene
+    return obj, scene, (positions, np.array(triangles))
 
 
 def emission_with_group(group):
@@ -78,10 +83,11 @@ def emission_with_group(group):
     return material
 
 
-def render_luminance(obj, scene, image, mode, blend=True, method="JUMPMAP"):
+def render_luminance(obj, scene, image, mode, blend=True, method="JUMPMAP", sample=MOSS, world_size=1.2):
     # 1.2 world units per sample width: ~1 texel per pixel for the 128 px moss sample at this view.
-    settings = core_settings.Settings(method=method, sample_world_size=1.2, seed=3, blend=blend, axis=(0.0, 1.0, 0.0))
-    report = synthesis.synthesize([obj], sources.Sample(path=MOSS), settings, cache_dir=CACHE, material_mode="NONE")
+    settings = core_settings.Settings(method=method, sample_world_size=world_size, seed=3, blend=blend,
+                                      axis=(0.0, 1.0, 0.0))
+    report = synthesis.synthesize([obj], sources.Sample(path=sample), settings, cache_dir=CACHE, material_mode="NONE")
     assert not report.failures, report.summary()
     group = blend_groups.ensure_blend_group(image, synthesis.blend_inputs(image, mode, CACHE, method))
     obj.data.materials.clear()
@@ -91,7 +97,8 @@ def render_luminance(obj, scene, image, mode, blend=True, method="JUMPMAP"):
     pixels = np.empty(len(rendered.pixels), np.float32)
     rendered.pixels.foreach_get(pixels)
     bpy.data.images.remove(rendered)
-    rgb = pixels.reshape(PIXELS, PIXELS, 4)[..., :3].astype(np.float64)
+    size = scene.render.resolution_x
+    rgb = pixels.reshape(size, size, 4)[..., :3].astype(np.float64)
     return rgb @ np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -105,7 +112,7 @@ def sample_luminance_std(image):
 def test_histogram_mode_with_one_mapping_gives_the_sample_back():
     """No blending: the base mapping alone goes through the Gaussianized image and the inverse look-up
     table, so the render must match the plain image's (colour space and alpha handling included)."""
-    obj, scene = plane_scene()
+    obj, scene, _ = plane_scene()
     image = bpy.data.images.load(MOSS, check_existing=True)
     plain = render_luminance(obj, scene, image, "LINEAR", blend=False)
     through_lut = render_luminance(obj, scene, image, "HISTOGRAM", blend=False)
@@ -118,7 +125,7 @@ def test_histogram_mode_with_one_mapping_gives_the_sample_back():
 def test_histogram_blending_keeps_the_contrast_linear_blending_loses():
     """Blended jump maps: linear cross-fades average up to three images in face middles and lose
     contrast; the histogram-preserving blend keeps the luminance spread of the unblended render."""
-    obj, scene = plane_scene()
+    obj, scene, _ = plane_scene()
     image = bpy.data.images.load(MOSS, check_existing=True)
     unblended = render_luminance(obj, scene, image, "LINEAR", blend=False).std()
     linear = render_luminance(obj, scene, image, "LINEAR").std()
@@ -136,7 +143,7 @@ def test_histogram_blending_keeps_the_contrast_linear_blending_loses():
 def test_texton_patches_blend_only_near_their_edges():
     """Texton: face middles show the face's own patch exactly; the render with blending differs from
     the unblended one only in a band along the edges."""
-    obj, scene = plane_scene()
+    obj, scene, _ = plane_scene()
     image = bpy.data.images.load(MOSS, check_existing=True)
     unblended = render_luminance(obj, scene, image, "LINEAR", blend=False, method="TEXTON")
     blended = render_luminance(obj, scene, image, "LINEAR", method="TEXTON")
@@ -153,7 +160,7 @@ def test_texton_variance_blending_keeps_the_detail_linear_blending_loses():
     """Moss is stochastic: neighbouring texton patches are nearly independent, so cross-fading them
     linearly averages detail away along the edges; the variance blend rescales the mixture by its
     deviation (identical mappings grouped, TexSynth_Groups) and keeps the unblended gradient."""
-    obj, scene = plane_scene()
+    obj, scene, _ = plane_scene()
     image = bpy.data.images.load(MOSS, check_existing=True)
     unblended = _gradient(render_luminance(obj, scene, image, "LINEAR", blend=False, method="TEXTON"))
     linear = _gradient(render_luminance(obj, scene, image, "LINEAR", method="TEXTON"))
@@ -164,6 +171,49 @@ def test_texton_variance_blending_keeps_the_detail_linear_blending_loses():
     # Not below the unblended render, and not sharpened far past it (measured 1.05 here, where the view
     # is slightly minified: 1.3 texels per pixel).
     assert 0.99 < variance / unblended < 1.08, (variance, unblended)
+
+
+def _edge_distance(mesh, pixels, view=1.6):
+    """Distance (px, capped) of every render pixel (row 0 = bottom, as rendered) to the nearest
+    projected mesh edge of plane_scene, rasterised from the known orthographic projection."""
+    positions, triangles = mesh
+    mask = np.zeros((pixels, pixels), bool)
+    for t in triangles:
+        for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+            p, q = positions[a, :2], positions[b, :2]
+            steps = np.linspace(0.0, 1.0, int(np.ceil(np.linalg.norm(q - p) / view * pixels * 4)) + 1)[:, None]
+            xy = np.floor(((p + (q - p) * steps) / view + 0.5) * pixels).astype(int)
+            keep = (xy >= 0).all(axis=1) & (xy < pixels).all(axis=1)
+            mask[xy[keep, 1], xy[keep, 0]] = True
+    return blend_metrics.edge_distance(mask, 4)
+
+
+def test_texton_blending_does_not_raise_seams_on_a_small_sample():
+    """Issue 29: on a 96^2 sample, faces ~20 px wide (as on a curved mesh), texton blending raised the
+    seam ratio above the unblended render (1.072 vs 1.038 here): the fade from the polygon's own patch
+    to the vertex mappings was 0.15 of the distance to the centre wide, ~1-2 px, and where it mixes
+    distinct patches (most zones on small samples) that ramp is itself an edge. Blending must not raise
+    the seam ratio, nor wash detail out."""
+    pixels = PIXELS
+    obj, scene, mesh = plane_scene(pixels)
+    image = bpy.data.images.load(BRICK_SMALL, check_existing=True)
+    world_size = 96 * 1.6 / pixels  # one texel per pixel; faces ~20 px, the sample 96
+    distance = _edge_distance(mesh, pixels)
+    valid = np.zeros(distance.shape, bool)
+    valid[4:-4, 4:-4] = True
+
+    def measure(mode, blend=True):
+        grad = blend_metrics.gradient_magnitude(render_luminance(obj, scene, image, mode, blend, "TEXTON", BRICK_SMALL,
+                                                                 world_size))
+        return blend_metrics.seam_ratio(grad, distance, valid), blend_metrics.mean_gradient(grad, valid)
+
+    seam_off, detail_off = measure("LINEAR", blend=False)
+    for mode in ("VARIANCE", "HISTOGRAM"):
+        seam, detail = measure(mode)
+        print("TEXTON small sample %s: seam %.3f (unblended %.3f), gradient %.4f (unblended %.4f)"
+              % (mode, seam, seam_off, detail, detail_off))
+        assert seam <= seam_off, (mode, seam, seam_off)
+        assert detail >= 0.97 * detail_off, (mode, detail, detail_off)
 
 
 if __name__ == "__main__":
