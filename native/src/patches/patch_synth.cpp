@@ -139,6 +139,22 @@ void accumulate_cell(float* dist, const float* norm, const float* columns, int64
 }
 
 // Shortlist by the index (or every origin, exact, when `exhaustive`), rerank by exact distance over the known cells. Returns (id, distance²) sorted.
+// Exact distance over the known cells between a query and one origin's raw features.
+double masked_distance(const PatchIndex& index, const ExemplarAppearance& app, const std::vector<float>& raw,
+                       const std::vector<uint8_t>& valid, int32_t id, std::vector<float>& feature) {
+  feature.resize(raw.size());
+  index.raw_feature(app, id, feature.data());
+  const int d = index.appearance_dims;
+  double dist = 0;
+  for (size_t c = 0; c < valid.size(); ++c)
+    if (valid[c])
+      for (int e = 0; e < d; ++e) {
+        const double diff = double(feature[c * d + e]) - raw[c * d + e];
+        dist += diff * diff;
+      }
+  return dist;
+}
+
 std::vector<std::pair<double, int32_t>> ranked_candidates(const PatchIndex& index, const ExemplarAppearance& app,
                                                           const std::vector<float>& raw,
                                                           const std::vector<uint8_t>& valid, int k,
@@ -195,38 +211,12 @@ std::vector<std::pair<double, int32_t>> ranked_candidates(const PatchIndex& inde
   reduced.resize(size_t(index.dims));
   index.project(raw.data(), valid.data(), reduced.data());
   const std::vector<PatchMatch> shortlist = index.search(reduced.data(), k);
-  feature.resize(raw.size());
-  const int d = index.appearance_dims;
   for (const PatchMatch& m : shortlist) {
     const int32_t id = m.y * index.origins_x + m.x;
-    index.raw_feature(app, id, feature.data());
-    double dist = 0;
-    for (size_t c = 0; c < valid.size(); ++c)
-      if (valid[c])
-        for (int e = 0; e < d; ++e) {
-          const double diff = double(feature[c * d + e]) - raw[c * d + e];
-          dist += diff * diff;
-        }
-    out.push_back({dist, id});
+    out.push_back({masked_distance(index, app, raw, valid, id, feature), id});
   }
   std::sort(out.begin(), out.end());
   return out;
-}
-
-// Exact distance over the known cells between a query and one origin's raw features.
-double masked_distance(const PatchIndex& index, const ExemplarAppearance& app, const std::vector<float>& raw,
-                       const std::vector<uint8_t>& valid, int32_t id, std::vector<float>& feature) {
-  feature.resize(raw.size());
-  index.raw_feature(app, id, feature.data());
-  const int d = index.appearance_dims;
-  double dist = 0;
-  for (size_t c = 0; c < valid.size(); ++c)
-    if (valid[c])
-      for (int e = 0; e < d; ++e) {
-        const double diff = double(feature[c * d + e]) - raw[c * d + e];
-        dist += diff * diff;
-      }
-  return dist;
 }
 
 // Optimisation's M-step also tries the origins the patch's current exemplar coordinates imply (the
