@@ -211,10 +211,13 @@ def test_unusable_samples_get_clear_errors():
     with pytest.raises((core_settings.SettingsError, ValueError), match="no particles|one colour|class"):
         analysis, _ = core.analyse(flat, settings(particle_classes=2), cache=core.AnalysisCache())
         core.check_usable(analysis)
-    # A checkerboard of two colours: one 8-connected region cut by the border, no complete particle.
-    checker = np.where(((np.arange(64)[:, None] // 8 + np.arange(64)[None, :] // 8) % 2)[..., None] == 1,
-                       STONE, GROUND).astype(np.float32)
-    analysis, _ = core.analyse(checker, settings(particle_classes=2), cache=core.AnalysisCache())
+    # A band across the sample, lit from one side (so that its left and right edges do not continue each other
+    # and it is not taken for a tileable sample): its one region is cut by the border, no complete particle.
+    band = np.tile(GROUND, (64, 64, 1))
+    band[24:41] = STONE
+    band = (band * np.linspace(0.7, 1.0, 64, dtype=np.float32)[None, :, None]).astype(np.float32)
+    analysis, _ = core.analyse(band, settings(particle_classes=2), cache=core.AnalysisCache())
+    assert not analysis.tileable
     with pytest.raises(core_settings.SettingsError, match="complete particle") as refused:
         core.check_usable(analysis)
     assert "--method jumpmap" in str(refused.value) and "Round Neighbourhoods" in str(refused.value)
@@ -399,3 +402,19 @@ def test_instances_are_fitted_inside_their_particles_boxes():
     assert corners[:, 1].min() >= 0.0 and corners[:, 1].max() > 0.35
     same = outputs.fit_instances(centre, axis, normal, box, classes, [None])
     assert np.allclose(same[0], centre) and np.allclose(same[1], axis) and np.allclose(same[2], box)
+
+
+def test_a_sample_that_repeats_is_analysed_as_tileable_and_the_report_says_so():
+    """Tileable off: a sample whose opposite edges continue each other is analysed as tileable (its
+    border-cut elements join across the border) and the notes say so; one that does not stays as asked."""
+    stones = pebbles()
+    stones[:, :4] = STONE  # a stone cut by the left and right borders: one element across the border
+    stones[:, -4:] = STONE
+    analysis, _ = core.analyse(stones, settings(), cache=core.AnalysisCache())
+    assert analysis.tileable
+    assert any("analysed as tileable" in note for note in core.check_usable(analysis, settings()))
+    cut = core.analyse(stones[:, :-4], settings(), cache=core.AnalysisCache())[0]  # the stone cut at one side only
+    assert not cut.tileable
+    assert not any("tileable" in note for note in core.check_usable(cut, settings()))
+    explicit = core.analyse(stones[:, :-4], settings(tileable=True), cache=core.AnalysisCache())[0]
+    assert explicit.tileable and not core.check_usable(explicit, settings(tileable=True))

@@ -116,6 +116,9 @@ constexpr int64_t kPlacementFillMisses = 256;       // filling a class stops aft
 constexpr double kPlacementCrowdCount = 16.0;
 // Thinning keeps a particle with a chance that falls as (its local count ratio)^this: 0 = uniform.
 constexpr double kPlacementThinExponent = 2.0;
+// ... and, for a particle nearer a same-class neighbour than the class's min distance, as (min distance / that
+// distance)^this: large, so those go first (0 = ignore).
+constexpr double kPlacementThinSpread = 8.0;
 constexpr double kPlacementCrowdSlack = 0.3;
 constexpr int32_t kPlacementCrowdTriangles = 8;  // fewer centroids in the disc: its expected count is nominal
 constexpr double kPlacementCrowdCovered = 0.4;  // a disc expecting less than this x nominal (a corner) refuses nothing
