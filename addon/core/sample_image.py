@@ -138,36 +138,6 @@ def correlation_length(pixels, max_lag=64, max_side=512):
     return float(max_lag)
 
 
-# A sample repeats when the step across its border (last column to first, last row to first) is no larger
-# than its own steps between neighbouring columns and rows: the border's mean difference at most this many
-# times the median of theirs. The median, not a high percentile: where elements lie on a flat ground, an
-# element cut by the border steps like an element's edge, which a high percentile counts as ordinary. On the
-# corpus' 30 samples (docs/algorithms/texture_particles.md "Tileable samples found"): tileable patterns
-# 0.94-7.1 (two at 10.5 and 13.6), crops of photos 10.0-367.
-TILEABLE_SEAM_RATIO = 8.5
-
-
-def seam_ratio(pixels):
-    """The larger over x and y of (mean |first - last| column or row) / (median of the mean |difference|
-    between neighbouring columns or rows); 0 where the border does not step at all, inf below 3 px."""
-    pixels = np.asarray(pixels, np.float32)
-    if pixels.ndim == 2:
-        pixels = pixels[..., None]
-    if min(pixels.shape[:2]) < 3:
-        return math.inf
-    ratios = []
-    for image in (pixels, pixels.transpose(1, 0, 2)):
-        steps = np.abs(np.diff(image, axis=1)).mean(axis=(0, 2), dtype=np.float64)
-        seam = float(np.abs(image[:, 0] - image[:, -1]).mean(dtype=np.float64))
-        typical = float(np.median(steps))
-        ratios.append(0.0 if seam == 0.0 else seam / typical if typical > 0.0 else math.inf)
-    return max(ratios)
-
-
-def looks_tileable(pixels):
-    return seam_ratio(pixels) <= TILEABLE_SEAM_RATIO
-
-
 def synthesis_sample(pixels_top_first):
     """H x W x C (row 0 = top) -> float32 H x W x 3|4 with row 0 = bottom (Blender's pixel order, which
     round_synthesize expects: rows grow along the texture's up). Grey samples become RGB."""

@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import native
 from ..core.jobs import BoundedCache
-from ..core.sample_image import looks_tileable, synthesis_sample
+from ..core.sample_image import synthesis_sample
 from ..core.settings import PARTICLE_CLASS_RANGE, SettingsError
 
 MAX_LABEL_COLOURS = PARTICLE_CLASS_RANGE[1]
@@ -113,18 +113,11 @@ def particle_touching(settings):
     return bool(settings.particle_touching)
 
 
-def analysed_tileable(sample, settings):
-    """Tileable on, or a sample whose opposite edges continue each other (sample_image.looks_tileable): its
-    border-cut elements are then one element across the border, and the density comes from whole periods.
-    With tileable off, the corpus' tileable samples were analysed 0.77-1.3 x their density."""
-    return bool(settings.tileable) or looks_tileable(sample)
-
-
 def analysis_key(sample, settings, labels=None):
     params = (int(settings.particle_classes) if labels is None else 0, float(settings.particle_blur),
               int(settings.particle_min_area), int(settings.particle_background_class),
               tuple(tuple(int(c) for c in pair) for pair in settings.particle_merges),
-              analysed_tileable(sample, settings), int(settings.seed))
+              bool(settings.tileable), int(settings.seed))
     if particle_touching(settings):  # issue 30; off: the keys (and cached analyses) of before stay valid
         params += ("touching",)
     return digest(sample, labels) + "-" + hashlib.blake2b(repr(params).encode(), digest_size=8).hexdigest()
@@ -160,8 +153,7 @@ def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=anal
         if found is not None:
             cache.put(key, found)
             return found, "disk"
-    kwargs = dict(blur=float(settings.particle_blur), tileable=analysed_tileable(sample, settings),
-                  seed=int(settings.seed))
+    kwargs = dict(blur=float(settings.particle_blur), tileable=bool(settings.tileable), seed=int(settings.seed))
     if settings.particle_min_area:
         kwargs["min_area"] = int(settings.particle_min_area)
     if particle_touching(settings):
@@ -210,9 +202,9 @@ OTHER_METHODS = ("A texture without separate elements (noise, a gradient, grain)
                  "jumpmap) or Round Neighbourhoods (--method round) instead.")
 
 
-def check_usable(analysis, settings=None):
+def check_usable(analysis):
     """Raises SettingsError when the sample cannot give particles: one colour, all particles, no complete
-    particle. Returns notes for what was bounded (merged tiny components) or found (a tileable sample)."""
+    particle. Returns notes for what was bounded (merged tiny components)."""
     rows = class_rows(analysis)
     total = analysis.width * analysis.height
     particles = sum(row["particles"] for row in rows if not row["background"])
@@ -230,8 +222,6 @@ def check_usable(analysis, settings=None):
             "no class has a complete particle (every particle is cut by the sample's border or joined into one "
             "region): use a sample where whole elements lie inside, or mark it tileable. %s" % OTHER_METHODS)
     notes = []
-    if settings is not None and analysis.tileable and not settings.tileable:
-        notes.append("analysed as tileable: the sample's opposite edges continue each other")
     if analysis.merged_components:
         notes.append("%d tiny components joined the background%s" % (
             analysis.merged_components, " (beyond the cap of 20,000 particles: %d)" % analysis.merged_over_cap

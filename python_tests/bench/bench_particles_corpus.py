@@ -10,8 +10,7 @@ only without either).
 Samples: out/corpus/samples/<name>.png (out/corpus/manifest.json; python_tests/bench/corpus.py makes them):
 every `element` sample plus the element-like near-regular and stochastic ones in SAMPLES. Each is analysed at
 the add-on's defaults (addon/core/settings.py: particle_classes 4, particle_blur 1, min_area automatic,
-background = the largest class, touching off, tileable off: the add-on then detects a tileable sample from its
-edges, and so does this benchmark; seed 0), the PNG as loaded (row 0 = top, read by
+background = the largest class, touching off, tileable off, seed 0), the PNG as loaded (row 0 = top, read by
 the analysis as the bottom: a mirror image, which changes no statistic here). Placement: place_particles at its
 defaults (seed --seed) on a flat square plane of 3 x 3 sample widths (150 x 150 jittered quads, as
 bench_particles_arrangement.py's plane_mesh), field +y, sample_world_width = sample width / 512 (corpus_results'
@@ -57,11 +56,6 @@ sys.path.insert(0, HERE)
 sys.path.insert(0, os.environ.get("TEXSYNTH_MODULE_DIR", os.path.join(ROOT, "addon")))
 import texsynth_native as tn  # noqa: E402
 
-sys.path.insert(0, os.path.dirname(HERE))
-import addon_package  # noqa: E402
-
-looks_tileable = addon_package.load("core.sample_image").looks_tileable
-
 import particle_metrics as pm  # noqa: E402
 import particles_corpus_metrics as pcm  # noqa: E402
 from bench_particles_arrangement import composite, placed_boxes, plane_mesh, sample_boxes  # noqa: E402
@@ -90,9 +84,7 @@ def defaults():
 
 
 def analyse(sample, d):
-    # as the add-on decides (particles/core.py analysed_tileable): tileable on, or detected from the edges
-    kwargs = dict(classes=d["classes"], blur=d["blur"], tileable=d["tileable"] or looks_tileable(sample),
-                  seed=d["seed"])
+    kwargs = dict(classes=d["classes"], blur=d["blur"], tileable=d["tileable"], seed=d["seed"])
     if d["min_area"]:
         kwargs["min_area"] = d["min_area"]
     if d["background"] >= 0:

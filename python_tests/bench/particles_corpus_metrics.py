@@ -1,7 +1,10 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Pure helpers of bench_particles_corpus.py (issue 30, "Use the benchmark corpus"): densities, class shares,
-the typical-element range and the share of placed particles inside it. numpy only, no native module.
+the typical-element range and the share of placed particles inside it; and whether a sample repeats (seam_ratio,
+run as a script over the corpus). numpy only, no native module (except the script).
 """
+import math
+
 import numpy as np
 
 from touching_metrics import AREA_SLACK, ASPECT_SLACK
@@ -68,3 +71,52 @@ def goal_share(values, test):
     if not values:
         return float("nan")
     return sum(1 for v in values if v is not None and v == v and test(v)) / len(values)
+
+
+# A sample repeats when the step across its border (last column to first, last row to first) is no larger
+# than its own steps between neighbouring columns and rows: the border's mean difference at most this many
+# times the median of theirs. The median, not a high percentile: where elements lie on a flat ground, an
+# element cut by the border steps like an element's edge, which a high percentile counts as ordinary. On the
+# corpus' 30 samples (docs/algorithms/texture_particles.md "Tileable samples"; `python3
+# particles_corpus_metrics.py` prints them): tileable patterns 0.94-7.1 (two at 10.5 and 13.6), crops of photos
+# 10.0-367.
+TILEABLE_SEAM_RATIO = 8.5
+
+
+def seam_ratio(pixels):
+    """The larger over x and y of (mean |first - last| column or row) / (median of the mean |difference|
+    between neighbouring columns or rows); 0 where the border does not step at all, inf below 3 px."""
+    pixels = np.asarray(pixels, np.float32)
+    if pixels.ndim == 2:
+        pixels = pixels[..., None]
+    if min(pixels.shape[:2]) < 3:
+        return math.inf
+    ratios = []
+    for image in (pixels, pixels.transpose(1, 0, 2)):
+        steps = np.abs(np.diff(image, axis=1)).mean(axis=(0, 2), dtype=np.float64)
+        seam = float(np.abs(image[:, 0] - image[:, -1]).mean(dtype=np.float64))
+        typical = float(np.median(steps))
+        ratios.append(0.0 if seam == 0.0 else seam / typical if typical > 0.0 else math.inf)
+    return max(ratios)
+
+
+def looks_tileable(pixels):
+    return seam_ratio(pixels) <= TILEABLE_SEAM_RATIO
+
+
+def main():
+    """Prints every corpus sample's seam ratio beside its manifest's tileable flag."""
+    import json
+    import os
+    import sys
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    sys.path.insert(0, os.path.join(root, "addon"))
+    import texsynth_native as tn
+    corpus = os.path.join(root, "out", "corpus")
+    for sample in json.load(open(os.path.join(corpus, "manifest.json")))["samples"]:
+        pixels = np.asarray(tn.load_image(os.path.join(corpus, sample["file"])), np.float32)[..., :3]
+        print("%-26s tileable %-5s seam ratio %8.2f" % (sample["name"], sample["tileable"], seam_ratio(pixels)))
+
+
+if __name__ == "__main__":
+    main()

@@ -40,19 +40,16 @@ FOLDER = tempfile.mkdtemp(prefix="texsynth_particles_")
 
 
 def pebbles_path(name="pebbles.png", kind="pebbles", size=(96, 64)):
-    """A PNG drawn here: ground, four 10 px stones and two 6 x 14 leaves (rows from the bottom); 'lit', the same
-    lit from the left (its left and right edges do not continue each other: not taken for tileable); or 'flat'."""
+    """A PNG drawn here: ground, four 10 px stones and two 6 x 14 leaves (rows from the bottom); or 'flat'."""
     path = os.path.join(FOLDER, name)
     width, height = size
     pixels = np.ones((height, width, 4), np.float32)
     pixels[..., :3] = GROUND
-    if kind in ("pebbles", "lit"):
+    if kind == "pebbles":
         for x0, y0 in [(8, 8), (40, 8), (70, 30), (20, 40)]:
             pixels[y0:y0 + 10, x0:x0 + 10, :3] = STONE
         for x0, y0 in [(55, 6), (82, 40)]:
             pixels[y0:y0 + 14, x0:x0 + 6, :3] = LEAF
-    if kind == "lit":
-        pixels[..., :3] *= np.linspace(1.0, 0.97, width, dtype=np.float32)[None, :, None]
     return harness.save_png(path, pixels)
 
 
@@ -230,7 +227,7 @@ def test_pick_class_reads_the_image_editor_cursor():
 
 def test_merge_and_background_edit_the_analysis():
     clean()
-    props = configure(sample_path=pebbles_path("lit.png", "lit"))  # wrapped, the ground would be one whole region
+    props = configure()
     bpy.ops.texsynth.particle_analyse()
     stone, leaf = class_ids()
     props.particle_active_class, props.particle_merge_into = leaf, stone

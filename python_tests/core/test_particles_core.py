@@ -402,19 +402,3 @@ def test_instances_are_fitted_inside_their_particles_boxes():
     assert corners[:, 1].min() >= 0.0 and corners[:, 1].max() > 0.35
     same = outputs.fit_instances(centre, axis, normal, box, classes, [None])
     assert np.allclose(same[0], centre) and np.allclose(same[1], axis) and np.allclose(same[2], box)
-
-
-def test_a_sample_that_repeats_is_analysed_as_tileable_and_the_report_says_so():
-    """Tileable off: a sample whose opposite edges continue each other is analysed as tileable (its
-    border-cut elements join across the border) and the notes say so; one that does not stays as asked."""
-    stones = pebbles()
-    stones[:, :4] = STONE  # a stone cut by the left and right borders: one element across the border
-    stones[:, -4:] = STONE
-    analysis, _ = core.analyse(stones, settings(), cache=core.AnalysisCache())
-    assert analysis.tileable
-    assert any("analysed as tileable" in note for note in core.check_usable(analysis, settings()))
-    cut = core.analyse(stones[:, :-4], settings(), cache=core.AnalysisCache())[0]  # the stone cut at one side only
-    assert not cut.tileable
-    assert not any("tileable" in note for note in core.check_usable(cut, settings()))
-    explicit = core.analyse(stones[:, :-4], settings(tileable=True), cache=core.AnalysisCache())[0]
-    assert explicit.tileable and not core.check_usable(explicit, settings(tileable=True))
