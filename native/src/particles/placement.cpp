@@ -939,7 +939,8 @@ void Placer::thin(ClassRun& run, size_t first) {
   std::vector<std::pair<double, uint32_t>> key(n);
   for (size_t i = 0; i < n; ++i) {
     const double u = (double(run.rng.next_u32()) + 0.5) * (1.0 / 4294967296.0);  // (0, 1)
-    const double close = nearest[i] > 0 && nearest[i] < close_px ? std::pow(close_px / nearest[i], kPlacementThinSpread) : 1.0;
+    const double close =
+        nearest[i] < close_px ? std::pow(close_px / std::max(nearest[i], 1e-3 * close_px), kPlacementThinSpread) : 1.0;
     key[i] = {-std::log(u) * std::pow(ratio[i], kPlacementThinExponent) * close, uint32_t(i)};
   }
   std::nth_element(key.begin(), key.begin() + std::ptrdiff_t(drop), key.end(), std::greater<>());

@@ -587,7 +587,8 @@ PatchSynthResult synthesize_patches(const GridPatches& g, const PatchCoverage& c
           if (std::find(qvalid.begin(), qvalid.end(), 1) == qvalid.end()) continue;
           auto ranked = ranked_candidates(full, ix.appearance, qraw, qvalid, p.candidates, false, qred, qfeat);
           coherent_candidates(cov, q, out.source, full, qorigins);
-          for (const int32_t id : qorigins) ranked.push_back({masked_distance(full, ix.appearance, qraw, qvalid, id, qfeat), id});
+          for (const int32_t id : qorigins)
+            ranked.push_back({masked_distance(full, ix.appearance, qraw, qvalid, id, qfeat), id});
           std::sort(ranked.begin(), ranked.end());
           quse.assign(size_t(n) * n, 0);
           for (size_t g = 0; g < quse.size(); ++g) quse[g] = gc.weight[g] >= kKnownWeight;
