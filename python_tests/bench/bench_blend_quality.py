@@ -71,22 +71,7 @@ def parse_args():
 def jittered_plane(cells, width, seed):
     """Triangles over [-width/2, width/2]^2: interior vertices jittered by up to 0.3 cell, each cell split
     along a random diagonal. Returns the object and its edges as (E, 2, 2) world xy segments."""
-    rng = np.random.default_rng(seed)
-    step = width / cells
-    ys, xs = np.mgrid[0:cells + 1, 0:cells + 1].astype(np.float64)
-    jitter = rng.uniform(-0.3, 0.3, (cells + 1, cells + 1, 2))
-    border = (xs == 0) | (xs == cells) | (ys == 0) | (ys == cells)
-    jitter[border] = 0.0
-    px = (xs + jitter[..., 0]) * step - width / 2
-    py = (ys + jitter[..., 1]) * step - width / 2
-    positions = np.stack([px.ravel(), py.ravel(), np.zeros(px.size)], 1).astype(np.float32)
-    triangles = []
-    for y in range(cells):
-        for x in range(cells):
-            a, b, c, d = y * (cells + 1) + x, y * (cells + 1) + x + 1, (y + 1) * (cells + 1) + x + 1, \
-                (y + 1) * (cells + 1) + x
-            triangles += [(a, b, c), (a, c, d)] if rng.random() < 0.5 else [(a, b, d), (b, c, d)]
-    triangles = np.array(triangles, np.int32)
+    positions, triangles = blend_metrics.jittered_plane_arrays(cells, width, seed)
     obj = harness.mesh_from_arrays("Plane", positions, triangles.ravel(),
                                    np.arange(0, 3 * len(triangles), 3, dtype=np.int32),
                                    np.full(len(triangles), 3, np.int32))

@@ -20,23 +20,13 @@ import numpy as np
 import texsynth_image_io
 import texsynth_native as ts
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import blend_metrics  # noqa: E402
+
 
 def jittered_plane(cells=10, width=2.0, seed=3):
     """bench_blend_quality.jittered_plane's mesh as Blender-layout arrays (same random draws)."""
-    rng = np.random.default_rng(seed)
-    step = width / cells
-    ys, xs = np.mgrid[0:cells + 1, 0:cells + 1].astype(np.float64)
-    jitter = rng.uniform(-0.3, 0.3, (cells + 1, cells + 1, 2))
-    jitter[(xs == 0) | (xs == cells) | (ys == 0) | (ys == cells)] = 0.0
-    px = (xs + jitter[..., 0]) * step - width / 2
-    py = (ys + jitter[..., 1]) * step - width / 2
-    positions = np.stack([px.ravel(), py.ravel(), np.zeros(px.size)], 1).astype(np.float32)
-    triangles = []
-    for y in range(cells):
-        for x in range(cells):
-            a, b, c, d = y * (cells + 1) + x, y * (cells + 1) + x + 1, (y + 1) * (cells + 1) + x + 1, (y + 1) * (cells + 1) + x
-            triangles += [(a, b, c), (a, c, d)] if rng.random() < 0.5 else [(a, b, d), (b, c, d)]
-    t = np.array(triangles, np.int32)
+    positions, t = blend_metrics.jittered_plane_arrays(cells, width, seed)
     return positions, t.ravel(), np.arange(0, t.size, 3, dtype=np.int32), np.full(len(t), 3, np.int32)
 
 

@@ -75,3 +75,23 @@ def autocorrelation_peak(image, min_lag):
     lag_x = np.minimum(np.arange(width), width - np.arange(width))[None, :]
     far = (np.maximum(lag_y, lag_x) > min_lag) & (lag_y < height // 2) & (lag_x < width // 2)
     return float(correlation[far].max())
+
+
+def jittered_plane_arrays(cells, width, seed):
+    """(positions (V, 3) float32, triangles (T, 3) int32) over [-width/2, width/2]^2: interior vertices
+    jittered by up to 0.3 cell, each cell split along a random diagonal (the blending benchmarks' plane)."""
+    rng = np.random.default_rng(seed)
+    step = width / cells
+    ys, xs = np.mgrid[0:cells + 1, 0:cells + 1].astype(np.float64)
+    jitter = rng.uniform(-0.3, 0.3, (cells + 1, cells + 1, 2))
+    jitter[(xs == 0) | (xs == cells) | (ys == 0) | (ys == cells)] = 0.0
+    px = (xs + jitter[..., 0]) * step - width / 2
+    py = (ys + jitter[..., 1]) * step - width / 2
+    positions = np.stack([px.ravel(), py.ravel(), np.zeros(px.size)], 1).astype(np.float32)
+    triangles = []
+    for y in range(cells):
+        for x in range(cells):
+            a, b, c, d = y * (cells + 1) + x, y * (cells + 1) + x + 1, (y + 1) * (cells + 1) + x + 1, \
+                (y + 1) * (cells + 1) + x
+            triangles += [(a, b, c), (a, c, d)] if rng.random() < 0.5 else [(a, b, d), (b, c, d)]
+    return positions, np.array(triangles, np.int32)

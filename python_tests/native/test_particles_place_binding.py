@@ -248,12 +248,9 @@ def test_class_pairs_and_one_class_rerun(pebbles):
     assert [row["class"] for row in one["stats"]["classes"]] == [1]
 
 
-def test_local_count_control_spreads_a_class_over_the_whole_surface():
-    """Issue 30: on the corpus' paving_bricks at the add-on's defaults the propagation packs 4-6 x the expected
-    count, so from its one seed each class reached its cap in a disc round the seed and the thinning kept that
-    disc (measured on this plane without the local count control: 1.38 x the whole plane's density in its
-    middle, every class capped; with it 1.10, none capped). Plane of 3 x 3 sample widths; the middle is the
-    central 2 x 2."""
+def paving_bricks_plane():
+    """The corpus' paving_bricks (committed) at the add-on's defaults, and a plane of 3 x 3 sample widths with
+    the field along +y: (analysis, sample width in world units, walk mesh, field)."""
     import paths
     sample = np.ascontiguousarray(np.asarray(tn.load_image(paths.BENCH + "/placement_paving_bricks.png"),
                                              np.float32)[..., :3])
@@ -261,7 +258,17 @@ def test_local_count_control_spreads_a_class_over_the_whole_surface():
     width = sample.shape[1] / 512.0
     pos, tris = jittered_plane(n=150, spacing=3 * width / 150, jitter=0.0)
     field = np.tile(np.array([0.0, 1.0, 0.0], np.float32), (len(pos), 1))
-    placed = tn.place_particles(a, tn.surface_walk_mesh(pos, tris), field, sample_world_width=width, seed=1)
+    return a, width, tn.surface_walk_mesh(pos, tris), field
+
+
+def test_local_count_control_spreads_a_class_over_the_whole_surface():
+    """Issue 30: on the corpus' paving_bricks at the add-on's defaults the propagation packs 4-6 x the expected
+    count, so from its one seed each class reached its cap in a disc round the seed and the thinning kept that
+    disc (measured on this plane without the local count control: 1.38 x the whole plane's density in its
+    middle, every class capped; with it 1.10, none capped). Plane of 3 x 3 sample widths; the middle is the
+    central 2 x 2."""
+    a, width, mesh, field = paving_bricks_plane()
+    placed = tn.place_particles(a, mesh, field, sample_world_width=width, seed=1)
     p = placed["position"]
     middle = ((p[:, 0] >= 0.5 * width) & (p[:, 0] < 2.5 * width) & (p[:, 1] >= 0.5 * width) &
               (p[:, 1] < 2.5 * width)).sum() / 4.0
@@ -277,14 +284,7 @@ def test_thinning_takes_the_excess_where_the_propagation_packed_it():
     paving_bricks plane the middle 2 x 2 sample widths held 1.10 x the whole plane's density (seeds 1-3: 1.10,
     1.09, 1.12; centre cell 1.17, 1.16, 1.11). Thinning now drops particles with a chance that rises with
     their local count ratio: 0.98-0.99, centre cell 0.96-1.05."""
-    import paths
-    sample = np.ascontiguousarray(np.asarray(tn.load_image(paths.BENCH + "/placement_paving_bricks.png"),
-                                             np.float32)[..., :3])
-    a = tn.particle_analysis(sample, classes=4, blur=1.0, seed=0, tileable=False)
-    width = sample.shape[1] / 512.0
-    pos, tris = jittered_plane(n=150, spacing=3 * width / 150, jitter=0.0)
-    field = np.tile(np.array([0.0, 1.0, 0.0], np.float32), (len(pos), 1))
-    mesh = tn.surface_walk_mesh(pos, tris)
+    a, width, mesh, field = paving_bricks_plane()
     middles, centres = [], []
     for seed in (1, 2, 3):
         placed = tn.place_particles(a, mesh, field, sample_world_width=width, seed=seed)

@@ -695,15 +695,17 @@ Placer::LocalCount Placer::local_count(const ClassRun& run, const Placed& c, dou
   out.expected = inside >= kPlacementCrowdTriangles ? surface * run.cp.density_px : out.nominal;
   if (stop_factor > 0 && out.expected < kPlacementCrowdCovered * out.nominal) return out;
   const double stop_at = stop_factor > 0 ? stop_factor * out.expected : std::numeric_limits<double>::infinity();
+  double nearest_sq = std::numeric_limits<double>::infinity();  // one sqrt at the end: crowded() runs per child
   run.grid.near(c.l.position, radius, [&](int32_t j) {
     const Placed& o = placed_[size_t(j)];
     if (dot(o.l.normal, c.l.normal) >= 0) {
       const V3 d = o.l.position - c.l.position;
       out.weighted += weight(d);
-      if (&o != &c) out.nearest = std::min(out.nearest, std::sqrt(dot(d, d)));
+      if (&o != &c) nearest_sq = std::min(nearest_sq, dot(d, d));
     }
     return out.weighted >= stop_at;
   });
+  out.nearest = std::sqrt(nearest_sq);
   return out;
 }
 
