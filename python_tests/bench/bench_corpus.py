@@ -74,6 +74,7 @@ def parse_args():
     parser.add_argument("--report-only", action="store_true", help="only rebuild the table and the sheets")
     parser.add_argument("--blender", default=os.environ.get("TEXSYNTH_BLENDER", "blender"))
     args = parser.parse_args()
+    args.out = os.path.abspath(args.out)  # Blender runs with other working folders
     args.methods = [m for m in args.methods.split(",") if m]
     unknown = set(args.methods) - set(METHODS)
     if unknown:
@@ -117,6 +118,7 @@ def make_empty_blend(args):
     path = os.path.join(args.out, "empty.blend")
     if os.path.isfile(path):
         return path
+    os.makedirs(args.out, exist_ok=True)  # Blender's save does not make folders, and still exits 0
     script = ("import bpy\n"
               "bpy.ops.wm.read_factory_settings(use_empty=True)\n"
               "scene = bpy.context.scene\n"
@@ -125,6 +127,8 @@ def make_empty_blend(args):
               "bpy.ops.wm.save_as_mainfile(filepath=%r)\n" % path)
     subprocess.run([args.blender, "-b", "--factory-startup", "--python-expr", script], check=True,
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    if not os.path.isfile(path):
+        raise SystemExit("bench_corpus: Blender did not write %s" % path)
     return path
 
 
