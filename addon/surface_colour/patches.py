@@ -23,6 +23,13 @@ PATCH_CENTRE_SPACING = {"SAMPLING": 0.5, "OPTIMISATION": 0.3}
 # level broke them (nearest-patch distance 0.00083 vs 0.00317 on bricks, detail 0.95 vs 0.84 on moss).
 PATCH_LEVELS = 3
 PATCH_MAX_MEGABYTES = 2500.0
+# The analysed sample alone (appearance, patch features, HNSW): patch_exemplar's max_megabytes.
+PATCH_EXEMPLAR_MAX_MEGABYTES = 1500.0
+# A working sample over either limit at Synthesis Resolution Match Target is reduced until it fits, its width
+# × MEMORY_FIT_STEP per try, at most MEMORY_FIT_STEPS tries (0.85^12 = 0.14); past that the run is refused.
+# Corpus (issue 29): the 1024-2048 px photos were refused on the scanned bunny (1.6-6.8 GB estimated).
+MEMORY_FIT_STEP = 0.85
+MEMORY_FIT_STEPS = 12
 
 
 class ExemplarCache:
@@ -62,8 +69,8 @@ class ExemplarCache:
                 exemplar = None  # another key, stale or corrupt: rebuilt and overwritten below
         if exemplar is None:
             extra = {} if cancel is None else {"cancel": cancel}
-            exemplar = module.patch_exemplar(sample, patch_size=int(patch_size),
-                                             tileable=bool(tileable), **extra)
+            exemplar = module.patch_exemplar(sample, patch_size=int(patch_size), tileable=bool(tileable),
+                                             max_megabytes=PATCH_EXEMPLAR_MAX_MEGABYTES, **extra)
             if path:
                 os.makedirs(cache_dir, exist_ok=True)
                 exemplar.save(path)
@@ -126,6 +133,50 @@ def estimate_patch_megabytes(module, samples, mode, level_sizes, surface_pixels,
     total = (patches * side * side * PATCH_GRID_POINT_BYTES + coverage * PATCH_COVERAGE_BYTES
              + samples * PATCH_SAMPLE_BYTES + analyses)
     return total / 1e6
+
+
+class MemoryPlan:
+    """What a patch synthesis from one working sample needs: every level's (width, height, patch size), the
+    surface in sample pixels, the whole estimate and the finest analysis' share (MB)."""
+
+    def __init__(self, module, sample, texels_per_unit, settings, samples, mesh_arrays, triangles):
+        height, width, channels = sample.shape
+        try:
+            self.level_sizes = module.patch_level_sizes(width, height, settings.patch_size,
+                                                        tileable=bool(settings.tileable),
+                                                        mode=settings.patch_mode.lower(), levels=PATCH_LEVELS)
+        except ValueError as error:  # a working sample too small for any patch
+            raise SettingsError(str(error))
+        self.surface_pixels = patch_surface_pixels(mesh_arrays.positions, triangles, texels_per_unit,
+                                                   mesh_arrays.scale_multiplier)
+        self.megabytes = estimate_patch_megabytes(module, samples, settings.patch_mode, self.level_sizes,
+                                                  self.surface_pixels, channels, bool(settings.tileable))
+        finest = self.level_sizes[0]
+        self.exemplar_megabytes = module.estimate_patch_exemplar_bytes(
+            finest[0], finest[1], channels, finest[2], tileable=bool(settings.tileable)) / 1e6
+
+    def fits(self):
+        return self.megabytes <= PATCH_MAX_MEGABYTES and self.exemplar_megabytes <= PATCH_EXEMPLAR_MAX_MEGABYTES
+
+
+def fit_to_memory(module, sample, texels_per_unit, settings, samples, mesh_arrays, triangles):
+    """(sample, texels_per_unit, plan): the working sample as it is when it fits the memory limits, else
+    the largest reduction of it (MEMORY_FIT_STEP per try) that does; plan.fits() is False when none does."""
+    plan = MemoryPlan(module, sample, texels_per_unit, settings, samples, mesh_arrays, triangles)
+    if plan.fits() or settings.round_resolution != "AUTO":
+        return sample, texels_per_unit, plan
+    for step in range(1, MEMORY_FIT_STEPS + 1):
+        smaller, smaller_texels = working_sample(sample, texels_per_unit, texels_per_unit * MEMORY_FIT_STEP ** step,
+                                                 "AUTO", 2 * settings.patch_size)
+        if smaller.shape[1] >= sample.shape[1]:
+            break  # at the smallest working sample already
+        try:
+            candidate = MemoryPlan(module, smaller, smaller_texels, settings, samples, mesh_arrays, triangles)
+        except SettingsError:
+            break
+        if candidate.fits():
+            return smaller, smaller_texels, candidate
+    return sample, texels_per_unit, plan
 
 
 def memory_advice(module, settings, target, samples, level_sizes, surface_pixels, channels, finer, sample_shape):
@@ -245,17 +296,22 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
     if not cached:
         targets.put(target_key, density, texels)
     mode = settings.patch_mode
-    surface_pixels = patch_surface_pixels(mesh_arrays.positions, triangles, texels_per_unit,
-                                          mesh_arrays.scale_multiplier)
-    needed = estimate_patch_megabytes(module, positions.shape[0], mode, level_sizes, surface_pixels, sample.shape[2],
-                                      bool(settings.tileable))
-    if needed > PATCH_MAX_MEGABYTES:
+    before = sample.shape
+    sample, texels_per_unit, plan = fit_to_memory(module, sample, texels_per_unit, settings, positions.shape[0],
+                                                  mesh_arrays, triangles)
+    if not plan.fits():
         finer = texels_per_unit / density if density > 0.0 else 1.0
-        advice = memory_advice(module, settings, target, positions.shape[0], level_sizes, surface_pixels,
+        advice = memory_advice(module, settings, target, positions.shape[0], plan.level_sizes, plan.surface_pixels,
                                sample.shape[2], finer, sample.shape)
-        raise SettingsError(
-            "%d surface samples with %d px patches in %s mode need about %d MB (limit %d MB): %s"
-            % (positions.shape[0], level_sizes[0][2], mode.lower(), needed, PATCH_MAX_MEGABYTES, advice))
+        if plan.megabytes > PATCH_MAX_MEGABYTES:
+            raise SettingsError(
+                "%d surface samples with %d px patches in %s mode need about %d MB (limit %d MB): %s"
+                % (positions.shape[0], plan.level_sizes[0][2], mode.lower(), plan.megabytes, PATCH_MAX_MEGABYTES,
+                   advice))
+        raise SettingsError("analysing the %d x %d sample with %d px patches needs about %d MB (limit %d MB): %s"
+                            % (sample.shape[1], sample.shape[0], plan.level_sizes[0][2], plan.exemplar_megabytes,
+                               PATCH_EXEMPLAR_MAX_MEGABYTES, advice))
+    check_patch_boundary(settings.patch_boundary, plan.level_sizes)
     exemplar, exemplar_from = cache.get(sample, settings.patch_size, settings.tileable,
                                         cache_dir, cancel)
     field = module.patch_field(mesh_arrays.positions, triangles, up, spacing=1.0 / float(texels_per_unit),
@@ -292,6 +348,8 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
         "surface_samples": int(positions.shape[0]),
         "overlapping_texels": overlapping,
         "working_sample": [int(sample.shape[1]), int(sample.shape[0])],
+        "memory_reduced_from": [int(before[1]), int(before[0])] if sample.shape != before else None,
+        "estimated_megabytes": float(plan.megabytes),
         "target_density": density,
         "sample_pixels_per_spacing": float(full_width / float(sample.shape[1]) * texels_per_unit / density)
         if density > 0.0 else 0.0,

@@ -217,6 +217,12 @@ class Job:
                                                            else "mesh", coarse,
                                                            "raise the image size" if self.settings.surface_target
                                                            == "IMAGE" else "subdivide the mesh"))
+                reduced = stats.get("memory_reduced_from")
+                if reduced:
+                    self.report.notes.append(
+                        "%s: synthesized from the sample reduced to %d x %d (from %d x %d) to stay within the memory "
+                        "limit of patch synthesis; a crop of the sample keeps its full resolution"
+                        % ((name,) + tuple(stats["working_sample"]) + tuple(reduced)))
                 if stats.get("context_reused"):
                     self.report.outputs.append("%s: neighbourhoods reused (only the synthesis ran)" % name)
                 if stats.get("unreached_samples"):

@@ -162,6 +162,37 @@ def test_patch_memory_advice_names_only_changes_that_apply_and_an_image_size_tha
     assert "larger patches" not in advice, advice  # 64 is the largest patch size
 
 
+def test_a_working_sample_over_the_memory_limit_is_reduced_to_the_largest_that_fits():
+    """Match Target: a sample whose analysis would pass the limit is reduced step by step, and the first
+    step that fits is taken (the corpus' 1024-2048 px photos were refused on the bunny). Full Sample keeps the
+    sample, and the caller refuses."""
+    native = pytest.importorskip("texsynth_native")
+    import types
+    side = 1024  # its analysis with 32 px patches: about 2 GB, over PATCH_EXEMPLAR_MAX_MEGABYTES
+    sample = np.random.default_rng(3).random((side, side, 3)).astype(np.float32)
+    positions = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], np.float32)
+    triangles = np.array([[0, 1, 2], [0, 2, 3]], np.int32)
+    mesh = types.SimpleNamespace(positions=positions, scale_multiplier=None)
+    settings = core_settings.Settings(method="PATCHES", patch_mode="SAMPLING", patch_size=32)
+    samples = 200000
+    whole = patches_core.MemoryPlan(native, sample, float(side), settings, samples, mesh, triangles)
+    assert not whole.fits() and whole.exemplar_megabytes > patches_core.PATCH_EXEMPLAR_MAX_MEGABYTES
+    reduced, texels, plan = patches_core.fit_to_memory(native, sample, float(side), settings, samples, mesh,
+                                                       triangles)
+    assert plan.fits() and reduced.shape[1] < side and reduced.shape[0] == reduced.shape[1], reduced.shape
+    assert texels == pytest.approx(side * reduced.shape[1] / float(side))  # the same world size
+    # The largest that fits: the step before it did not.
+    step = round(np.log(reduced.shape[1] / side) / np.log(patches_core.MEMORY_FIT_STEP))
+    larger = int(round(side * patches_core.MEMORY_FIT_STEP ** (step - 1)))
+    bigger = core.working_sample(sample, float(side), float(larger), "AUTO")[0]
+    assert not patches_core.MemoryPlan(native, bigger, float(larger), settings, samples, mesh, triangles).fits()
+    # Area averages of the sample, not a crop: the mean colour stays.
+    assert np.allclose(reduced.mean(axis=(0, 1)), sample.mean(axis=(0, 1)), atol=1e-3)
+    full = core_settings.Settings(method="PATCHES", patch_mode="SAMPLING", patch_size=32, round_resolution="FULL")
+    kept, _, plan = patches_core.fit_to_memory(native, sample, float(side), full, samples, mesh, triangles)
+    assert kept is sample and not plan.fits()
+
+
 def test_an_exemplar_saved_with_other_parameters_is_not_reused(tmp_path):
     native = pytest.importorskip("texsynth_native")
     addon_native = addon_package.load("native")
