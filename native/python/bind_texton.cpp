@@ -50,7 +50,7 @@ void bind_texton(py::module_& m) {
          py::object anchor_vertices, py::object anchor_directions, py::object sources, py::object sinks,
          py::object normals, py::object scale_multiplier, py::object camera_position, py::object blend_threshold,
          double lambda, bool allow_oversized, py::object cancel, bool pack_sets, double coherence_threshold,
-         int seeds_per_component) {
+         int seeds_per_component, bool fallback_search) {
         OrientedMeshArgs args = oriented_mesh_args(positions, corner_verts, poly_starts, poly_sizes, normals, orientation,
                                                    axis, direction, anchor_vertices, anchor_directions, sources, sinks);
         FloatArray pixels = float_array(sample_pixels, "sample_pixels");
@@ -70,6 +70,7 @@ void bind_texton(py::module_& m) {
         params.search.max_votes = max_votes;
         params.search.tie_tolerance = tie_tolerance;
         params.search.coherence_threshold = coherence_threshold;
+        params.search.fallback_search = fallback_search;
         params.seeds_per_component = seeds_per_component;
         params.allow_oversized = allow_oversized;
         params.lambda = lambda;
@@ -149,6 +150,7 @@ void bind_texton(py::module_& m) {
       py::arg("allow_oversized") = false, py::arg("cancel") = py::none(), py::arg("pack_sets") = false,
       py::arg("coherence_threshold") = texsynth::SearchParams().coherence_threshold,
       py::arg("seeds_per_component") = texsynth::TextonSynthParams().seeds_per_component,
+      py::arg("fallback_search") = texsynth::SearchParams().fallback_search,
       "Texton-string patch synthesis (Magda & Kriegman 2003) on a Blender-layout mesh. sample_pixels: the (H, W[, C]) "
       "float image given to preprocess (for E_t). scale = texels per object unit.\n"
       "Returns dict with synthesize_jumpmap's keys (base_uv, blend_uv, blend_weights, num_blend_sets, stats) plus "
@@ -157,7 +159,9 @@ void bind_texton(py::module_& m) {
       "for the edge from each corner to the next, face_region (F,) int32 (growth region, -1 = border pass). "
       "coherence_threshold: take a neighbour's exact continuation without voting when its Eq. 2 error per string "
       "point is below this fraction of the mean texton distance (0 = always vote). seeds_per_component: growth "
-      "regions per component (one per 256 faces at most), grown in parallel (1 = sequential). blend_threshold (needs camera_position): blend only edges with "
+      "regions per component (one per 256 faces at most), grown in parallel (1 = sequential). fallback_search: a face "
+      "no vote places inside a non-tileable sample takes the origin of least Eq. 2 error in reach (False = the "
+      "neighbour's continuation clamped into the sample). blend_threshold (needs camera_position): blend only edges with "
       "Φ > threshold. ValueError on bad input. cancel: a CancelToken; raising it from another thread stops the call "
       "with Cancelled within milliseconds.");
 

@@ -12,6 +12,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -592,10 +593,13 @@ class TextonSynthesizer {
       ++st.searched, ++st.coherent;
     } else if (predicted && search.search(string, range, p_.search, face_seed, ox, oy, err)) {
       ++st.searched;
-    } else if (predicted) {  // nothing voted inside the range: continue the neighbour, clamped into the sample
+    } else if (predicted) {  // nothing voted inside the range
       ++st.fallback;
       ox = int32_t(std::floor(std::clamp(guess[0], -1e9f, 1e9f))), oy = int32_t(std::floor(std::clamp(guess[1], -1e9f, 1e9f)));
-      if (!range.wrap) ox = std::clamp(ox, range.x0, range.x1), oy = std::clamp(oy, range.y0, range.y1);
+      if (!range.wrap) {
+        ox = std::clamp(ox, range.x0, range.x1), oy = std::clamp(oy, range.y0, range.y1);
+        if (p_.search.fallback_search) fallback_origin(string, range, face_seed, ox, oy);
+      }
     } else {  // first face of a component or region: a random origin
       Rng rng(face_seed, 0x73656564);  // "seed"
       ox = range.x0 + int32_t(rng.below(uint32_t(range.x1 - range.x0 + 1)));
@@ -608,6 +612,34 @@ class TextonSynthesizer {
       texel_[2 * size_t(first + i) + 1] = Y + off[2 * i + 1];
     }
     textured_[poly] = 1;
+  }
+
+  // A face no vote placed inside the sample (its origin range is small: a face nearly as large as the sample)
+  // takes the origin of least string error (Eq. 2) in the range: every origin of a range up to
+  // kFallbackAll, else kFallbackDraws seeded ones, and the clamped continuation (ox, oy) of before. Clamped
+  // alone, neighbouring fallback faces all landed on the sample's border: a ladder of near-identical tiles.
+  static constexpr int64_t kFallbackAll = 4096;
+  static constexpr int kFallbackDraws = 256;
+  void fallback_origin(const TextonString& string, const OriginRange& range, uint64_t face_seed, int32_t& ox,
+                       int32_t& oy) const {
+    const int64_t w = int64_t(range.x1) - range.x0 + 1, h = int64_t(range.y1) - range.y0 + 1;
+    if (string.size() == 0 || w < 1 || h < 1) return;
+    std::vector<int32_t> xy{ox, oy};
+    if (w * h <= kFallbackAll) {
+      for (int32_t y = range.y0; y <= range.y1; ++y)
+        for (int32_t x = range.x0; x <= range.x1; ++x) xy.push_back(x), xy.push_back(y);
+    } else {
+      Rng rng(face_seed, 0x66616c6c);  // "fall"
+      for (int i = 0; i < kFallbackDraws; ++i) {
+        xy.push_back(range.x0 + int32_t(rng.below(uint32_t(w))));
+        xy.push_back(range.y0 + int32_t(rng.below(uint32_t(h))));
+      }
+    }
+    int32_t x = ox, y = oy;
+    double err = 0;
+    if (coherent_origin(pre_, string, xy.data(), int(xy.size() / 2), range, std::numeric_limits<double>::infinity(),
+                        x, y, err))
+      ox = x, oy = y;
   }
 
   static int32_t wrap_coordinate(int32_t v, int32_t n) {

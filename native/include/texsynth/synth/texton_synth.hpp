@@ -82,6 +82,10 @@ struct SearchParams {
   // point is below coherence_threshold × the mean texton distance. 0 = off (always vote); [0, 1e6].
   // 0.5: chosen by bench_texton_speed.py (E_t falls as the threshold rises, speed-up levels off).
   double coherence_threshold = 0.5;
+  // A face no vote places inside a non-tileable sample takes the origin of least Eq. 2 error in its range
+  // (texton_strings.md, "Fallback faces"); false = the neighbour's continuation clamped into the sample, as
+  // before (kept to measure the difference).
+  bool fallback_search = true;
 };
 
 struct TextonSynthParams {
