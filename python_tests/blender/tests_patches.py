@@ -279,6 +279,36 @@ def test_full_resolution_sample_over_the_memory_limit_is_refused_before_any_work
     assert report.native_stats["Cube"]["working_sample"][0] < 512
 
 
+def test_a_sample_over_the_analysis_limit_is_reduced_and_the_report_says_to_what():
+    # The corpus' large photos passed the analysis limit on the bunny and were refused; at Match Target the
+    # working sample is now reduced until it fits. Here the limit is lowered to 60 % of what this run's
+    # working sample needs, so the fit must reduce it (its area, and so the analysis, about halves).
+    obj = plane()
+    request = options.BakeRequest(size=128, margin=4)
+    patches_core.exemplars.clear()
+    patches_core.patch_targets.clear()
+    report = run([obj], request)
+    assert report.objects, report.summary()
+    width, height = report.native_stats[obj.name]["working_sample"]
+    assert report.native_stats[obj.name]["memory_reduced_from"] is None
+    module = texsynth.native.require()
+    needed = module.estimate_patch_exemplar_bytes(width, height, 3, 16) / 1e6
+    limit = patches_core.PATCH_EXEMPLAR_MAX_MEGABYTES
+    patches_core.PATCH_EXEMPLAR_MAX_MEGABYTES = 0.6 * needed
+    try:
+        obj = plane()
+        report = run([obj], request)
+    finally:
+        patches_core.PATCH_EXEMPLAR_MAX_MEGABYTES = limit
+    message = report.summary()
+    assert report.objects, message
+    stats = report.native_stats[obj.name]
+    assert stats["memory_reduced_from"] == [width, height], stats
+    smaller = stats["working_sample"]
+    assert smaller[0] < width and module.estimate_patch_exemplar_bytes(smaller[0], smaller[1], 3, 16) / 1e6 <= 0.6 * needed
+    assert "reduced to %d x %d (from %d x %d)" % (smaller[0], smaller[1], width, height) in message, message
+
+
 def test_a_boundary_wider_than_half_the_patches_used_is_refused_by_the_addon():
     # Patch Size 16 allows Boundary 6 (at most half the patch size) for a large enough sample, but here the
     # sample is reduced to 32² (a 64 px image over 2 units at scale 1: 32 texels per unit) and Optimisation's
