@@ -239,15 +239,10 @@ def test_fallback_faces_take_the_origin_that_continues_their_neighbours_best():
     import sys
     import paths
     sys.path.insert(0, paths.BENCH)
-    import blend_metrics
+    from bench_texton_fade_mix import jittered_plane
     img = np.ascontiguousarray(np.asarray(ts.load_image(paths.BENCH + "/tessellation_brick_small.png"),
                                           np.float32)[..., :3])
-    if img.max() > 1.5:
-        img = img / 255.0
-    positions, triangles = blend_metrics.jittered_plane_arrays(10, 2.0, 3)
-    corners = np.ascontiguousarray(triangles.ravel(), np.int32)
-    starts = np.arange(0, corners.size, 3, dtype=np.int32)
-    sizes = np.full(starts.size, 3, np.int32)
+    positions, corners, starts, sizes = jittered_plane()
     pre = ts.preprocess(img)
     searched = clamped = 0.0
     fallback = 0
