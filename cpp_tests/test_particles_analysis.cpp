@@ -320,6 +320,34 @@ TEST(ParticlesAnalysis, TileableSampleJoinsParticleAcrossTheBorder) {
   EXPECT_EQ(opaque, area);
 }
 
+// The add-on's detected repeat (texture_particles.md "Tileable samples"): wrap_blur = false keeps the classes
+// of the untiled analysis (k-means sees the same blurred pixels) and still joins particles across the border.
+TEST(ParticlesAnalysis, ClampedBlurKeepsTheUntiledClassesAndStillWrapsParticles) {
+  Scene s = flat(96, 80);
+  int64_t area = 0;
+  const Disc across{0.0, 40.0, 12};  // half on each side of the left/right edge when wrapped
+  for (int y = 0; y < 80; ++y)
+    for (int x = -20; x < 20; ++x)
+      if (across.inside(x, y)) s.set((x + 96) % 96, y, kStone), ++area;
+  paint_disc(s, Disc{48.0, 79.0, 9}, kStone);  // cut by the top edge only: wrapping blurs it into the bottom rows
+  ParticleAnalysisParams p = two_classes(2.0);
+  const ParticleAnalysis plain = texsynth::analyse_particles(s.view(), p);
+  ASSERT_EQ(plain.particles.size(), 3u);
+  p.tileable = true;
+  p.wrap_blur = false;
+  const ParticleAnalysis clamped = texsynth::analyse_particles(s.view(), p);
+  EXPECT_EQ(clamped.centres, plain.centres);
+  EXPECT_EQ(clamped.labels, plain.labels);
+  ASSERT_EQ(clamped.particles.size(), 2u);
+  const int32_t joined = particle_at(clamped, 1.0, 40.0);
+  ASSERT_GE(joined, 0);
+  EXPECT_TRUE(clamped.particles[size_t(joined)].complete);
+  EXPECT_NEAR(double(clamped.particles[size_t(joined)].area), double(area), 0.1 * double(area));
+  p.wrap_blur = true;  // the blur across the border moves the centres: the case wrap_blur = false avoids
+  const ParticleAnalysis wrapped = texsynth::analyse_particles(s.view(), p);
+  EXPECT_NE(wrapped.centres, plain.centres);
+}
+
 TEST(ParticlesAnalysis, OneRowSampleStillFillsEveryQuadrant) {
   Scene s = flat(176, 48);  // 7 squares of 16 px, 8 px apart, in one row
   for (int i = 0; i < 7; ++i) paint_rect(s, 8 + 24 * i, 16, 16, 16, kStone);

@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import native
 from ..core.jobs import BoundedCache
-from ..core.sample_image import synthesis_sample
+from ..core.sample_image import repeats_across_border, synthesis_sample
 from ..core.settings import PARTICLE_CLASS_RANGE, SettingsError
 
 MAX_LABEL_COLOURS = PARTICLE_CLASS_RANGE[1]
@@ -120,6 +120,8 @@ def analysis_key(sample, settings, labels=None):
               bool(settings.tileable), int(settings.seed))
     if particle_touching(settings):  # issue 30; off: the keys (and cached analyses) of before stay valid
         params += ("touching",)
+    if not settings.tileable:  # the detected repeat: its outcome, so a change of the rule cannot reuse a file
+        params += ("repeat", analysis_tileable(sample, settings))
     return digest(sample, labels) + "-" + hashlib.blake2b(repr(params).encode(), digest_size=8).hexdigest()
 
 
@@ -132,6 +134,17 @@ def background_file_path(cache_dir, background, sample, labels=None):
     analysis_key) and does not change with settings the artist never sees in it."""
     folder = "%s%s-%d" % (BACKGROUND_PREFIX, digest(np.asarray(background)), BACKGROUND_FORMAT)
     return os.path.join(cache_dir, folder, "%s%s.png" % (BACKGROUND_PREFIX, digest(sample, labels)[:16]))
+
+
+def analysis_tileable(sample, settings):
+    """(tileable, wrap_blur) of the native analysis. Tileable on: both. Off: a sample whose edges continue each
+    other (core/sample_image.repeats_across_border) still has its particles joined across the border, which
+    is what its density is counted from (texture_particles.md "Tileable samples": 10 -> 12 of the corpus' 12
+    element-like samples within +-15 %), but its blur clamps as without Tileable, so k-means sees the same
+    pixels and finds the same classes."""
+    if settings.tileable:
+        return True, True
+    return repeats_across_border(sample), False
 
 
 def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=analyses):
@@ -153,7 +166,10 @@ def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=anal
         if found is not None:
             cache.put(key, found)
             return found, "disk"
-    kwargs = dict(blur=float(settings.particle_blur), tileable=bool(settings.tileable), seed=int(settings.seed))
+    tileable, wrap_blur = analysis_tileable(sample, settings)
+    kwargs = dict(blur=float(settings.particle_blur), tileable=tileable, seed=int(settings.seed))
+    if not wrap_blur:
+        kwargs["wrap_blur"] = False
     if settings.particle_min_area:
         kwargs["min_area"] = int(settings.particle_min_area)
     if particle_touching(settings):
@@ -202,9 +218,10 @@ OTHER_METHODS = ("A texture without separate elements (noise, a gradient, grain)
                  "jumpmap) or Round Neighbourhoods (--method round) instead.")
 
 
-def check_usable(analysis):
+def check_usable(analysis, settings=None):
     """Raises SettingsError when the sample cannot give particles: one colour, all particles, no complete
-    particle. Returns notes for what was bounded (merged tiny components)."""
+    particle. Returns notes for what was bounded (merged tiny components) and for a repeat found with Tileable
+    off (settings given)."""
     rows = class_rows(analysis)
     total = analysis.width * analysis.height
     particles = sum(row["particles"] for row in rows if not row["background"])
@@ -222,6 +239,8 @@ def check_usable(analysis):
             "no class has a complete particle (every particle is cut by the sample's border or joined into one "
             "region): use a sample where whole elements lie inside, or mark it tileable. %s" % OTHER_METHODS)
     notes = []
+    if settings is not None and analysis.tileable and not settings.tileable:
+        notes.append("the sample repeats across its border: elements cut by it are joined as with Tileable on")
     if analysis.merged_components:
         notes.append("%d tiny components joined the background%s" % (
             analysis.merged_components, " (beyond the cap of 20,000 particles: %d)" % analysis.merged_over_cap

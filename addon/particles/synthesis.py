@@ -94,7 +94,7 @@ class Job:
             self.labels = labels
         with self.timings.phase("preprocess"):
             self.analysis, source = core.analyse(self.sample_array, settings, labels, self.cache_dir, self.token)
-        self.report.notes += core.check_usable(self.analysis)
+        self.report.notes += core.check_usable(self.analysis, settings)
         self.order = core.class_order(self.analysis, settings)
         if self.only_class is not None:
             if self.only_class not in self.order:
@@ -356,7 +356,7 @@ def analyse(sample, settings, cache_dir="", label_pixels=None):
     if label_pixels is not None:
         labels = core.labels_from_image(label_pixels, array.shape[1], array.shape[0])
     analysis, source = core.analyse(array, settings, labels, cache_dir or sources.default_cache_dir())
-    return analysis, source, core.check_usable(analysis)
+    return analysis, source, core.check_usable(analysis, settings)
 
 
 def clear(objects):

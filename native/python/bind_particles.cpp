@@ -176,8 +176,8 @@ void bind_particles(py::module_& m) {
   m.def(
       "particle_analysis",
       [](py::object sample, int classes, double blur, py::object min_area, py::object labels, py::object background,
-         bool tileable, uint64_t seed, bool touching, double touching_neck, double touching_depth, bool touching_darker,
-         double touching_shading, py::object cancel) {
+         bool tileable, bool wrap_blur, uint64_t seed, bool touching, double touching_neck, double touching_depth,
+         bool touching_darker, double touching_shading, py::object cancel) {
         FloatArray px = float_array(sample, "sample");
         const texsynth::ParticleSample s = sample_view<texsynth::ParticleSample>(px);
         texsynth::ParticleAnalysisParams p;
@@ -193,6 +193,7 @@ void bind_particles(py::module_& m) {
         p.background = background.is_none() ? -1 : background.cast<int32_t>();
         if (!background.is_none() && p.background < 0) throw std::invalid_argument("background must be >= 0 or None");
         p.tileable = tileable;
+        p.wrap_blur = wrap_blur;
         p.seed = seed;
         p.touching = touching;
         p.touching_neck = touching_neck;
@@ -209,7 +210,8 @@ void bind_particles(py::module_& m) {
       },
       py::arg("sample"), py::kw_only(), py::arg("classes") = 4, py::arg("blur") = 1.0, py::arg("min_area") = py::none(),
       py::arg("labels") = py::none(), py::arg("background") = py::none(), py::arg("tileable") = false,
-      py::arg("seed") = 0, py::arg("touching") = false, py::arg("touching_neck") = texsynth::kParticleTouchingNeck,
+      py::arg("wrap_blur") = true, py::arg("seed") = 0, py::arg("touching") = false,
+      py::arg("touching_neck") = texsynth::kParticleTouchingNeck,
       py::arg("touching_depth") = texsynth::kParticleTouchingDepth, py::arg("touching_darker") = true,
       py::arg("touching_shading") = 0.0,
       py::arg("cancel") = py::none(),
@@ -217,8 +219,9 @@ void bind_particles(py::module_& m) {
       "k-means++ into `classes` (2..12), or `labels` (H, W) int class per pixel instead; 8-connected particles "
       "(smaller than min_area, default max(16, 0.02 % of the pixels), merged into the background class, which is "
       "the largest unless given); boxes, completeness, co-occurrence lists, class table and the filled "
-      "background. touching: elements that touch (gravel, cobbles): background = the class with the largest connected "
-      "piece (touching_darker: the classes darker than it join it), the rest split by a distance-transform "
+      "background. tileable: the blur and the particles wrap across the border (wrap_blur=False: the blur "
+      "clamps, so the classes are those of an untiled analysis). touching: elements that touch (gravel, "
+      "cobbles): background = the class with the largest connected piece (touching_darker: the classes darker than it join it), the rest split by a distance-transform "
       "watershed: two basins stay apart when their saddle is <= touching_neck (0..1] x the lower peak and that "
       "peak rises >= touching_depth px above it (touching_shading 0..1: the relief is the distance darkened by "
       "the sample's shading, 0 = distance only). Returns a ParticleAnalysis. ValueError on bad input; cancel: a "

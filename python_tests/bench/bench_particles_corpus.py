@@ -10,7 +10,7 @@ only without either).
 Samples: out/corpus/samples/<name>.png (out/corpus/manifest.json; python_tests/bench/corpus.py makes them):
 every `element` sample plus the element-like near-regular and stochastic ones in SAMPLES. Each is analysed at
 the add-on's defaults (addon/core/settings.py: particle_classes 4, particle_blur 1, min_area automatic,
-background = the largest class, touching off, tileable off, seed 0), the PNG as loaded (row 0 = top, read by
+background = the largest class, touching off, tileable off with the repeat found at the border, seed 0), the PNG as loaded (row 0 = top, read by
 the analysis as the bottom: a mirror image, which changes no statistic here). Placement: place_particles at its
 defaults (seed --seed) on a flat square plane of 3 x 3 sample widths (150 x 150 jittered quads, as
 bench_particles_arrangement.py's plane_mesh), field +y, sample_world_width = sample width / 512 (corpus_results'
@@ -80,11 +80,13 @@ def defaults():
     s = Settings()
     return {"classes": int(s.particle_classes), "blur": float(s.particle_blur), "min_area": int(s.particle_min_area),
             "background": int(s.particle_background_class), "touching": bool(s.particle_touching),
-            "tileable": bool(s.tileable), "seed": int(s.seed)}
+            "tileable": bool(s.tileable), "seed": int(s.seed), "detect_repeat": True}
 
 
 def analyse(sample, d):
     kwargs = dict(classes=d["classes"], blur=d["blur"], tileable=d["tileable"], seed=d["seed"])
+    if d["detect_repeat"] and not d["tileable"] and pcm.looks_tileable(sample):
+        kwargs.update(tileable=True, wrap_blur=False)  # the add-on's rule (particles/core.analysis_tileable)
     if d["min_area"]:
         kwargs["min_area"] = d["min_area"]
     if d["background"] >= 0:
@@ -280,8 +282,10 @@ def main():
     parser.add_argument("--sheet", default=os.path.join(ROOT, "docs", "benchmarks", "sheet_particles_elements.jpg"),
                         help="contact sheet JPEG ('' for none)")
     parser.add_argument("--markdown", action="store_true")
-    parser.add_argument("--tileable", choices=("default", "manifest"), default="default",
-                        help="manifest: analyse with the manifest's tileable flag instead of the add-on's default")
+    parser.add_argument("--tileable", choices=("default", "manifest", "off"), default="default",
+                        help="default: the add-on's (Tileable off, a repeat found at the border analysed as "
+                        "tileable with the blur clamped); manifest: Tileable as the manifest says; off: no "
+                        "repeat found (the add-on before it looked)")
     args = parser.parse_args()
     with open(os.path.join(CORPUS, "manifest.json")) as handle:
         manifest = {s["name"]: s for s in json.load(handle)["samples"]}
@@ -295,6 +299,8 @@ def main():
     rows, pictures = [], []
     for name in names:
         dd = dict(d, tileable=bool(manifest[name]["tileable"])) if args.tileable == "manifest" else d
+        if args.tileable == "off":
+            dd = dict(d, detect_repeat=False)
         row, pic = run(name, manifest[name], dd, args)
         rows.append(row)
         pictures.append(pic)

@@ -3,7 +3,6 @@
 the typical-element range and the share of placed particles inside it; and whether a sample repeats (seam_ratio,
 run as a script over the corpus). numpy only, no native module (except the script).
 """
-import math
 
 import numpy as np
 
@@ -73,35 +72,22 @@ def goal_share(values, test):
     return sum(1 for v in values if v is not None and v == v and test(v)) / len(values)
 
 
-# A sample repeats when the step across its border (last column to first, last row to first) is no larger
-# than its own steps between neighbouring columns and rows: the border's mean difference at most this many
-# times the median of theirs. The median, not a high percentile: where elements lie on a flat ground, an
-# element cut by the border steps like an element's edge, which a high percentile counts as ordinary. On the
-# corpus' 30 samples (docs/algorithms/texture_particles.md "Tileable samples"; `python3
-# particles_corpus_metrics.py` prints them): tileable patterns 0.94-7.1 (two at 10.5 and 13.6), crops of photos
-# 10.0-367.
-TILEABLE_SEAM_RATIO = 8.5
-
-
+# Whether a sample repeats is the add-on's own rule (core/sample_image.border_seam_ratio), which the particle
+# analysis applies when Tileable is off; printed over the corpus by main().
 def seam_ratio(pixels):
-    """The larger over x and y of (mean |first - last| column or row) / (median of the mean |difference|
-    between neighbouring columns or rows); 0 where the border does not step at all, inf below 3 px."""
-    pixels = np.asarray(pixels, np.float32)
-    if pixels.ndim == 2:
-        pixels = pixels[..., None]
-    if min(pixels.shape[:2]) < 3:
-        return math.inf
-    ratios = []
-    for image in (pixels, pixels.transpose(1, 0, 2)):
-        steps = np.abs(np.diff(image, axis=1)).mean(axis=(0, 2), dtype=np.float64)
-        seam = float(np.abs(image[:, 0] - image[:, -1]).mean(dtype=np.float64))
-        typical = float(np.median(steps))
-        ratios.append(0.0 if seam == 0.0 else seam / typical if typical > 0.0 else math.inf)
-    return max(ratios)
+    return _sample_image().border_seam_ratio(pixels)
 
 
 def looks_tileable(pixels):
-    return seam_ratio(pixels) <= TILEABLE_SEAM_RATIO
+    return _sample_image().repeats_across_border(pixels)
+
+
+def _sample_image():
+    import os
+    import sys
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # python_tests
+    import addon_package
+    return addon_package.load("core.sample_image")
 
 
 def main():

@@ -56,21 +56,3 @@ def test_goal_share_counts_nan_as_failure():
     values = [1.0, 1.1, 1.5, float("nan")]
     assert pcm.goal_share(values, lambda v: abs(v - 1.0) <= 0.15) == 0.5
     assert math.isnan(pcm.goal_share([], lambda v: True))
-
-
-def test_a_sample_whose_edges_continue_each_other_looks_tileable():
-    """seam_ratio: the step across the border against the sample's own steps between neighbours. A pattern
-    with whole periods (and noise, and a flat colour) repeats; the same pattern cut mid-period, a gradient, or
-    a crop of a smooth photo-like field does not."""
-    rng = np.random.default_rng(5)
-    y, x = np.mgrid[0:96, 0:96] / 96.0
-    whole = 0.5 + 0.4 * np.cos(2 * np.pi * 3 * x)[..., None] * np.cos(2 * np.pi * 2 * y)[..., None]
-    pattern = np.repeat(whole, 3, axis=2)
-    assert pcm.looks_tileable(pattern)
-    assert pcm.looks_tileable(rng.random((64, 64, 3)))
-    assert pcm.seam_ratio(np.full((16, 16, 3), 0.3)) == 0.0
-    assert not pcm.looks_tileable(pattern[:, :80])               # 2.5 periods across
-    assert not pcm.looks_tileable(np.repeat(x[..., None], 3, axis=2))  # a gradient
-    smooth = np.cumsum(np.cumsum(rng.random((256, 256)) - 0.5, axis=0), axis=1)
-    assert not pcm.looks_tileable(smooth[..., None])
-    assert pcm.seam_ratio(np.zeros((2, 40, 3))) == float("inf")  # too small to tell: not tileable

@@ -121,6 +121,38 @@ def test_analysis_is_cached_in_memory_by_sample_and_parameters():
     assert core.analyse(changed, settings(), cache=cache)[1] == "built"
 
 
+def repeating_pebbles(width=96, height=64):
+    """Noisy ground whose 10 px stones wrap round the border: a sample that repeats. 4 stones, two of them cut
+    in two by the border (one across the left/right edges, one across the top/bottom)."""
+    img = np.tile(GROUND, (height, width, 1)) + np.random.default_rng(3).normal(0, 0.005, (height, width, 1))
+    for x0, y0 in [(20, 20), (50, 35), (-5, 30), (70, -4)]:
+        img[np.ix_(np.arange(y0, y0 + 10) % height, np.arange(x0, x0 + 10) % width)] = STONE
+    return np.ascontiguousarray(img, np.float32)
+
+
+def test_a_sample_that_repeats_is_analysed_as_tileable_with_the_classes_of_an_untiled_analysis():
+    """Tileable off: a sample whose edges continue each other has its cut stones joined (4 particles, all
+    complete, and the report says why), with the classes k-means finds without Tileable (the blur clamps: the
+    same labels); a crop of it that no longer repeats stays untiled."""
+    sample = repeating_pebbles()
+    cache = core.AnalysisCache()
+    two = dict(particle_blur=1.0, particle_classes=2)
+    analysis, _ = core.analyse(sample, settings(**two), cache=cache)
+    assert analysis.tileable
+    assert (len(analysis.particles["class"]), int(analysis.particles["complete"].sum())) == (4, 4)
+    untiled = native.particle_analysis(sample, classes=2, blur=1.0, tileable=False)
+    assert np.array_equal(analysis.labels, untiled.labels)
+    assert len(untiled.particles["class"]) == 6
+    assert any("repeats across its border" in note for note in core.check_usable(analysis, settings()))
+    crop = np.ascontiguousarray(sample[:, 3:-6])
+    cropped, _ = core.analyse(crop, settings(**two), cache=cache)
+    assert not cropped.tileable
+    assert not any("repeats" in note for note in core.check_usable(cropped, settings()))
+    chosen, _ = core.analyse(sample, settings(tileable=True, **two), cache=cache)
+    assert chosen.tileable and not any("repeats" in n for n in core.check_usable(chosen, settings(tileable=True)))
+    assert core.analysis_key(sample, settings()) != core.analysis_key(crop, settings())
+
+
 @pytest.mark.skipif(not hasattr(native, "save_particle_analysis"), reason="no save/load_particle_analysis yet")
 def test_analysis_is_cached_on_disk_and_a_corrupt_file_is_rebuilt(tmp_path):
     sample = pebbles()

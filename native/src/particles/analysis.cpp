@@ -126,7 +126,7 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
   // Segmentation.
   auto t0 = Clock::now();
   if (params.labels.empty()) {
-    const std::vector<float> blurred = gaussian_blur(sample, params.blur_sigma, a.tileable, cancel);
+    const std::vector<float> blurred = gaussian_blur(sample, params.blur_sigma, a.tileable && params.wrap_blur, cancel);
     a.stats.seconds_blur = seconds_since(t0);
     report(params.progress, 0.1f);
     t0 = Clock::now();

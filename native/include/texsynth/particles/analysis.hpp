@@ -7,7 +7,7 @@
 // Conventions.
 //  - Sample: height x width x channels floats (3 or 4), interleaved, row y = 0 at the BOTTOM. Pixel
 //    (x, y) covers [x, x + 1) x [y, y + 1); its centre is (x + 0.5, y + 0.5). Not necessarily square.
-//  - Segmentation: Gaussian blur (sigma px, borders clamp, or wrap when tileable), then k-means++ on
+//  - Segmentation: Gaussian blur (sigma px, borders clamp, or wrap when tileable and wrap_blur), then k-means++ on
 //    the blurred colours (all channels, stored values) fitted on a seeded subsample of <= 65,536
 //    pixels, 20 Lloyd iterations, every pixel then assigned once. Classes are numbered by decreasing
 //    pixel count. Or an artist's label image (class >= 0 per pixel) replaces blur and k-means.
@@ -155,6 +155,9 @@ struct ParticleAnalysisParams {
   std::vector<int32_t> labels; // empty = k-means; else width*height classes >= 0 (< 256), row 0 bottom
   int32_t background = -1;     // background class; -1 = the class with the most pixels
   bool tileable = false;
+  // With tileable: the blur wraps across the border too. false keeps the segmentation of an untiled analysis
+  // (the add-on's detected repeat: k-means from one start is tipped by the border's few pixels).
+  bool wrap_blur = true;
   uint64_t seed = 0;
   int32_t max_components = kParticleMaxComponents;  // >= 1
   // Touching elements (conventions, "Touching elements"): background = the lace class (unless given), the
