@@ -20,7 +20,7 @@ namespace {
 using texsynth::ParticleAnalysis;
 
 // Two classes of discs in a grid on a noisy ground (close enough to co-occur); the last column
-// crosses the right border (joined to the first when tileable).
+// crosses the right border (joined to the first when tileable; then analysed with the touching split too).
 ParticleAnalysis analysed(bool tileable) {
   const int W = 96, H = 80;
   std::vector<float> px(size_t(W) * H * 3);
@@ -40,6 +40,7 @@ ParticleAnalysis analysed(bool tileable) {
   texsynth::ParticleAnalysisParams p;
   p.classes = 3;
   p.tileable = tileable;
+  p.touching = tileable;  // the tiled case also carries the touching flag
   p.seed = 3;
   return texsynth::analyse_particles({px.data(), W, H, 3}, p);
 }
@@ -49,6 +50,7 @@ void expect_same(const ParticleAnalysis& a, const ParticleAnalysis& b) {
   EXPECT_EQ(a.height, b.height);
   EXPECT_EQ(a.channels, b.channels);
   EXPECT_EQ(a.tileable, b.tileable);
+  EXPECT_EQ(a.touching, b.touching);
   EXPECT_EQ(a.num_classes, b.num_classes);
   EXPECT_EQ(a.background, b.background);
   EXPECT_EQ(a.min_area, b.min_area);
@@ -119,6 +121,7 @@ TEST(ParticlesCache, EveryFieldRoundTrips) {
     const ParticleAnalysis a = analysed(tileable);
     ASSERT_GE(a.particles.size(), 4u);
     ASSERT_FALSE(a.cooc.empty());
+    ASSERT_EQ(a.touching, tileable);
     if (tileable) {
       ASSERT_FALSE(a.unwrapped.empty());
     }

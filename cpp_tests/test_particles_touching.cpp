@@ -125,6 +125,64 @@ TEST(ParticlesTouching, ShadingSplitsAtADarkSeamTheDistanceCannotSee) {
   EXPECT_NEAR(a.particles[0].area, a.particles[1].area, 40);
 }
 
+// touching_auto: the split where one plain particle spans more than a fifth of the sample, the plain components
+// elsewhere, and the plain ones again when the split would leave a smaller share of complete particles.
+double complete_share(const ParticleAnalysis& a) {
+  int64_t whole = 0;
+  for (const auto& p : a.particles) whole += p.complete;
+  return a.particles.empty() ? 0.0 : double(whole) / double(a.particles.size());
+}
+
+TEST(ParticlesTouching, AutoSplitsWhereOneRegionSpansTheSample) {
+  Scene s = flat(80, 64, 0.25f);
+  paint_ellipse(s, 27, 32, 16, 16, 0, 0.7f);  // joined: ~1,600 of 5,120 px (31 %)
+  paint_ellipse(s, 53, 32, 16, 16, 0, 0.7f);
+  ParticleAnalysisParams p;
+  p.classes = 2, p.blur_sigma = 0, p.touching_auto = true;
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), p);
+  EXPECT_TRUE(a.touching);
+  ASSERT_EQ(a.particles.size(), 2u);
+  EXPECT_EQ(a.components, texsynth::analyse_particles(s.view(), touching_params()).components);
+}
+
+TEST(ParticlesTouching, AutoLeavesSeparatedElementsAsTheyAre) {
+  Scene s = flat(96, 64, 0.25f);
+  paint_ellipse(s, 38, 32, 12, 12, 0, 0.7f);  // the touching pair of above at 15 % of the sample: not split
+  paint_ellipse(s, 58, 32, 12, 12, 0, 0.7f);
+  paint_ellipse(s, 84, 12, 5, 5, 0, 0.7f);
+  ParticleAnalysisParams p;
+  p.classes = 2, p.blur_sigma = 0;
+  const ParticleAnalysis plain = texsynth::analyse_particles(s.view(), p);
+  p.touching_auto = true;
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), p);
+  EXPECT_FALSE(a.touching);
+  EXPECT_EQ(a.particles.size(), 2u);
+  EXPECT_EQ(a.components, plain.components);
+  EXPECT_EQ(a.labels, plain.labels);
+}
+
+TEST(ParticlesTouching, AutoKeepsThePlainComponentsWhenTheSplitCutsMoreAtTheBorder) {
+  // A dark frame along the (not tileable) border, 44 % of the sample, around a light field with four dark
+  // dots: plain, the frame is one cut particle and the dots are whole; the split cuts the frame at its
+  // corners' distance peaks and drops the thin dots, so fewer of its particles are whole.
+  Scene s = flat(96, 96, 0.7f);
+  for (int y = 0; y < 96; ++y)
+    for (int x = 0; x < 96; ++x)
+      if (x < 12 || y < 12 || x >= 84 || y >= 84) s.set(x, y, 0.25f);
+  for (const auto& [cx, cy] : {std::pair{34.0, 34.0}, {62.0, 34.0}, {34.0, 62.0}, {62.0, 62.0}})
+    paint_ellipse(s, cx, cy, 4, 4, 0, 0.25f);
+  ParticleAnalysisParams p;
+  p.classes = 2, p.blur_sigma = 0;
+  const ParticleAnalysis plain = texsynth::analyse_particles(s.view(), p);
+  ASSERT_EQ(plain.particles.size(), 5u);
+  const ParticleAnalysis forced = texsynth::analyse_particles(s.view(), touching_params());
+  ASSERT_LT(complete_share(forced), complete_share(plain));  // what the guard is for
+  p.touching_auto = true;
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), p);
+  EXPECT_FALSE(a.touching);
+  EXPECT_EQ(a.components, plain.components);
+}
+
 TEST(ParticlesTouching, DegenerateInputsAreSafe) {
   const int W = 8, H = 8;
   Scene s = flat(W, H, 0.5f);

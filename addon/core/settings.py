@@ -35,6 +35,8 @@ PARTICLE_MAX_BLUR = 10.0
 PARTICLE_OUTPUTS = ("DECALS", "INSTANCES", "BOTH")
 PARTICLE_BACKGROUNDS = ("JUMPMAP", "TEXTON", "NONE")   # how the filled background sample is synthesized
 PARTICLE_MAX_JITTER = 0.9
+# Touching Elements: AUTO splits only where one region spans the sample (texture_particles.md "Touching elements").
+PARTICLE_TOUCHING = ("AUTO", "ON", "OFF")
 ORIENTATIONS = ("AXIS", "FIELD", "ANCHORS")
 SCALE_SOURCES = ("NONE", "ATTRIBUTE", "VERTEX_GROUP")
 BLEND_MODES = ("AUTO", "HISTOGRAM", "VARIANCE", "LINEAR")  # see blend_groups.py
@@ -104,7 +106,7 @@ class Settings:
     particle_classes: int = 4        # k-means classes (ignored with a label image)
     particle_blur: float = 1.0       # Gaussian sigma in sample pixels before k-means
     particle_min_area: int = 0       # smaller components join the background; 0 = max(16 px, 0.02 %)
-    particle_touching: bool = False  # split touching elements (watershed; texture_particles.md "Touching elements")
+    particle_touching: str = "AUTO"  # PARTICLE_TOUCHING: split touching elements (watershed); True / False = ON / OFF
     particle_background_class: int = -1  # -1: the largest class
     particle_merges: tuple = ()      # ((a, b), ...): k-means class a joins class b, applied in order
     particle_class_order: tuple = () # placement order of class ids; () = by decreasing particle count

@@ -109,8 +109,12 @@ analyses = AnalysisCache()
 
 
 def particle_touching(settings):
-    """Touching elements (texture_particles.md "Touching elements"): Settings.particle_touching."""
-    return bool(settings.particle_touching)
+    """Touching elements (texture_particles.md "Touching elements"): Settings.particle_touching as AUTO, ON or
+    OFF (True and False, from scripts written when it was a checkbox, are ON and OFF)."""
+    value = settings.particle_touching
+    if isinstance(value, bool):
+        return "ON" if value else "OFF"
+    return value
 
 
 def analysis_key(sample, settings, labels=None):
@@ -118,8 +122,9 @@ def analysis_key(sample, settings, labels=None):
               int(settings.particle_min_area), int(settings.particle_background_class),
               tuple(tuple(int(c) for c in pair) for pair in settings.particle_merges),
               bool(settings.tileable), int(settings.seed))
-    if particle_touching(settings):  # issue 30; off: the keys (and cached analyses) of before stay valid
-        params += ("touching",)
+    touching = particle_touching(settings)
+    if touching != "OFF":
+        params += ("touching",) if touching == "ON" else ("touching-auto",)
     if not settings.tileable:  # the detected repeat: its outcome, so a change of the rule cannot reuse a file
         params += ("repeat", analysis_tileable(sample, settings))
     return digest(sample, labels) + "-" + hashlib.blake2b(repr(params).encode(), digest_size=8).hexdigest()
@@ -172,8 +177,9 @@ def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=anal
         kwargs["wrap_blur"] = False
     if settings.particle_min_area:
         kwargs["min_area"] = int(settings.particle_min_area)
-    if particle_touching(settings):
-        kwargs["touching"] = True
+    touching = particle_touching(settings)
+    if touching != "OFF":
+        kwargs["touching"] = True if touching == "ON" else "auto"
     if cancel is not None:
         kwargs["cancel"] = cancel
     background = int(settings.particle_background_class)
@@ -241,6 +247,9 @@ def check_usable(analysis, settings=None):
     notes = []
     if settings is not None and analysis.tileable and not settings.tileable:
         notes.append("the sample repeats across its border: elements cut by it are joined as with Tileable on")
+    if settings is not None and analysis.touching and particle_touching(settings) == "AUTO":
+        notes.append("elements touch (one region spanned a fifth of the sample): split at the narrow necks between "
+                     "them (Touching Elements: Auto; Off keeps each region whole)")
     if analysis.merged_components:
         notes.append("%d tiny components joined the background%s" % (
             analysis.merged_components, " (beyond the cap of 20,000 particles: %d)" % analysis.merged_over_cap

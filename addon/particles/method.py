@@ -7,7 +7,7 @@ import sys
 
 from ..core.method_spec import MethodFamily, MethodSpec
 from ..core.settings import (PARTICLE_BACKGROUNDS, PARTICLE_CLASS_RANGE, PARTICLE_MAX_BLUR, PARTICLE_MAX_JITTER,
-                             PARTICLE_OUTPUTS, SettingsError, finite, is_int)
+                             PARTICLE_OUTPUTS, PARTICLE_TOUCHING, SettingsError, finite, is_int)
 
 CLI_OPTIONS = ("classes", "blur", "min_area", "touching", "background_class", "merges", "class_order", "labels",
                "write_labels", "particle_output", "instances", "size_jitter", "density", "probability", "size",
@@ -27,8 +27,9 @@ def validate(settings):
     if not is_int(settings.particle_min_area) or settings.particle_min_area < 0:
         raise SettingsError("minimum particle area must be an integer >= 0 pixels (0 = automatic), got %r"
                             % (settings.particle_min_area,))
-    if not isinstance(settings.particle_touching, bool):
-        raise SettingsError("touching elements must be True or False, got %r" % (settings.particle_touching,))
+    if not isinstance(settings.particle_touching, bool) and settings.particle_touching not in PARTICLE_TOUCHING:
+        raise SettingsError("touching elements must be one of %s (or True / False), got %r"
+                            % (", ".join(PARTICLE_TOUCHING), settings.particle_touching))
     if not is_int(settings.particle_background_class) or settings.particle_background_class < -1:
         raise SettingsError("background class must be a class id or -1 (largest class), got %r"
                             % (settings.particle_background_class,))
@@ -57,7 +58,9 @@ def draw(layout, props, context):
     column.prop(props, "particle_classes")
     column.prop(props, "particle_blur")
     column.prop(props, "particle_min_area")
-    layout.prop(props, "particle_touching")
+    row = layout.row(align=True)
+    row.label(text="Touching Elements:")
+    row.prop(props, "particle_touching", expand=True)
     layout.label(text="Label Image (optional):")
     layout.template_ID(props, "particle_label_image", open="image.open")
     layout.operator("texsynth.particle_analyse", icon="VIEWZOOM")
@@ -68,7 +71,7 @@ def panel_settings(props):
     blocks another method)."""
     from . import core
     return dict(particle_classes=int(props.particle_classes), particle_blur=float(props.particle_blur),
-                particle_min_area=int(props.particle_min_area), particle_touching=bool(props.particle_touching),
+                particle_min_area=int(props.particle_min_area), particle_touching=props.particle_touching,
                 particle_background_class=int(props.particle_background_class),
                 particle_merges=core.parse_merges(props.particle_merges),
                 particle_class_order=core.parse_class_list(props.particle_class_order),
@@ -98,9 +101,10 @@ def add_cli_options(parser, d):
     particles.add_argument("--classes", type=int, default=None, help="particles: colour classes (2-12, default 4)")
     particles.add_argument("--blur", type=float, default=None, help="particles: segmentation blur in pixels (1)")
     particles.add_argument("--min-area", type=int, default=None, help="particles: smallest particle in pixels")
-    particles.add_argument("--touching", action="store_const", const=True, default=None,
+    particles.add_argument("--touching", nargs="?", const="on", choices=("auto", "on", "off"), default=None,
                            help="particles: split elements that touch (gravel, cobbles) along the narrow necks "
-                                "between them")
+                                "between them: auto (the default) where one region spans a fifth of the sample, "
+                                "on (--touching alone) always, off never")
     particles.add_argument("--background-class", type=int, default=None, help="particles: background class id")
     particles.add_argument("--merges", default=None, metavar="a>b,...", help="particles: class merges")
     particles.add_argument("--class-order", default=None, metavar="c,...", help="particles: classes to place, in order")
@@ -141,7 +145,7 @@ def settings_from_cli(args, spec, d):
     return dict(particle_classes=d.particle_classes if args.classes is None else args.classes,
                 particle_blur=d.particle_blur if args.blur is None else args.blur,
                 particle_min_area=d.particle_min_area if args.min_area is None else args.min_area,
-                particle_touching=d.particle_touching if args.touching is None else args.touching,
+                particle_touching=d.particle_touching if args.touching is None else args.touching.upper(),
                 particle_background_class=(d.particle_background_class if args.background_class is None
                                            else args.background_class),
                 particle_merges=core.parse_merges(args.merges or ""),

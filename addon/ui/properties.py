@@ -45,10 +45,16 @@ class TexSynthSettings(bpy.types.PropertyGroup):
     particle_min_area: bpy.props.IntProperty(
         name="Min Area", default=DEFAULTS.particle_min_area, min=0, subtype="PIXEL",
         description="Smaller regions join the background (0: automatic, max(16 px, 0.02 % of the sample))")
-    particle_touching: bpy.props.BoolProperty(
-        name="Touching Elements", default=DEFAULTS.particle_touching,
-        description="Split elements that touch each other (gravel, cobbles, packed pebbles) along the narrow necks "
-                    "between them, and take the connected gaps as the background. Off for separated elements")
+    # Numbers: a .blend saved when this was a checkbox (0 / 1) reads back as Off / On.
+    particle_touching: bpy.props.EnumProperty(
+        name="Touching Elements",
+        items=(("AUTO", "Auto", "Split touching elements where one segmented region spans a fifth of the sample "
+                "(a lace of gaps, or elements joined into a network), unless that cuts more elements at the "
+                "sample's border", 2),
+               ("ON", "On", "Split elements that touch each other (gravel, cobbles, packed pebbles) along the narrow "
+                "necks between them, and take the connected gaps as the background", 1),
+               ("OFF", "Off", "Each connected region of a class is one element (separated elements)", 0)),
+        default=DEFAULTS.particle_touching)
     particle_background_class: bpy.props.IntProperty(
         name="Background Class", default=DEFAULTS.particle_background_class, min=-1, max=PARTICLE_CLASS_RANGE[1] - 1,
         description="Class synthesized as texture under the particles (-1: the largest)")

@@ -133,6 +133,7 @@ void bind_particles(py::module_& m) {
       .def_property_readonly("height", [](const ParticleAnalysis& a) { return a.height; })
       .def_property_readonly("channels", [](const ParticleAnalysis& a) { return a.channels; })
       .def_property_readonly("tileable", [](const ParticleAnalysis& a) { return a.tileable; })
+      .def_property_readonly("touching", [](const ParticleAnalysis& a) { return a.touching; })
       .def_property_readonly("num_classes", [](const ParticleAnalysis& a) { return a.num_classes; })
       .def_property_readonly("background_class", [](const ParticleAnalysis& a) { return a.background; })
       .def_property_readonly("min_area", [](const ParticleAnalysis& a) { return a.min_area; })
@@ -176,8 +177,8 @@ void bind_particles(py::module_& m) {
   m.def(
       "particle_analysis",
       [](py::object sample, int classes, double blur, py::object min_area, py::object labels, py::object background,
-         bool tileable, bool wrap_blur, uint64_t seed, bool touching, double touching_neck, double touching_depth,
-         bool touching_darker, double touching_shading, py::object cancel) {
+         bool tileable, bool wrap_blur, uint64_t seed, py::object touching, double touching_neck,
+         double touching_depth, bool touching_darker, double touching_shading, py::object cancel) {
         FloatArray px = float_array(sample, "sample");
         const texsynth::ParticleSample s = sample_view<texsynth::ParticleSample>(px);
         texsynth::ParticleAnalysisParams p;
@@ -195,7 +196,14 @@ void bind_particles(py::module_& m) {
         p.tileable = tileable;
         p.wrap_blur = wrap_blur;
         p.seed = seed;
-        p.touching = touching;
+        if (py::isinstance<py::str>(touching)) {
+          if (touching.cast<std::string>() != "auto")
+            throw std::invalid_argument("touching must be True, False or 'auto', got '" +
+                                        touching.cast<std::string>() + "'");
+          p.touching_auto = true;
+        } else {
+          p.touching = touching.cast<bool>();
+        }
         p.touching_neck = touching_neck;
         p.touching_darker = touching_darker;
         p.touching_depth = touching_depth;
@@ -221,10 +229,13 @@ void bind_particles(py::module_& m) {
       "the largest unless given); boxes, completeness, co-occurrence lists, class table and the filled "
       "background. tileable: the blur and the particles wrap across the border (wrap_blur=False: the blur "
       "clamps, so the classes are those of an untiled analysis). touching: elements that touch (gravel, "
-      "cobbles): background = the class with the largest connected piece (touching_darker: the classes darker than it join it), the rest split by a distance-transform "
+      "cobbles): background = the class with the largest connected piece (touching_darker: the classes darker "
+      "than it join it), the rest split by a distance-transform "
       "watershed: two basins stay apart when their saddle is <= touching_neck (0..1] x the lower peak and that "
       "peak rises >= touching_depth px above it (touching_shading 0..1: the relief is the distance darkened by "
-      "the sample's shading, 0 = distance only). Returns a ParticleAnalysis. ValueError on bad input; cancel: a "
+      "the sample's shading, 0 = distance only); 'auto': that split only where one plain particle covers more "
+      "than a fifth of the sample, kept unless it leaves a smaller share of complete particles (the analysis' "
+      "`touching` says which). Returns a ParticleAnalysis. ValueError on bad input; cancel: a "
       "CancelToken (progress updated).");
 
   m.def(

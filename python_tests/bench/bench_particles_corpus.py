@@ -10,7 +10,7 @@ only without either).
 Samples: out/corpus/samples/<name>.png (out/corpus/manifest.json; python_tests/bench/corpus.py makes them):
 every `element` sample plus the element-like near-regular and stochastic ones in SAMPLES. Each is analysed at
 the add-on's defaults (addon/core/settings.py: particle_classes 4, particle_blur 1, min_area automatic,
-background = the largest class, touching off, tileable off with the repeat found at the border, seed 0), the PNG as loaded (row 0 = top, read by
+background = the largest class, touching auto, tileable off with the repeat found at the border, seed 0), the PNG as loaded (row 0 = top, read by
 the analysis as the bottom: a mirror image, which changes no statistic here). Placement: place_particles at its
 defaults (seed --seed) on a flat square plane of 3 x 3 sample widths (150 x 150 jittered quads, as
 bench_particles_arrangement.py's plane_mesh), field +y, sample_world_width = sample width / 512 (corpus_results'
@@ -79,7 +79,7 @@ def defaults():
     from core.settings import Settings
     s = Settings()
     return {"classes": int(s.particle_classes), "blur": float(s.particle_blur), "min_area": int(s.particle_min_area),
-            "background": int(s.particle_background_class), "touching": bool(s.particle_touching),
+            "background": int(s.particle_background_class), "touching": {"AUTO": "auto", "ON": True, "OFF": False}[s.particle_touching],
             "tileable": bool(s.tileable), "seed": int(s.seed), "detect_repeat": True}
 
 
@@ -92,7 +92,7 @@ def analyse(sample, d):
     if d["background"] >= 0:
         kwargs["background"] = d["background"]
     if d["touching"]:
-        kwargs["touching"] = True
+        kwargs["touching"] = d["touching"]  # True or "auto"
     return tn.particle_analysis(sample, **kwargs)
 
 
@@ -286,6 +286,8 @@ def main():
                         help="default: the add-on's (Tileable off, a repeat found at the border analysed as "
                         "tileable with the blur clamped); manifest: Tileable as the manifest says; off: no "
                         "repeat found (the add-on before it looked)")
+    parser.add_argument("--touching", choices=("default", "on", "off"), default="default",
+                        help="Touching Elements: the add-on's default (auto), always or never")
     args = parser.parse_args()
     with open(os.path.join(CORPUS, "manifest.json")) as handle:
         manifest = {s["name"]: s for s in json.load(handle)["samples"]}
@@ -294,6 +296,8 @@ def main():
     else:
         names = [n for n, s in manifest.items() if s["category"] == "element"] + list(SAMPLES)
     d = defaults()
+    if args.touching != "default":
+        d["touching"] = args.touching == "on"
     print("module %s; defaults %s; scale %g px per world unit; plane %d x %d sample widths; seed %d"
           % (tn.__file__, d, SCALE_PX, PLANE_SAMPLES, PLANE_SAMPLES, args.seed))
     rows, pictures = [], []

@@ -25,6 +25,7 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.environ.get("TEXSYNTH_MODULE_DIR", os.path.join(ROOT, "addon")))
 sys.path.insert(0, HERE)
 import texsynth_native as tn  # noqa: E402
+import particles_corpus_metrics as pcm  # noqa: E402
 import touching_metrics as tm  # noqa: E402
 
 
@@ -56,9 +57,13 @@ def main():
                       for v in args.shadings.split(",") if v]
             if args.no_darker:
                 modes.append(("no darker", {"touching": True, "touching_darker": False}))
+            # The add-on's defaults: Touching Elements Auto, Tileable off with the repeat found at the border
+            # (the blur then clamps; particles/core.analysis_tileable).
+            modes.append(("add-on auto", {"touching": "auto", "tileable": pcm.looks_tileable(sample),
+                                          "wrap_blur": False}))
             for mode, extra in modes:
                 t0 = time.perf_counter()
-                a = tn.particle_analysis(sample, classes=k, tileable=True, seed=0, **extra)
+                a = tn.particle_analysis(sample, classes=k, seed=0, **dict({"tileable": True}, **extra))
                 seconds = time.perf_counter() - t0
                 m = tm.measure(a, inst, truth)
                 print("%-15s %2d %-14s %9d %8d %8.2f %8.2f %6.2f %6.2f" % (

@@ -82,19 +82,35 @@ def test_ground_truth_boxes_come_from_the_instances():
 
 
 def test_particle_core_passes_touching_and_keys_it():
+    """Touching Elements Off / On / Auto (and the True / False of scripts written for the checkbox) reach the
+    analysis and its cache key; on the packed pebbles (2 classes: one lace-joined region) Auto splits, as On
+    does, and the report says so."""
     import addon_package
     core_settings = addon_package.load("core.settings")
     core = addon_package.load("particles.core")
     addon_native = addon_package.load("native")
     addon_native._module, addon_native._reason, addon_native._tried = tn, None, True
-    plain = core_settings.Settings(method="PARTICLES", particle_classes=2, particle_blur=1.0, tileable=True)
-    touching = dataclasses.replace(plain, particle_touching=True)
+    plain = core_settings.Settings(method="PARTICLES", particle_classes=2, particle_blur=1.0, tileable=True,
+                                   particle_touching="OFF")
+    touching = dataclasses.replace(plain, particle_touching="ON")
+    auto = dataclasses.replace(plain, particle_touching="AUTO")
+    assert core_settings.Settings().particle_touching == "AUTO"
     sample, inst = tm.packed_pebbles()
-    assert not core.particle_touching(plain) and core.particle_touching(touching)
-    assert core.analysis_key(sample, plain) != core.analysis_key(sample, touching)
+    assert [core.particle_touching(s) for s in (plain, touching, auto)] == ["OFF", "ON", "AUTO"]
+    assert core.particle_touching(dataclasses.replace(plain, particle_touching=True)) == "ON"
+    assert core.particle_touching(dataclasses.replace(plain, particle_touching=False)) == "OFF"
+    keys = {core.analysis_key(sample, s) for s in (plain, touching, auto)}
+    assert len(keys) == 3
     cache = core.AnalysisCache()
     a, _ = core.analyse(sample, plain, cache=cache)
     b, _ = core.analyse(sample, touching, cache=cache)
+    c, _ = core.analyse(sample, auto, cache=cache)
     assert len(b.particles) > 10 * len(a.particles)
+    assert (a.touching, b.touching, c.touching) == (False, True, True)
     np.testing.assert_array_equal(b.components, tn.particle_analysis(sample, classes=2, tileable=True,
                                                                       touching=True).components)
+    np.testing.assert_array_equal(c.components, b.components)
+    assert any("elements touch" in note for note in core.check_usable(c, auto))
+    assert not any("elements touch" in note for note in core.check_usable(b, touching))
+    with pytest.raises(core_settings.SettingsError, match="touching elements must be one of AUTO, ON, OFF"):
+        dataclasses.replace(plain, particle_touching="SOMETIMES").validate()

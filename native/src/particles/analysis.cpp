@@ -152,22 +152,63 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
 
   // Components and per-particle geometry.
   t0 = Clock::now();
+  auto touching_split = [&](ParticleAnalysis& t) {
+    if (params.background < 0 && params.touching_darker) darker_into_background(t, sample);
+    const std::vector<int32_t> region = split_touching(t, sample, params.touching_neck, params.touching_depth,
+                                                       params.touching_shading, cancel);
+    find_components(t, params.max_components, cancel, &region);
+    t.touching = true;
+  };
+  auto geometry = [&](ParticleAnalysis& t) {
+    tbb::parallel_for(tbb::blocked_range<int32_t>(0, int32_t(t.particles.size()), 16),
+                      [&](const tbb::blocked_range<int32_t>& r) {
+                        throw_if_cancelled(cancel);
+                        for (int32_t i = r.begin(); i < r.end(); ++i) particle_geometry(t, t.particles[size_t(i)]);
+                      });
+  };
   if (params.touching) {
-    if (params.background < 0 && params.touching_darker) darker_into_background(a, sample);
-    const std::vector<int32_t> region = split_touching(a, sample, params.touching_neck, params.touching_depth,
-                                                             params.touching_shading, cancel);
-    find_components(a, params.max_components, cancel, &region);
-  } else {
+    touching_split(a);
+    a.stats.seconds_components = seconds_since(t0);
+    report(params.progress, 0.45f);
+    t0 = Clock::now();
+    geometry(a);
+  } else if (!params.touching_auto) {
     find_components(a, params.max_components, cancel);
+    a.stats.seconds_components = seconds_since(t0);
+    report(params.progress, 0.45f);
+    t0 = Clock::now();
+    geometry(a);
+  } else {
+    // Automatic (conventions, "Touching elements"): split only where one particle spans the sample (a lace or
+    // a network of touching elements), and keep the split unless it leaves a smaller share of whole particles.
+    ParticleAnalysis split;
+    split.width = a.width, split.height = a.height, split.channels = a.channels, split.tileable = a.tileable;
+    split.num_classes = a.num_classes, split.min_area = a.min_area, split.centres = a.centres, split.labels = a.labels;
+    find_components(a, params.max_components, cancel);
+    int64_t largest = 0;
+    for (const Particle& p : a.particles) largest = std::max<int64_t>(largest, p.area);
+    const bool spans = double(largest) > kParticleTouchingAutoSpan * double(N);
+    if (spans) {
+      split.background = params.background >= 0 ? params.background : lace_background(split, cancel);
+      touching_split(split);
+    }
+    a.stats.seconds_components = seconds_since(t0);
+    report(params.progress, 0.45f);
+    t0 = Clock::now();
+    geometry(a);
+    if (spans) {
+      geometry(split);
+      auto whole_share = [](const ParticleAnalysis& t) {
+        int64_t whole = 0;
+        for (const Particle& p : t.particles) whole += p.complete;
+        return t.particles.empty() ? 0.0 : double(whole) / double(t.particles.size());
+      };
+      if (!split.particles.empty() && whole_share(split) >= whole_share(a)) {
+        split.stats = a.stats;
+        a = std::move(split);
+      }
+    }
   }
-  a.stats.seconds_components = seconds_since(t0);
-  report(params.progress, 0.45f);
-  t0 = Clock::now();
-  const int32_t n = int32_t(a.particles.size());
-  tbb::parallel_for(tbb::blocked_range<int32_t>(0, n, 16), [&](const tbb::blocked_range<int32_t>& r) {
-    throw_if_cancelled(cancel);
-    for (int32_t i = r.begin(); i < r.end(); ++i) particle_geometry(a, a.particles[size_t(i)]);
-  });
   a.stats.seconds_geometry = seconds_since(t0);
   report(params.progress, 0.55f);
 
@@ -194,6 +235,7 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
 
   // Co-occurrences: measured entries per complete particle, in parallel (per-particle results only).
   t0 = Clock::now();
+  const int32_t n = int32_t(a.particles.size());
   std::vector<std::vector<CoOccurrence>> measured(static_cast<size_t>(n));
   std::vector<std::vector<std::pair<int32_t, double>>> overlaps(static_cast<size_t>(n));  // (neighbour, overlap fraction)
   struct CrossHit {

@@ -90,8 +90,10 @@
 //    distance x (1 - s + s x min(1, brightness / the foreground's mean brightness))). Basins whose peak is below kParticleTouchingThin x
 //    the median peak (that of the basin holding the median foreground pixel by peak) go to the background (a
 //    shadow strip, a bit of rim). Each basin takes its most frequent class; the particles are then the
-//    8-connected components within one basin. Not the default: it changes separated samples too
-//    (texture_particles.md, "Touching elements").
+//    8-connected components within one basin. Not always on: it changes separated samples too
+//    (texture_particles.md, "Touching elements"). touching_auto tries it only where a plain particle covers
+//    more than kParticleTouchingAutoSpan of the sample, and keeps the plain components when the split leaves
+//    a smaller share of complete particles (elements cut by a non-tileable border); a.touching says which.
 //  - Background fill: the sample with every particle dilated by 2 px (3x3 twice) filled by onion
 //    peeling: each unknown pixel with known 8-neighbours copies one of them, chosen by a seeded hash.
 //
@@ -141,6 +143,8 @@ constexpr double kParticleTouchingNeck = 0.85;
 constexpr double kParticleTouchingDepth = 1.5;
 // Touching elements: regions whose peak distance is below this share of the median region's go to the background.
 constexpr double kParticleTouchingThin = 0.35;
+// Touching elements, automatic: the split is tried when one particle covers more than this share of the sample.
+constexpr double kParticleTouchingAutoSpan = 0.2;
 
 // Borrowed sample pixels (see conventions).
 struct ParticleSample {
@@ -163,6 +167,9 @@ struct ParticleAnalysisParams {
   // Touching elements (conventions, "Touching elements"): background = the lace class (unless given), the
   // other pixels split by a distance-transform watershed; neck in (0, 1] (kParticleTouchingNeck).
   bool touching = false;
+  // Automatic: the plain components first; the split above only where one particle covers more than
+  // kParticleTouchingAutoSpan of the sample, kept unless its share of complete particles is smaller.
+  bool touching_auto = false;
   double touching_neck = kParticleTouchingNeck;
   double touching_depth = kParticleTouchingDepth;  // px, >= 0: a lower peak this little above the saddle merges
   bool touching_darker = true;  // classes darker than the automatic background join it
@@ -221,6 +228,7 @@ struct ParticleAnalysisStats {
 struct ParticleAnalysis {
   int32_t width = 0, height = 0, channels = 0;
   bool tileable = false;
+  bool touching = false;  // the touching split made the particles (asked for, or chosen by touching_auto)
   int32_t num_classes = 0, background = 0, min_area = 0;
   std::vector<float> centres;        // k-means centres, num_classes x channels (empty with labels)
   std::vector<int32_t> labels;       // class per pixel, after merges

@@ -2,7 +2,7 @@
 #pragma once
 // On-disk cache of a ParticleAnalysis, so a scene reopened on the same sample and settings skips the
 // analysis. Little-endian layout (format kParticleCacheVersion):
-//   magic "TSPARTAN" | u32 version | u64 key | i32 width, height, channels | u8 tileable |
+//   magic "TSPARTAN" | u32 version | u64 key | i32 width, height, channels | u8 tileable, touching |
 //   i32 num_classes, background, min_area | arrays, each a u64 count then its values: centres f32,
 //   labels i32, components i32, unwrapped i32 | particles (u64 n, per particle i32 id, class, area,
 //   f32 centroid x y, i32 bbox x0 y0 x1 y1, f32 box cx cy angle half_x half_y, i32 boundary, border,
@@ -24,7 +24,7 @@
 
 namespace texsynth {
 
-constexpr uint32_t kParticleCacheVersion = 2;  // 2: class pairs (issue 30)
+constexpr uint32_t kParticleCacheVersion = 3;  // 2: class pairs (issue 30); 3: the touching flag
 
 std::vector<uint8_t> serialize_particle_analysis(const ParticleAnalysis& analysis, uint64_t key);
 // The trailing checksum of a buffer whose first `size` bytes are `data` (everything before it).
