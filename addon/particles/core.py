@@ -117,7 +117,8 @@ def particle_touching(settings):
     return value
 
 
-def analysis_key(sample, settings, labels=None):
+def analysis_key(sample, settings, labels=None, tileable=None):
+    """tileable: analysis_tileable's answer when the caller has it (it reads the whole sample's border)."""
     params = (int(settings.particle_classes) if labels is None else 0, float(settings.particle_blur),
               int(settings.particle_min_area), int(settings.particle_background_class),
               tuple(tuple(int(c) for c in pair) for pair in settings.particle_merges),
@@ -126,7 +127,7 @@ def analysis_key(sample, settings, labels=None):
     if touching != "OFF":
         params += ("touching",) if touching == "ON" else ("touching-auto",)
     if not settings.tileable:  # the detected repeat: its outcome, so a change of the rule cannot reuse a file
-        params += ("repeat", analysis_tileable(sample, settings))
+        params += ("repeat", tileable if tileable is not None else analysis_tileable(sample, settings))
     return digest(sample, labels) + "-" + hashlib.blake2b(repr(params).encode(), digest_size=8).hexdigest()
 
 
@@ -156,7 +157,8 @@ def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=anal
     """(ParticleAnalysis, source 'memory' | 'disk' | 'built') of a sample from sample_for_analysis.
     Merges are applied to the first segmentation's labels, which are then analysed again as a label image."""
     module = native.require()
-    key = analysis_key(sample, settings, labels)
+    tileable, wrap_blur = analysis_tileable(sample, settings)
+    key = analysis_key(sample, settings, labels, (tileable, wrap_blur))
     found = cache.get(key)
     if found is not None:
         return found, "memory"
@@ -171,7 +173,6 @@ def analyse(sample, settings, labels=None, cache_dir="", cancel=None, cache=anal
         if found is not None:
             cache.put(key, found)
             return found, "disk"
-    tileable, wrap_blur = analysis_tileable(sample, settings)
     kwargs = dict(blur=float(settings.particle_blur), tileable=tileable, seed=int(settings.seed))
     if not wrap_blur:
         kwargs["wrap_blur"] = False

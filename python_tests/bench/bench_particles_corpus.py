@@ -10,8 +10,8 @@ only without either).
 Samples: out/corpus/samples/<name>.png (out/corpus/manifest.json; python_tests/bench/corpus.py makes them):
 every `element` sample plus the element-like near-regular and stochastic ones in SAMPLES. Each is analysed at
 the add-on's defaults (addon/core/settings.py: particle_classes 4, particle_blur 1, min_area automatic,
-background = the largest class, touching auto, tileable off with the repeat found at the border, seed 0), the PNG as loaded (row 0 = top, read by
-the analysis as the bottom: a mirror image, which changes no statistic here). Placement: place_particles at its
+background = the largest class, touching auto, tileable off with the repeat found at the border, seed 0), the
+PNG as loaded (row 0 = top, read by the analysis as the bottom: a mirror image, which changes no statistic here). Placement: place_particles at its
 defaults (seed --seed) on a flat square plane of 3 x 3 sample widths (150 x 150 jittered quads, as
 bench_particles_arrangement.py's plane_mesh), field +y, sample_world_width = sample width / 512 (corpus_results'
 --scale); on a plane every figure below is in sample pixels, so the scale changes none of them.
@@ -79,7 +79,8 @@ def defaults():
     from core.settings import Settings
     s = Settings()
     return {"classes": int(s.particle_classes), "blur": float(s.particle_blur), "min_area": int(s.particle_min_area),
-            "background": int(s.particle_background_class), "touching": {"AUTO": "auto", "ON": True, "OFF": False}[s.particle_touching],
+            "background": int(s.particle_background_class),
+            "touching": {"AUTO": "auto", "ON": True, "OFF": False}[s.particle_touching],
             "tileable": bool(s.tileable), "seed": int(s.seed), "detect_repeat": True}
 
 

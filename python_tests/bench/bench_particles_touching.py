@@ -63,7 +63,7 @@ def main():
                                           "wrap_blur": False}))
             for mode, extra in modes:
                 t0 = time.perf_counter()
-                a = tn.particle_analysis(sample, classes=k, seed=0, **dict({"tileable": True}, **extra))
+                a = tn.particle_analysis(sample, classes=k, seed=0, **{"tileable": True, **extra})
                 seconds = time.perf_counter() - t0
                 m = tm.measure(a, inst, truth)
                 print("%-15s %2d %-14s %9d %8d %8.2f %8.2f %6.2f %6.2f" % (

@@ -1,12 +1,20 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Pure helpers of bench_particles_corpus.py (issue 30, "Use the benchmark corpus"): densities, class shares,
 the typical-element range and the share of placed particles inside it; and whether a sample repeats (seam_ratio,
-run as a script over the corpus). numpy only, no native module (except the script).
+run as a script over the corpus, through the add-on's bpy-free core/sample_image). numpy, no native module
+(except the script).
 """
+import os
+import sys
 
 import numpy as np
 
 from touching_metrics import AREA_SLACK, ASPECT_SLACK
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # python_tests: addon_package
+import addon_package  # noqa: E402
+
+_sample_image = addon_package.load("core.sample_image")
 
 # The sample's typical element: its complete particles' area and box aspect between these percentiles
 # (fragments and merged blobs of a segmentation sit in the tails), widened by touching_metrics' slack.
@@ -75,26 +83,16 @@ def goal_share(values, test):
 # Whether a sample repeats is the add-on's own rule (core/sample_image.border_seam_ratio), which the particle
 # analysis applies when Tileable is off; printed over the corpus by main().
 def seam_ratio(pixels):
-    return _sample_image().border_seam_ratio(pixels)
+    return _sample_image.border_seam_ratio(pixels)
 
 
 def looks_tileable(pixels):
-    return _sample_image().repeats_across_border(pixels)
-
-
-def _sample_image():
-    import os
-    import sys
-    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # python_tests
-    import addon_package
-    return addon_package.load("core.sample_image")
+    return _sample_image.repeats_across_border(pixels)
 
 
 def main():
     """Prints every corpus sample's seam ratio beside its manifest's tileable flag."""
     import json
-    import os
-    import sys
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     sys.path.insert(0, os.path.join(root, "addon"))
     import texsynth_native as tn

@@ -166,47 +166,40 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
                         for (int32_t i = r.begin(); i < r.end(); ++i) particle_geometry(t, t.particles[size_t(i)]);
                       });
   };
-  if (params.touching) {
-    touching_split(a);
-    a.stats.seconds_components = seconds_since(t0);
-    report(params.progress, 0.45f);
-    t0 = Clock::now();
-    geometry(a);
-  } else if (!params.touching_auto) {
-    find_components(a, params.max_components, cancel);
-    a.stats.seconds_components = seconds_since(t0);
-    report(params.progress, 0.45f);
-    t0 = Clock::now();
-    geometry(a);
-  } else {
-    // Automatic (conventions, "Touching elements"): split only where one particle spans the sample (a lace or
-    // a network of touching elements), and keep the split unless it leaves a smaller share of whole particles.
-    ParticleAnalysis split;
+  // Automatic (conventions, "Touching elements"): the plain components first; the split, from the same k-means
+  // labels (copied before find_components merges tiny components into the background), only where one of them
+  // spans the sample (a lace or a network of touching elements), kept unless it leaves fewer whole particles.
+  const bool automatic = params.touching_auto && !params.touching;
+  ParticleAnalysis split;
+  if (automatic) {
     split.width = a.width, split.height = a.height, split.channels = a.channels, split.tileable = a.tileable;
     split.num_classes = a.num_classes, split.min_area = a.min_area, split.centres = a.centres, split.labels = a.labels;
+  }
+  if (params.touching)
+    touching_split(a);
+  else
     find_components(a, params.max_components, cancel);
-    int64_t largest = 0;
-    for (const Particle& p : a.particles) largest = std::max<int64_t>(largest, p.area);
-    const bool spans = double(largest) > kParticleTouchingAutoSpan * double(N);
-    if (spans) {
-      split.background = params.background >= 0 ? params.background : lace_background(split, cancel);
-      touching_split(split);
-    }
-    a.stats.seconds_components = seconds_since(t0);
-    report(params.progress, 0.45f);
-    t0 = Clock::now();
-    geometry(a);
-    if (spans) {
-      geometry(split);
-      auto whole_share = [](const ParticleAnalysis& t) {
-        int64_t whole = 0;
-        for (const Particle& p : t.particles) whole += p.complete;
-        return t.particles.empty() ? 0.0 : double(whole) / double(t.particles.size());
-      };
-      if (!split.particles.empty() && whole_share(split) >= whole_share(a)) {
-        split.stats = a.stats;
-        a = std::move(split);
-      }
+  int64_t largest = 0;
+  for (const Particle& p : a.particles) largest = std::max<int64_t>(largest, p.area);
+  const bool try_split = automatic && double(largest) > kParticleTouchingAutoSpan * double(N);
+  if (try_split) {
+    split.background = params.background >= 0 ? params.background : lace_background(split, cancel);
+    touching_split(split);
+  }
+  a.stats.seconds_components = seconds_since(t0);
+  report(params.progress, 0.45f);
+  t0 = Clock::now();
+  geometry(a);
+  if (try_split) {
+    geometry(split);
+    auto whole_share = [](const ParticleAnalysis& t) {
+      int64_t whole = 0;
+      for (const Particle& p : t.particles) whole += p.complete;
+      return t.particles.empty() ? 0.0 : double(whole) / double(t.particles.size());
+    };
+    if (!split.particles.empty() && whole_share(split) >= whole_share(a)) {
+      split.stats = a.stats;
+      a = std::move(split);
     }
   }
   a.stats.seconds_geometry = seconds_since(t0);
