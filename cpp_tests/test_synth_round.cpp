@@ -639,6 +639,8 @@ TEST(RoundSynth, ResynthesisWithANewFieldReusesTheContext) {
 
 TEST(RoundSynth, VertexTargetOnAGridIsAsCloseToTheSampleAsTheSampleIsToItself) {
   // A 129 x 129 vertex grid with one sample pixel per vertex spacing: the vertex colours are an image.
+  // One seed's figures spread widely here (seeds 0-7: hist 0.035-0.149, patch5 0.0012-0.0056 against the
+  // references 0.035 and 0.0035): the median of five seeds is what is compared.
   const int n = 128;
   const UvMesh plane = uv_plane(n);
   RoundContextParams cp;
@@ -648,20 +650,31 @@ TEST(RoundSynth, VertexTargetOnAGridIsAsCloseToTheSampleAsTheSampleIsToItself) {
   ASSERT_EQ(ctx.levels[0].num_points, (n + 1) * (n + 1));
   const Img sample = blobs(128, 128, 3);
   const std::vector<float> field = plane.constant_field(0, 1, 0);
-  const RoundSynthResult r = texsynth::synthesize_round(ctx, sample.sample(), field.data(), RoundSynthParams{});
-  Img out(n + 1, n + 1);
-  for (int32_t i = 0; i < r.num_points; ++i)
-    std::memcpy(out.at(r.point_id[i] % (n + 1), r.point_id[i] / (n + 1)), &r.colour[size_t(i) * 3], 12);
-  dump(out, "vertex_grid");
-  const double patch = nearest_patch_distance(out, {}, sample, 2, 3), patch_ref = leave_one_out_patch_distance(sample);
-  const double patch11 = nearest_patch_distance(out, {}, sample, 5, 4), patch11_ref = leave_one_out_patch_distance(sample, 5, 6);
-  const double hist = histogram_distance(out, {}, sample), hist_ref = half_histogram_distance(sample);
-  std::printf("vertices: hist %.3f (ref %.3f)  patch5 %.5f (ref %.5f)  patch11 %.5f (ref %.5f)\n", hist, hist_ref, patch,
-              patch_ref, patch11, patch11_ref);
-  EXPECT_LE(hist, kHistFactor * hist_ref);
-  EXPECT_LE(patch, kPatchFactor * patch_ref);
-  EXPECT_LE(patch11, kPatchFactor * patch11_ref);
-  EXPECT_TRUE(r.image.empty());
+  std::vector<double> hist, patch, patch11;
+  for (uint64_t seed = 0; seed < 5; ++seed) {
+    RoundSynthParams p;
+    p.seed = seed;
+    const RoundSynthResult r = texsynth::synthesize_round(ctx, sample.sample(), field.data(), p);
+    EXPECT_TRUE(r.image.empty());
+    Img out(n + 1, n + 1);
+    for (int32_t i = 0; i < r.num_points; ++i)
+      std::memcpy(out.at(r.point_id[i] % (n + 1), r.point_id[i] / (n + 1)), &r.colour[size_t(i) * 3], 12);
+    if (seed == 0) dump(out, "vertex_grid");
+    hist.push_back(histogram_distance(out, {}, sample));
+    patch.push_back(nearest_patch_distance(out, {}, sample, 2, 3));
+    patch11.push_back(nearest_patch_distance(out, {}, sample, 5, 4));
+  }
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const double patch_ref = leave_one_out_patch_distance(sample), patch11_ref = leave_one_out_patch_distance(sample, 5, 6);
+  const double hist_ref = half_histogram_distance(sample);
+  std::printf("vertices, median of 5 seeds: hist %.3f (ref %.3f)  patch5 %.5f (ref %.5f)  patch11 %.5f (ref %.5f)\n",
+              median(hist), hist_ref, median(patch), patch_ref, median(patch11), patch11_ref);
+  EXPECT_LE(median(hist), kHistFactor * hist_ref);
+  EXPECT_LE(median(patch), kPatchFactor * patch_ref);
+  EXPECT_LE(median(patch11), kPatchFactor * patch11_ref);
   // Coarser levels are magnified (r doubles, the vertices stay): quarter-pixel sources there only.
   for (int32_t i = 0; i < ctx.levels[0].num_points; ++i) ASSERT_NEAR(ctx.levels[0].density[i], 1.0, 0.3);
   for (int32_t i = 0; i < ctx.levels[2].num_points; ++i) ASSERT_NEAR(ctx.levels[2].density[i], 4.0, 1.2);

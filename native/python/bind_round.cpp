@@ -87,8 +87,8 @@ std::unique_ptr<Context> make_context(py::object positions, py::object triangles
 }
 
 py::dict synthesize(const Context& ctx, py::object sample, py::object directions, uint64_t seed, int random_candidates,
-                    int dist_range, bool tileable, int min_top_size, int fixed_top_size, double max_megabytes,
-                    py::object cancel) {
+                    int dist_range, bool tileable, int min_top_size, int fixed_top_size, double coarse_blur,
+                    double coarse_sharp_share, double max_megabytes, py::object cancel) {
   FloatArray img = float_array(sample, "sample");
   if (img.ndim() != 3 || (img.shape(2) != 3 && img.shape(2) != 4))
     throw std::invalid_argument("sample must have shape (height, width, 3 or 4), got " + shape_of(img));
@@ -106,6 +106,8 @@ py::dict synthesize(const Context& ctx, py::object sample, py::object directions
   p.tileable = tileable;
   p.min_top_size = min_top_size;
   p.fixed_top_size = fixed_top_size;
+  p.coarse_blur = coarse_blur;
+  p.coarse_sharp_share = coarse_sharp_share;
   p.max_megabytes = max_megabytes;
   texsynth::RoundSynthResult r = cancellable(cancel, [&](const CallControl& control) {
     p.cancel = control.cancel;
@@ -173,6 +175,8 @@ void bind_round(py::module_& m) {
   m.def("round_synthesize", &synthesize, py::arg("context"), py::arg("sample"), py::arg("directions"), py::kw_only(),
         py::arg("seed") = 0, py::arg("random_candidates") = 2, py::arg("dist_range") = 2, py::arg("tileable") = false,
         py::arg("min_top_size") = 2, py::arg("fixed_top_size") = 0,
+        py::arg("coarse_blur") = texsynth::RoundSynthParams{}.coarse_blur,
+        py::arg("coarse_sharp_share") = texsynth::RoundSynthParams{}.coarse_sharp_share,
         py::arg("max_megabytes") = texsynth::kRoundDefaultMaxMegabytes, py::arg("cancel") = py::none(),
         "Synthesizes `sample` (H, W, 3 or 4) float values as stored (e.g. sRGB), row index growing along the "
         "texture's up (Blender's pixel order), onto the context's points. directions (V, 3): the texture's up per "
@@ -182,7 +186,8 @@ void bind_round(py::module_& m) {
         "uint8 (1 covered, 2 margin) for target 'image', vertex_colour (V, C) for 'vertices', and stats. "
         "random_candidates: per sample pixel at the coarsest level; dist_range: hierarchical window at finer levels; "
         "tileable: the sample wraps; min_top_size: the adaptive metric's first cut size (1 = the paper literally); "
-        "fixed_top_size > 0: a fixed metric size instead, for comparisons. "
+        "fixed_top_size > 0: a fixed metric size instead, for comparisons; coarse_blur: Gaussian sigma (coarsest-level "
+        "pixels) of the sample matched at the coarsest level, with coarse_sharp_share of the sharp sample kept (0 = sharp). "
         "Results are identical for a seed whatever the thread count. ValueError on bad input; Cancelled when "
         "cancel (a CancelToken) is raised; its progress goes 0..1.");
 

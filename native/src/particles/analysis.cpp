@@ -15,6 +15,7 @@
 
 #include "analysis_internal.hpp"
 #include "texsynth/common/errors.hpp"
+#include "texsynth/image/blur.hpp"
 
 namespace texsynth {
 using namespace particle_detail;
@@ -126,7 +127,8 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
   // Segmentation.
   auto t0 = Clock::now();
   if (params.labels.empty()) {
-    const std::vector<float> blurred = gaussian_blur(sample, params.blur_sigma, a.tileable && params.wrap_blur, cancel);
+    const std::vector<float> blurred = gaussian_blur(sample.pixels, sample.width, sample.height, sample.channels,
+                                                     params.blur_sigma, a.tileable && params.wrap_blur, cancel);
     a.stats.seconds_blur = seconds_since(t0);
     report(params.progress, 0.1f);
     t0 = Clock::now();

@@ -37,7 +37,6 @@ struct SearchScratch {
 };
 
 // Segmentation (analysis_segmentation.cpp).
-std::vector<float> gaussian_blur(const ParticleSample& s, double sigma, bool tileable, const std::atomic<bool>* cancel);
 void kmeans_classes(const std::vector<float>& colours, int32_t n, int C, int k, uint64_t seed,
                     const std::atomic<bool>* cancel, std::vector<int32_t>& labels, std::vector<float>& centres);
 void find_components(ParticleAnalysis& a, int32_t max_components, const std::atomic<bool>* cancel,

@@ -23,6 +23,7 @@
 #include "round_internal.hpp"
 #include "texsynth/common/errors.hpp"
 #include "texsynth/common/rng.hpp"
+#include "texsynth/image/blur.hpp"
 #include "texsynth/image/image.hpp"
 #include "texsynth/image/reduce.hpp"
 #include "texsynth/mesh/vec_math.hpp"
@@ -81,6 +82,7 @@ struct SampleLevel {
 };
 
 std::vector<SampleLevel> build_pyramid(const RoundSample& s, const std::vector<int>& rings, bool wrap,
+                                       double coarse_blur, double coarse_sharp_share,
                                        const std::atomic<bool>* cancel) {
   const int levels = int(rings.size());
   const int32_t step = int32_t(1) << (levels - 1);
@@ -98,6 +100,13 @@ std::vector<SampleLevel> build_pyramid(const RoundSample& s, const std::vector<i
     SampleLevel& g = pyr[l];
     g.w = f.w / 2, g.h = f.h / 2, g.c = C;
     halve_image(f.px.data(), f.w, f.h, C, g.px);
+  }
+  if (levels > 1 && coarse_blur > 0) {
+    // round_neighbourhoods.md, "Sparse structure": the sharp share keeps thin lines' positions.
+    SampleLevel& g = pyr[size_t(levels - 1)];
+    const std::vector<float> blurred = gaussian_blur(g.px.data(), g.w, g.h, C, coarse_blur, wrap, cancel);
+    const float keep = float(coarse_sharp_share);
+    for (size_t i = 0; i < g.px.size(); ++i) g.px[i] = keep * g.px[i] + (1 - keep) * blurred[i];
   }
   for (int l = 0; l < levels; ++l) {
     SampleLevel& g = pyr[l];
@@ -596,6 +605,10 @@ void validate_sample(const RoundSynthesisContext& ctx, const RoundSample& s, con
     throw std::invalid_argument("round synthesis: fixed_top_size must be 0.." + std::to_string(kMaxRings));
   if (p.dist_range < 0 || p.dist_range > kRoundMaxDistRange)
     throw std::invalid_argument("round synthesis: dist_range must be 0.." + std::to_string(kRoundMaxDistRange));
+  if (!(p.coarse_blur >= 0 && p.coarse_blur <= 8))
+    throw std::invalid_argument("round synthesis: coarse_blur must be 0..8");
+  if (!(p.coarse_sharp_share >= 0 && p.coarse_sharp_share <= 1))
+    throw std::invalid_argument("round synthesis: coarse_sharp_share must be 0..1");
   if (!(p.max_megabytes > 0)) throw std::invalid_argument("round synthesis: max_megabytes must be > 0");
 }
 
@@ -754,7 +767,7 @@ RoundSynthResult synthesize(const RoundSynthesisContext& ctx, const RoundSample&
   auto t0 = std::chrono::steady_clock::now();
   std::vector<int> rings;
   for (const RoundLevel& L : ctx.levels) rings.push_back(L.rings);
-  const std::vector<SampleLevel> pyr = build_pyramid(sample, rings, p.tileable, p.cancel);
+  const std::vector<SampleLevel> pyr = build_pyramid(sample, rings, p.tileable, p.coarse_blur, p.coarse_sharp_share, p.cancel);
   res.stats.sample_width = pyr[0].w;
   res.stats.sample_height = pyr[0].h;
   const std::vector<float> dirs = fill_directions(ctx, directions);

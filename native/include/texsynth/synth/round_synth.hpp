@@ -186,6 +186,12 @@ struct RoundSynthParams {
   int min_top_size = 2;
   // Metric variant for comparisons: 0 = adaptive; k >= 1 = fixed T = min(k, last coloured ring).
   int fixed_top_size = 0;
+  // Coarsest level only (when there is more than one): candidates and copied colours come from the
+  // sample blurred by this Gaussian sigma (that level's pixels) plus coarse_sharp_share of the sharp
+  // sample, so a thin feature half a pixel off does not cost twice its energy where the field turns
+  // (round_neighbourhoods.md, "Sparse structure"). 0 = the sharp sample.
+  double coarse_blur = 1.5;
+  double coarse_sharp_share = 0.1;
   double max_megabytes = kRoundDefaultMaxMegabytes;  // context + this call
   const std::atomic<bool>* cancel = nullptr;
   std::atomic<float>* progress = nullptr;  // 0..1 while the call runs (optional)
