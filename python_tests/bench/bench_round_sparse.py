@@ -19,7 +19,6 @@ patch   mean nearest 5 x 5 patch distance of 400 result patches to the sample, o
 copied  share of the working sample's pixels that some texel copies
 """
 import argparse
-import math
 import os
 import sys
 
@@ -95,10 +94,6 @@ def turning_field(pos):
     return np.stack([np.cos(a), np.sin(a), np.zeros_like(a)], 1).astype(np.float32)
 
 
-def write_png(path, rgb):
-    ts.save_image(path, np.ascontiguousarray(np.clip(rgb, 0, 1), np.float32)) if hasattr(ts, "save_image") else None
-
-
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--samples", default=DEFAULT_SAMPLES)
@@ -108,7 +103,7 @@ def main():
     parser.add_argument("--width", type=int, default=131, help="working sample width (the bunny's in the corpus)")
     parser.add_argument("--size", type=int, default=192)
     parser.add_argument("--field", default="turning", choices=["turning", "constant"])
-    parser.add_argument("--out", default="")
+    parser.add_argument("--out", default="", help="folder for the first seed's images (.npy)")
     args = parser.parse_args()
     pos, tris, uvs = turned_plane(48, 17.0)
     ctx = ts.RoundSynthesisContext(pos, tris, uvs, width=args.size, height=args.size, texels_per_unit=args.size)
