@@ -217,6 +217,9 @@ class Job:
                                                            else "mesh", coarse,
                                                            "raise the image size" if self.settings.surface_target
                                                            == "IMAGE" else "subdivide the mesh"))
+                if stats.get("repeat_found"):
+                    self.report.notes.append("%s: the sample repeats across its border: read as with Tileable on"
+                                             % name)
                 reduced = stats.get("memory_reduced_from")
                 if reduced:
                     self.report.notes.append(

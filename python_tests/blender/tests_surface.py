@@ -267,6 +267,31 @@ def test_same_seed_same_image():
     assert np.array_equal(pixels_of(bpy.data.images["TexSynth Round: Plane"]), first)
 
 
+def test_a_sample_that_repeats_is_read_as_tileable_and_the_report_says_so():
+    """moss.png continues across its border (core/sample_image.repeats_across_border): with Tileable off the
+    round method gives the very image Tileable on gives, and notes why. bricks.png does not: no note, and its
+    image differs from Tileable on (so the comparison can tell the two apart)."""
+    moss = sources.Sample(path=os.path.join(harness.SAMPLES_DIR, "moss.png"))
+    request = options.BakeRequest(size=96, margin=2, create_uv=True)
+
+    def image_of(sample, tileable):
+        obj = plane()
+        round_core.contexts.clear()
+        report = surface.synthesize([obj], sample, settings(tileable=tileable), request, "NEW")
+        assert report.objects == ["Plane"] and not report.failures, report.summary()
+        return pixels_of(bpy.data.images["TexSynth Round: Plane"]).copy(), report
+
+    found, report = image_of(moss, False)
+    assert "repeats across its border" in report.summary(), report.summary()
+    assert report.native_stats["Plane"]["repeat_found"]
+    ticked, report_on = image_of(moss, True)
+    assert np.array_equal(found, ticked)
+    assert "repeats across its border" not in report_on.summary()
+    plain, report = image_of(SAMPLE, False)
+    assert "repeats across its border" not in report.summary() and not report.native_stats["Plane"]["repeat_found"]
+    assert not np.array_equal(plain, image_of(SAMPLE, True)[0])
+
+
 def test_operator_runs_round_from_the_scene_settings_and_saves_next_to_the_blend():
     obj = plane()
     folder = tempfile.mkdtemp(prefix="texsynth_surface_")
