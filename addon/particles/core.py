@@ -138,8 +138,8 @@ def background_file_path(cache_dir, background, sample, labels=None):
     it are covered, and only an identical background shares a file. The file name is the Blender image's name
     (and, through it, its material's and blend group's): the sample (and label image) part, then a short part
     of the folder's key. Two different backgrounds of one sample thus never share a name; with the sample
-    part alone, Blender loaded the second as `<name>.png.001`, and Blender 5.2's undo and redo mixed up
-    such twins (docs/benchmarks/workflow_soak.md)."""
+    part alone, Blender loaded the second as `<name>.png.001`; both undo / redo violations the workflow soak
+    found on Blender 5.2 involved such twins (docs/benchmarks/workflow_soak.md)."""
     key = digest(np.asarray(background))
     folder = "%s%s-%d" % (BACKGROUND_PREFIX, key, BACKGROUND_FORMAT)
     name = "%s%s-%s.png" % (BACKGROUND_PREFIX, digest(sample, labels)[:16], key[:8])

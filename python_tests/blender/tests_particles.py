@@ -766,13 +766,20 @@ def test_two_analyses_of_one_sample_make_no_twins_and_undo_restores_their_materi
     bpy.ops.ed.undo_push(message="before particles")
     common = dict(scale=1.5, particle_output="DECALS", particle_background="JUMPMAP", material_mode="NEW",
                   sample_path=pebbles_path("noisy_pebbles.png", noise=0.05))
+
+    def backgrounds():
+        return {image.name: image.filepath for image in bpy.data.images
+                if image.name.startswith(core.BACKGROUND_PREFIX)}
+
     assert full_run(target, particle_classes=3, particle_blur=0.0, **common) == {"FINISHED"}
-    after_first = shading_trees()
+    after_first, first = shading_trees(), backgrounds()
     assert full_run(target, particle_classes=4, particle_blur=1.0, **common) == {"FINISHED"}
-    backgrounds = [image for image in bpy.data.images if image.name.startswith(core.BACKGROUND_PREFIX)]
-    assert len({image.filepath for image in backgrounds}) == 2, "the two analyses fill different backgrounds"
+    second = set(backgrounds().values()) - set(first.values())
+    assert len(first) == len(second) == 1, "the two analyses fill different backgrounds"
     assert not twins(), twins()
-    assert target.material_slots[0].material.node_tree.nodes  # the second background's material
+    # the target shows the second background (its material is named after that image)
+    assert [name for name, path in backgrounds().items() if path in second] == \
+        [image.name for image in bpy.data.images if target.material_slots[0].material.name.endswith(image.name)]
     after_runs = shading_trees()
     harness.select_only([target])
     assert bpy.ops.texsynth.field_preset("EXEC_DEFAULT", True, preset="AXIS", iterations=1) == {"FINISHED"}
