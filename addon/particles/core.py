@@ -135,11 +135,15 @@ def background_file_path(cache_dir, background, sample, labels=None):
     """Where an analysis' filled background (analysis.background) is cached as a PNG. The folder is keyed on
     the array itself: it is all the PNG is written from, so every input of the analysis (sample, label image,
     class count, blur, minimum area, merges, background class, tileable, seed) and the native code that fills
-    it are covered, and only an identical background shares a file. The file name says which sample (and label
-    image) it came from; it becomes the Blender image's name, so it is kept as it was (the sample part of
-    analysis_key) and does not change with settings the artist never sees in it."""
-    folder = "%s%s-%d" % (BACKGROUND_PREFIX, digest(np.asarray(background)), BACKGROUND_FORMAT)
-    return os.path.join(cache_dir, folder, "%s%s.png" % (BACKGROUND_PREFIX, digest(sample, labels)[:16]))
+    it are covered, and only an identical background shares a file. The file name is the Blender image's name
+    (and, through it, its material's and blend group's): the sample (and label image) part, then a short part
+    of the folder's key. Two different backgrounds of one sample thus never share a name; with the sample
+    part alone, Blender loaded the second as `<name>.png.001`; both undo / redo violations the workflow soak
+    found on Blender 5.2 involved such twins (docs/benchmarks/workflow_soak.md)."""
+    key = digest(np.asarray(background))
+    folder = "%s%s-%d" % (BACKGROUND_PREFIX, key, BACKGROUND_FORMAT)
+    name = "%s%s-%s.png" % (BACKGROUND_PREFIX, digest(sample, labels)[:16], key[:8])
+    return os.path.join(cache_dir, folder, name)
 
 
 def analysis_tileable(sample, settings):

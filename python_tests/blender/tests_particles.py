@@ -9,6 +9,7 @@ place_particles and decal_mesh and are selected by python_tests/blender/test_ble
 module has them. Expected values come from the drawn sample and the hand-made geometry, not from the add-on.
 """
 import os
+import re
 import sys
 import tempfile
 
@@ -39,8 +40,10 @@ LEAF = (0.1, 0.6, 0.1)
 FOLDER = tempfile.mkdtemp(prefix="texsynth_particles_")
 
 
-def pebbles_path(name="pebbles.png", kind="pebbles", size=(96, 64)):
-    """A PNG drawn here: ground, four 10 px stones and two 6 x 14 leaves (rows from the bottom); or 'flat'."""
+def pebbles_path(name="pebbles.png", kind="pebbles", size=(96, 64), noise=0.0):
+    """A PNG drawn here: ground, four 10 px stones and two 6 x 14 leaves (rows from the bottom); or 'flat'.
+    noise: the deviation of a seeded Gaussian noise on the colours (then the analysis' settings change the
+    filled background)."""
     path = os.path.join(FOLDER, name)
     width, height = size
     pixels = np.ones((height, width, 4), np.float32)
@@ -50,6 +53,9 @@ def pebbles_path(name="pebbles.png", kind="pebbles", size=(96, 64)):
             pixels[y0:y0 + 10, x0:x0 + 10, :3] = STONE
         for x0, y0 in [(55, 6), (82, 40)]:
             pixels[y0:y0 + 14, x0:x0 + 6, :3] = LEAF
+    if noise:
+        pixels[..., :3] = np.clip(pixels[..., :3] + np.random.default_rng(3).normal(0.0, noise, (height, width, 3)),
+                                  0.0, 1.0)
     return harness.save_png(path, pixels)
 
 
@@ -730,6 +736,64 @@ def test_the_background_file_follows_the_analysis_and_a_damaged_one_is_rewritten
     assert not [name for name in written if name.startswith(".")], written  # no temporary file left
 
 
+def twins():
+    """Names Blender made unique with a '.001'-style suffix."""
+    return [name for listed in names().values() for name in listed if re.search(r"\.\d{3}$", name)]
+
+
+def shading_trees():
+    """{(kind, name): use_nodes, nodes (name, type, image, group) and links} of every material and node group."""
+    def tree(node_tree):
+        if node_tree is None:
+            return None
+        nodes = sorted((node.name, node.bl_idname, getattr(getattr(node, "image", None), "name", None),
+                        getattr(getattr(node, "node_tree", None), "name", None)) for node in node_tree.nodes)
+        links = sorted((link.from_node.name, link.from_socket.identifier, link.to_node.name,
+                        link.to_socket.identifier) for link in node_tree.links)
+        return nodes, links
+    found = {("materials", m.name): (m.use_nodes, tree(m.node_tree)) for m in bpy.data.materials}
+    found.update({("node_groups", g.name): (True, tree(g)) for g in bpy.data.node_groups})
+    return found
+
+
+def test_two_analyses_of_one_sample_make_no_twins_and_undo_restores_their_materials():
+    """Two runs on one sample with different analyses fill two different backgrounds. Each gets its own image
+    and material name, never Blender's '.001' twin of the other: Blender 5.2's redo restored such a twin with
+    another node tree (docs/benchmarks/workflow_soak.md). Undo and redo of the next operator give every
+    material and node group back exactly."""
+    clean()
+    target = plane(size=4.0, cuts=20)
+    bpy.ops.ed.undo_push(message="before particles")
+    common = dict(scale=1.5, particle_output="DECALS", particle_background="JUMPMAP", material_mode="NEW",
+                  sample_path=pebbles_path("noisy_pebbles.png", noise=0.05))
+
+    def backgrounds():
+        return {image.name: image.filepath for image in bpy.data.images
+                if image.name.startswith(core.BACKGROUND_PREFIX)}
+
+    assert full_run(target, particle_classes=3, particle_blur=0.0, **common) == {"FINISHED"}
+    after_first, first = shading_trees(), backgrounds()
+    assert full_run(target, particle_classes=4, particle_blur=1.0, **common) == {"FINISHED"}
+    second = set(backgrounds().values()) - set(first.values())
+    assert len(first) == len(second) == 1, "the two analyses fill different backgrounds"
+    assert not twins(), twins()
+    # the target shows the second background (its material is named after that image)
+    assert [name for name, path in backgrounds().items() if path in second] == \
+        [image.name for image in bpy.data.images if target.material_slots[0].material.name.endswith(image.name)]
+    after_runs = shading_trees()
+    harness.select_only([target])
+    assert bpy.ops.texsynth.field_preset("EXEC_DEFAULT", True, preset="AXIS", iterations=1) == {"FINISHED"}
+    after_preset = shading_trees()
+    bpy.ops.ed.undo()
+    assert shading_trees() == after_runs
+    bpy.ops.ed.redo()
+    assert shading_trees() == after_preset
+    bpy.ops.ed.undo()
+    bpy.ops.ed.undo()
+    assert shading_trees() == after_first
+    assert not twins(), twins()
+
+
 def test_the_worker_thread_runs_the_job_as_the_modal_operator_does():
     import time
     clean()
@@ -1055,6 +1119,7 @@ FULL_RUN_TESTS = ("test_instances_sit_inside_their_particles_boxes_whatever_the_
                   "test_a_turned_and_scaled_target_gets_decals_on_its_surface_and_instances_along_its_normal",
                   "test_a_failed_particle_write_leaves_the_scene_and_the_mesh_unchanged",
                   "test_the_background_file_follows_the_analysis_and_a_damaged_one_is_rewritten",
+                  "test_two_analyses_of_one_sample_make_no_twins_and_undo_restores_their_materials",
                   "test_probability_from_a_vertex_group_thins_the_particles",
                   "test_baking_composites_the_decals_over_the_background",
                   "test_baking_refuses_a_target_edited_since_its_particles_and_changes_nothing",

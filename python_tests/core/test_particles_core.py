@@ -181,7 +181,9 @@ def test_the_background_file_follows_the_filled_background():
     folder, name = os.path.split(path)
     assert os.path.dirname(folder) == "cache" and os.path.basename(folder).startswith(core.BACKGROUND_PREFIX)
     assert folder.endswith("-%d" % core.BACKGROUND_FORMAT)
-    assert name == core.BACKGROUND_PREFIX + core.analysis_key(sample, settings())[:16] + ".png"
+    # Sample part, then the folder's key: two backgrounds of one sample never share the Blender image's name.
+    assert name == "%s%s-%s.png" % (core.BACKGROUND_PREFIX, core.analysis_key(sample, settings())[:16],
+                                    os.path.basename(folder)[len(core.BACKGROUND_PREFIX):][:8])
     labels = np.zeros(sample.shape[:2], np.int32)
     labels[8:18, 8:18] = 1  # one stone as the only particle: the other stones stay in the background
     differing = 0
@@ -191,6 +193,8 @@ def test_the_background_file_follows_the_filled_background():
         same = other.shape == base.shape and np.array_equal(other, base)
         other_folder = os.path.dirname(core.background_file_path("cache", other, sample, label_image))
         assert (other_folder == folder) == same, changes
+        other_name = os.path.basename(core.background_file_path("cache", other, sample, label_image))
+        assert (other_name == name) == (same and label_image is None), changes
         differing += not same
     assert differing >= 2
     tweaked = base.copy()
