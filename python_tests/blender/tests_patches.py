@@ -343,6 +343,26 @@ def test_a_boundary_wider_than_half_the_patches_used_is_refused_by_the_addon():
     assert (rna.hard_min, rna.hard_max) == core_settings.PATCH_BOUNDARY_RANGE, (rna.hard_min, rna.hard_max)
 
 
+def test_a_sample_that_repeats_is_read_as_tileable_and_the_report_says_so():
+    """moss.png continues across its border: with Tileable off the patches give the very image Tileable on
+    gives, and the report says why; bricks.png does not repeat: no note."""
+    moss = sources.Sample(path=os.path.join(harness.SAMPLES_DIR, "moss.png"))
+    request = options.BakeRequest(size=64, margin=2, create_uv=True)
+
+    def image_of(sample, tileable):
+        obj = plane()
+        report = surface.synthesize([obj], sample, settings(tileable=tileable, patch_size=12), request, "NEW")
+        assert report.objects == ["Plane"] and not report.failures, report.summary()
+        return pixels_of(bpy.data.images[IMAGE]).copy(), report
+
+    found, report = image_of(moss, False)
+    assert "repeats across its border" in report.summary() and report.native_stats["Plane"]["repeat_found"]
+    ticked, report_on = image_of(moss, True)
+    assert np.array_equal(found, ticked) and "repeats across its border" not in report_on.summary()
+    plain, report = image_of(SAMPLE, False)
+    assert "repeats across its border" not in report.summary() and not report.native_stats["Plane"]["repeat_found"]
+
+
 if __name__ == "__main__":
     harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")],
                          only=harness.script_args())
