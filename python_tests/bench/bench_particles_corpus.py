@@ -23,9 +23,12 @@ Per sample:
   share among the sample's particles|; plane density: the same ratio over the whole plane (edges included:
   how the placement's global count control sees it);
 - NN: KS D of the nearest-neighbour centre distance (all non-background classes pooled, particle_metrics), the
-  sample's complete particles vs the placed ones (centres 1.2 median box diagonals inside the plane), beside the
+  sample's particles vs the placed ones (centres 1.2 median box diagonals inside the plane), beside the
   same D between the centres in the sample's left and right halves (its own noise; their neighbours are
-  looked for in the whole sample, so that 64 px samples have centres in each half); "within" when synth D <=
+  looked for in the whole sample, so that 64 px samples have centres in each half). On a sample analysed as
+  tileable every particle is a centre and its neighbours are looked for in the sample tiled 3 x 3 (the texture
+  it repeats into); on one that is not, the complete particles 1.2 median box diagonals inside its border
+  are the centres, their neighbours in the sample only; "within" when synth D <=
   halves D ("few" when a half has fewer than MIN_HALF_CENTRES centres: the noise figure is then coarse and
   large, and "within" says little);
 - typical: the share of placed particles whose box area (sprite area x the placed pixel size^2) and box aspect
@@ -107,10 +110,27 @@ def pooled_radius(a, factor):
     return factor * float(np.median(2 * np.linalg.norm(h, axis=1))) if len(h) else 0.0
 
 
+def periodic_boxes(a):
+    """The pooled boxes of a sample analysed as tileable, tiled 3 x 3 (pcm.periodic_copies): every particle is
+    a centre and its neighbours across the border count. Without this a small sample keeps only the few
+    particles 1.2 box diagonals inside its border as centres (cobbles: 14 of 51), and those see no neighbour
+    across it."""
+    parts = a.particles
+    centres, angles, halves, original = pcm.periodic_copies(parts["box_centre"], parts["box_angle"],
+                                                            parts["box_half"], a.width, a.height)
+    return pm.Boxes.planar(centres, angles, halves, np.zeros(len(centres), int), original)
+
+
+def sample_centres(a, margins):
+    """The sample's pooled boxes and which may be centres: periodic on a tileable analysis, else the complete
+    particles 1.2 box diagonals inside the border, their neighbours in the sample only."""
+    return periodic_boxes(a) if a.tileable else pooled(sample_boxes(a, None, margins))
+
+
 def half_centres(a, margins, which):
     """The sample's pooled boxes with centres only in its left (0) or right (1) half; their neighbours are
     found in the whole sample (small samples leave no centre in a half cut out on its own)."""
-    boxes = pooled(sample_boxes(a, None, margins))
+    boxes = sample_centres(a, margins)
     x = boxes.positions[:, 0]
     boxes.centre_ok = boxes.centre_ok & ((x < a.width / 2) if which == 0 else (x >= a.width / 2))
     return boxes
@@ -153,7 +173,7 @@ def run(name, info, d, args):
     margins = {k: margin for k in range(a.num_classes)}
     ks_synth = ks_halves = float("nan")
     if len(parts["class"]):
-        s_nn = nearest(pooled(sample_boxes(a, None, margins)), radius)
+        s_nn = nearest(sample_centres(a, margins), radius)
         m = margin * base_pixel
         ok = (p[:, 0] > m) & (p[:, 0] < side - m) & (p[:, 1] > m) & (p[:, 1] < side - m)
         t_nn = nearest(pooled(placed_boxes(a, placed, base_pixel, ok)), radius)

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Pure helpers of bench_particles_corpus.py (issue 30, "Use the benchmark corpus"): densities, class shares,
-the typical-element range and the share of placed particles inside it; and whether a sample repeats (seam_ratio,
+a repeating sample's particles tiled 3 x 3, the typical-element range and the share of placed particles inside it; and whether a sample repeats (seam_ratio,
 run as a script over the corpus, through the add-on's bpy-free core/sample_image). numpy, no native module
 (except the script).
 """
@@ -19,6 +19,19 @@ _sample_image = addon_package.load("core.sample_image")
 # The sample's typical element: its complete particles' area and box aspect between these percentiles
 # (fragments and merged blobs of a segmentation sit in the tails), widened by touching_metrics' slack.
 TYPICAL_PERCENTILES = (10.0, 90.0)
+
+
+def periodic_copies(centres, angles, halves, width, height):
+    """The particles of a sample that repeats, as the texture it tiles into: centres (n, 2) taken modulo the
+    sample, then the 3 x 3 copies of every particle, the originals first. Returns (centres (9n, 2), angles (9n,),
+    halves (9n, 2), original (9n,) bool): measure from the originals and look for their neighbours among all, so
+    that a particle by the border sees the ones across it, as it does on the surface."""
+    c = np.mod(np.asarray(centres, np.float64).reshape(-1, 2), [float(width), float(height)])
+    shifts = [(i * float(width), j * float(height)) for i in (0, -1, 1) for j in (0, -1, 1)]  # (0, 0) first
+    original = np.zeros(9 * len(c), bool)
+    original[:len(c)] = True
+    return (np.concatenate([c + s for s in shifts]), np.tile(np.asarray(angles, np.float64).ravel(), 9),
+            np.tile(np.asarray(halves, np.float64).reshape(-1, 2), (9, 1)), original)
 
 
 def aspect_of(halves):

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The pure helpers of the particle corpus benchmark (bench/particles_corpus_metrics.py): the typical-element
-range and share, class-share error, density ratio and goal shares, on figures worked out by hand."""
+range and share, class-share error, the periodic copies of a repeating sample, density ratio and goal shares, on figures worked out by hand."""
 import math
 import sys
 
@@ -8,6 +8,7 @@ import numpy as np
 import paths
 
 sys.path.insert(0, paths.BENCH)
+import particle_metrics as pm  # noqa: E402
 import particles_corpus_metrics as pcm  # noqa: E402
 
 
@@ -56,3 +57,18 @@ def test_goal_share_counts_nan_as_failure():
     values = [1.0, 1.1, 1.5, float("nan")]
     assert pcm.goal_share(values, lambda v: abs(v - 1.0) <= 0.15) == 0.5
     assert math.isnan(pcm.goal_share([], lambda v: True))
+
+
+def test_periodic_copies_let_particles_by_the_border_see_each_other_across_it():
+    # two particles 10 px apart across the border of a 100 x 80 sample (one centre given unwrapped, at -5)
+    centres, angles, halves, original = pcm.periodic_copies([[-5.0, 40.0], [5.0, 40.0]], [0.0, 0.3],
+                                                            [[2.0, 1.0], [2.0, 1.0]], 100, 80)
+    assert centres.shape == (18, 2) and angles.shape == (18,) and halves.shape == (18, 2)
+    assert original.tolist() == [True, True] + [False] * 16
+    assert np.allclose(centres[:2], [[95.0, 40.0], [5.0, 40.0]])
+    assert np.allclose(angles[16:], [0.0, 0.3])
+    boxes = pm.Boxes.planar(centres, angles, halves, np.zeros(18, int), original)
+    assert np.allclose(pm.nearest_distances(pm.neighbour_gaps(boxes, 0, 30.0)), [10.0, 10.0])
+    # without the copies they are 90 px apart: outside the radius, no nearest distance at all
+    alone = pm.Boxes.planar(centres[:2], angles[:2], halves[:2], np.zeros(2, int), original[:2])
+    assert len(pm.nearest_distances(pm.neighbour_gaps(alone, 0, 30.0))) == 0
