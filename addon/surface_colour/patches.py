@@ -1,7 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Vector-field patches (Chen, Liu & Dong) on one mesh, bpy-free: the analysed exemplar and the patch
 targets kept between runs, the memory estimate the cap refuses on, and the native synthesis call."""
-import dataclasses
 import hashlib
 import os
 import threading
@@ -10,7 +9,6 @@ import numpy as np
 
 from .. import native
 from ..core.orientation import directions
-from ..core.sample_image import repeats_across_border
 from ..core.settings import PATCH_SIZE_RANGE, SettingsError, check_patch_boundary
 from .core import MAX_OVERLAP_FRACTION, target_density, vertex_samples, working_sample
 
@@ -259,11 +257,6 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
     cached = targets.get(target_key)
     density = cached[0] if cached else target_density(mesh_arrays.positions, triangles, corner_uvs, target)
     full_width = sample.shape[1]
-    # A sample that repeats is read as with Tileable on (round_neighbourhoods.md, "Tileable samples"): its
-    # patches may then start anywhere, not only a patch's width off the border.
-    repeat_found = not settings.tileable and repeats_across_border(sample)
-    if repeat_found:
-        settings = dataclasses.replace(settings, tileable=True)
     # A scale field above 1 asks for features finer than the samples there: the sample is reduced by the
     # largest multiplier too, so no patch reads an exemplar finer than the surface samples can hold
     # (unfiltered, bricks at density 2 broke into fragments; README, Vector-field patches).
@@ -356,7 +349,6 @@ def synthesize_patches(sample, mesh_arrays, triangles, corner_uvs, settings, see
         "overlapping_texels": overlapping,
         "working_sample": [int(sample.shape[1]), int(sample.shape[0])],
         "memory_reduced_from": [int(before[1]), int(before[0])] if sample.shape != before else None,
-        "repeat_found": bool(repeat_found),
         "estimated_megabytes": float(plan.megabytes),
         "target_density": density,
         "sample_pixels_per_spacing": float(full_width / float(sample.shape[1]) * texels_per_unit / density)

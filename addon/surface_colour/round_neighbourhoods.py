@@ -8,7 +8,6 @@ import numpy as np
 from .. import native
 from ..core.jobs import BoundedCache
 from ..core.orientation import directions
-from ..core.sample_image import repeats_across_border
 from ..core.settings import SettingsError
 from .core import smallest_sample_side, target_density, working_sample
 
@@ -49,10 +48,6 @@ def synthesize_round(sample, mesh_arrays, triangles, corner_uvs, settings, seed,
     up = directions(mesh_arrays, settings)
     density = target_density(mesh_arrays.positions, triangles, corner_uvs, target)
     full_width = sample.shape[1]
-    # A sample that repeats is read as with Tileable on: candidates then wrap instead of keeping the
-    # coarsest rings' width off every border, which leaves a 64² sample an 8 x 8 choice there
-    # (round_neighbourhoods.md, "Tileable samples").
-    repeat_found = not settings.tileable and repeats_across_border(sample)
     sample, texels_per_unit = working_sample(sample, texels_per_unit, density, settings.round_resolution,
                                              smallest_sample_side(settings))
     key = cache.key(mesh_arrays, triangles, corner_uvs, target, texels_per_unit, settings)
@@ -72,7 +67,7 @@ def synthesize_round(sample, mesh_arrays, triangles, corner_uvs, settings, seed,
     stage("synthesis")
     result = dict(module.round_synthesize(context, sample, up, seed=int(seed),
                                           random_candidates=settings.round_candidates,
-                                          tileable=bool(settings.tileable) or repeat_found, **extra))
+                                          tileable=bool(settings.tileable), **extra))
     native_stats = dict(result.get("stats") or {})
     context_stats = dict(context.stats)
     result["context_reused"] = reused
@@ -83,7 +78,6 @@ def synthesize_round(sample, mesh_arrays, triangles, corner_uvs, settings, seed,
         "surface_samples": int(context.num_points),
         "overlapping_texels": int(context_stats.get("overlapping_texels", 0)),
         "working_sample": [int(sample.shape[1]), int(sample.shape[0])],
-        "repeat_found": bool(repeat_found),
         "target_density": density,
         # sample pixels per surface sample spacing before any reduction (> 1: the target is coarser)
         "sample_pixels_per_spacing": float(full_width / float(sample.shape[1]) * texels_per_unit / density)

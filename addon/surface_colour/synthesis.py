@@ -11,6 +11,8 @@ apply()    main thread: per object, the image (packed or saved) or the colour at
 Nothing but the UV maps made by prepare() exists before apply(); discard() removes those, so a run that
 is cancelled or fails leaves every mesh and image as it was.
 """
+import dataclasses
+
 import bpy
 import numpy as np
 
@@ -20,7 +22,7 @@ from ..fields import mesh_state
 from ..core import bake_options as options
 from ..core.jobs import Cancelled
 from ..core.reporting import Report, Timings
-from ..core.sample_image import synthesis_sample
+from ..core.sample_image import repeats_across_border, synthesis_sample
 from ..core.settings import SURFACE_METHODS, SettingsError, object_seed, texels_per_unit
 from ..core.names import fit_name
 from ..shading import surface_material
@@ -55,6 +57,7 @@ class Job:
         self.cancelled = False
         self.stage = ("context", 0, 1)
         self._stale_progress = None  # the token's value left by the previous native call
+        self.repeat_found, self.synthesis_settings = False, settings  # prepare() decides
 
     # -- main thread --------------------------------------------------------------------------
 
@@ -77,6 +80,12 @@ class Job:
         with self.timings.phase("read"):
             pixels, self.sample_srgb = sources.read_sample_pixels(self.sample)
             self.sample_array = synthesis_sample(pixels)
+            # A sample that repeats is read as with Tileable on, once per run for every object and both methods
+            # (round_neighbourhoods.md, "Tileable samples"): without it round's candidates keep the coarsest
+            # rings' width off every border (a 64² sample leaves an 8 x 8 choice) and patches start a patch's
+            # width off it.
+            self.repeat_found = not settings.tileable and repeats_across_border(self.sample_array)
+            self.synthesis_settings = dataclasses.replace(settings, tileable=True) if self.repeat_found else settings
         self.texels_per_unit = texels_per_unit(int(pixels.shape[1]), settings.sample_world_size)
         for obj in meshes:
             item = None
@@ -167,13 +176,14 @@ class Job:
                     with self.timings.phase("synthesis"):
                         if self.settings.method == "PATCHES":
                             item.result = patches_core.synthesize_patches(
-                                self.sample_array, item.arrays, item.triangles, item.corner_uvs, self.settings, seed,
-                                self.texels_per_unit, target, self.token, stage=self._set_stage(index),
-                                cache_dir=self.cache_dir)
+                                self.sample_array, item.arrays, item.triangles, item.corner_uvs,
+                                self.synthesis_settings, seed, self.texels_per_unit, target, self.token,
+                                stage=self._set_stage(index), cache_dir=self.cache_dir)
                         else:
                             item.result = round_core.synthesize_round(
-                                self.sample_array, item.arrays, item.triangles, item.corner_uvs, self.settings, seed,
-                                self.texels_per_unit, target, self.token, stage=self._set_stage(index))
+                                self.sample_array, item.arrays, item.triangles, item.corner_uvs,
+                                self.synthesis_settings, seed, self.texels_per_unit, target, self.token,
+                                stage=self._set_stage(index))
                 except module.Cancelled:
                     raise
                 except (ValueError, RuntimeError) as error:
@@ -203,7 +213,7 @@ class Job:
                         self._write_image(item)
                     else:
                         self._write_attribute(item)
-                stats = dict(item.result["stats"])
+                stats = dict(item.result["stats"], repeat_found=bool(self.repeat_found))
                 self.report.add_object(name, item.arrays, stats)
                 if stats.get("overlapping_texels"):
                     self.report.notes.append(
@@ -217,9 +227,6 @@ class Job:
                                                            else "mesh", coarse,
                                                            "raise the image size" if self.settings.surface_target
                                                            == "IMAGE" else "subdivide the mesh"))
-                if stats.get("repeat_found"):
-                    self.report.notes.append("%s: the sample repeats across its border: read as with Tileable on"
-                                             % name)
                 reduced = stats.get("memory_reduced_from")
                 if reduced:
                     self.report.notes.append(
@@ -237,6 +244,8 @@ class Job:
                     uv_maps.remove_uv_map(item.obj.data, item.created_uv)
                 self.report.failures.append((getattr(item.obj, "name", "?"), str(error)))
             item.created_uv = ""  # kept from now on: the image is painted through it
+        if self.repeat_found and any(item.result is not None for item in self.items):
+            self.report.notes.append("the sample repeats across its border: read as with Tileable on")
         progress(1.0, "TexSynth: done")
         self.report.seconds = self.timings.as_dict()
         return self.report

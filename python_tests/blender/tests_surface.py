@@ -290,6 +290,15 @@ def test_a_sample_that_repeats_is_read_as_tileable_and_the_report_says_so():
     plain, report = image_of(SAMPLE, False)
     assert "repeats across its border" not in report.summary() and not report.native_stats["Plane"]["repeat_found"]
     assert not np.array_equal(plain, image_of(SAMPLE, True)[0])
+    # decided once per run: two objects, one note, both read as tileable
+    first = plane()
+    second = harness.add_primitive("grid", "Plane2", x_subdivisions=4, y_subdivisions=4, size=2.0)
+    harness.select_only([first, second])
+    report = surface.synthesize([first, second], moss, settings(), request, "NEW")
+    assert sorted(report.objects) == ["Plane", "Plane2"] and not report.failures, report.summary()
+    assert report.summary().count("repeats across its border") == 1, report.summary()
+    assert report.native_stats["Plane"]["repeat_found"] and report.native_stats["Plane2"]["repeat_found"]
+    assert np.array_equal(pixels_of(bpy.data.images["TexSynth Round: Plane"]), found)
 
 
 def test_operator_runs_round_from_the_scene_settings_and_saves_next_to_the_blend():
