@@ -16,7 +16,8 @@ ratio on curved meshes) and sqrt(sum w^2) becomes the mixture's deviation with c
 (see BlendInputs.correlation_length). The groups are written for few shader instructions (vector
 nodes, no fifth look-up): Cycles' render cost was the limit (README, "Blending").
 
-The same nodes run in Eevee and Cycles on every supported Blender. One group per (image, mode); normal
+The same nodes run in Eevee and Cycles on every supported Blender. One group per (image, mode, texton zone,
+Tileable); normal
 maps always use VARIANCE around the map's mean vector, then Blender's Normal Map node renormalises
 (the histogram transform remaps X, Y, Z independently, which the Normal Map encoding does not survive).
 """
@@ -54,6 +55,10 @@ class BlendInputs:
     # sqrt(sum_ij w_i w_j rho_ij), not by sqrt(sum w^2), which would over-sharpen such areas.
     correlation_length: float = 1.0
     size: tuple = (1, 1)
+    # Tileable: the methods' mappings run across the sample's border (a texton patch placed by the right edge
+    # continues past u = 1), so the look-ups repeat the image; otherwise they extend its edge (coordinates
+    # stay inside it, and a repeat would blend the opposite edge into the last half texel).
+    wrap: bool = False
 
     def check(self):
         if self.mode not in BLEND_MODES:
@@ -63,11 +68,11 @@ class BlendInputs:
         return self
 
 
-def blend_inputs(blend, image, patch_zone=0.0):
+def blend_inputs(blend, image, patch_zone=0.0, wrap=False):
     """BlendInputs for uv_methods.core.BlendShading `blend` of `image` (loads the histogram images); patch_zone:
-    uv_methods.core.patch_zone of the method."""
+    uv_methods.core.patch_zone of the method; wrap: the run was Tileable."""
     inputs = BlendInputs(mode=blend.mode, mean=blend.mean, correlation_length=blend.correlation_length,
-                         size=(int(image.size[0]), int(image.size[1])), patch_zone=patch_zone)
+                         size=(int(image.size[0]), int(image.size[1])), patch_zone=patch_zone, wrap=bool(wrap))
     if blend.files is not None:
         inputs.gaussian, inputs.inverse_lut = histogram_images(blend.files, image)
     return inputs
@@ -95,8 +100,9 @@ def histogram_images(files, image):
     return tuple(loaded)
 
 
-def group_name(image, mode="HISTOGRAM", patch_zone=0.0):
-    return fit_name(GROUP_PREFIX, image.name, MODE_SUFFIX[mode] + (" [patches]" if patch_zone > 0 else ""))
+def group_name(image, mode="HISTOGRAM", patch_zone=0.0, wrap=False):
+    return fit_name(GROUP_PREFIX, image.name, MODE_SUFFIX[mode] + (" [patches]" if patch_zone > 0 else "")
+                    + (" [tiled]" if wrap else ""))
 
 
 class _Builder:
@@ -150,8 +156,8 @@ class _Builder:
     def attribute(self, name, x, y):
         return self.node("ShaderNodeAttribute", x, y, attribute_type="GEOMETRY", attribute_name=name)
 
-    def texture(self, image, vector, x, y, interpolation="Linear"):
-        texture = self.node("ShaderNodeTexImage", x, y, image=image, interpolation=interpolation, extension="EXTEND")
+    def texture(self, image, vector, x, y, interpolation="Linear", extension="EXTEND"):
+        texture = self.node("ShaderNodeTexImage", x, y, image=image, interpolation=interpolation, extension=extension)
         self.links.new(vector, texture.inputs["Vector"])
         return texture
 
@@ -283,7 +289,7 @@ def _build(group, image, inputs):
     color = alpha = 0.0
     for k, (uv, weight) in enumerate(blend.terms):
         y = 300 - 300 * k
-        texture = b.texture(looked_up, uv, -600, y)
+        texture = b.texture(looked_up, uv, -600, y, extension="REPEAT" if inputs.wrap else "EXTEND")
         color = b.vector("MULTIPLY_ADD", texture.outputs["Color"], weight, x=-300, y=y, c=color)
         alpha = b.math("MULTIPLY_ADD", texture.outputs["Alpha"], weight, -300, y - 150, c=alpha)
     if inputs.mode != "LINEAR":
@@ -319,7 +325,7 @@ def _build(group, image, inputs):
 def ensure_blend_group(image, inputs=None):
     """Creates or rebuilds (idempotently) the blend group for (image, inputs.mode); returns it."""
     inputs = (inputs or BlendInputs()).check()
-    name = group_name(image, inputs.mode, inputs.patch_zone)
+    name = group_name(image, inputs.mode, inputs.patch_zone, inputs.wrap)
     group = bpy.data.node_groups.get(name)
     if group is None:
         group = bpy.data.node_groups.new(name, "ShaderNodeTree")

@@ -167,7 +167,7 @@ class Job:
             image = self.sample.shader_image()
             self.shading.with_colour_space(image.colorspace_settings.name == "sRGB")
             zone = uv_core.patch_zone(self.settings.method, self.shading.mode)
-            inputs = blend_groups.blend_inputs(self.shading, image, zone)
+            inputs = blend_groups.blend_inputs(self.shading, image, zone, wrap=self.settings.tileable)
         for obj, arrays, result in self.items:
             if result is None:
                 continue
@@ -190,13 +190,14 @@ class Job:
         return self.report
 
 
-def blend_inputs(image, mode="HISTOGRAM", cache_dir=None, method="JUMPMAP"):
+def blend_inputs(image, mode="HISTOGRAM", cache_dir=None, method="JUMPMAP", tileable=False):
     """blend_groups.BlendInputs for any image of the .blend (e.g. a roughness or normal map driven through
-    the same mapping): Gaussianizes it for HISTOGRAM (cached), falling back to VARIANCE as Synthesize does."""
+    the same mapping): Gaussianizes it for HISTOGRAM (cached), falling back to VARIANCE as Synthesize does.
+    tileable: the mapping was made with Tileable on (the look-ups repeat the image)."""
     settings = Settings(blend_mode=mode, method=method).validate()
     srgb = image.colorspace_settings.name == "sRGB"
     blend = blend_shading(sources.Sample(image=image).native_input(), settings, cache_dir or sources.default_cache_dir(), srgb)
-    return blend_groups.blend_inputs(blend, image, uv_core.patch_zone(method, blend.mode))
+    return blend_groups.blend_inputs(blend, image, uv_core.patch_zone(method, blend.mode), wrap=tileable)
 
 
 def synthesize(objects, sample, settings, cache_dir=None, material_mode="NEW", progress=None, scene=None,

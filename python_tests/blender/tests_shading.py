@@ -216,6 +216,70 @@ def test_texton_blending_does_not_raise_seams_on_a_small_sample():
         assert detail >= 0.97 * detail_off, (mode, detail, detail_off)
 
 
+def plain_image_material(image, extension):
+    """Emission of `image` read through the base TexSynth UV map, no group: what a tiled image looks like."""
+    material = bpy.data.materials.new("Plain " + extension)
+    material.use_nodes = True
+    nodes, links = material.node_tree.nodes, material.node_tree.links
+    nodes.clear()
+    uv = nodes.new("ShaderNodeUVMap")
+    uv.uv_map = core_layers.BASE_UV_NAME
+    texture = nodes.new("ShaderNodeTexImage")
+    texture.image, texture.interpolation, texture.extension = image, "Linear", extension
+    emission = nodes.new("ShaderNodeEmission")
+    output = nodes.new("ShaderNodeOutputMaterial")
+    links.new(uv.outputs["UV"], texture.inputs["Vector"])
+    links.new(texture.outputs["Color"], emission.inputs["Color"])
+    links.new(emission.outputs["Emission"], output.inputs["Surface"])
+    return material
+
+
+def test_a_tileable_mapping_renders_the_sample_repeated_across_its_border():
+    """With Tileable on, texton patches and jump-map walks run past the sample's border (UVs beyond 0..1 on
+    about a fifth of the corners here); the group's look-ups must repeat the image there, as a plain image
+    node set to Repeat does, not extend its edge into streaks (what every Tileable run rendered before)."""
+    for method in ("TEXTON", "JUMPMAP"):
+        obj, scene, _ = plane_scene()
+        image = bpy.data.images.load(BRICK_SMALL, check_existing=True)
+        settings = core_settings.Settings(method=method, sample_world_size=96 * 1.6 / PIXELS, seed=3, blend=False,
+                                          axis=(0.0, 1.0, 0.0), tileable=True)
+        report = synthesis.synthesize([obj], sources.Sample(path=BRICK_SMALL), settings, cache_dir=CACHE,
+                                      material_mode="NEW")
+        assert not report.failures, report.summary()
+        uv = np.empty(len(obj.data.loops) * 2, np.float32)
+        obj.data.uv_layers[core_layers.BASE_UV_NAME].data.foreach_get("uv", uv)
+        outside = float(((uv < 0.0) | (uv > 1.0)).reshape(-1, 2).any(axis=1).mean())
+        assert outside > 0.05, (method, outside)  # the case under test happens
+        # the Synthesize run's own material uses a repeating group
+        groups = [node.node_tree for node in obj.active_material.node_tree.nodes if node.type == "GROUP"]
+        assert groups and all(group.name.endswith("[tiled]") for group in groups), [g.name for g in groups]
+        looks = [node.extension for group in groups for node in group.nodes if node.type == "TEX_IMAGE"
+                 and node.image == image]
+        assert looks and set(looks) == {"REPEAT"}, looks
+
+        def render(material):
+            obj.data.materials.clear()
+            obj.data.materials.append(material)
+            bpy.ops.render.render(write_still=True)
+            rendered = bpy.data.images.load(scene.render.filepath, check_existing=False)
+            pixels = np.empty(len(rendered.pixels), np.float32)
+            rendered.pixels.foreach_get(pixels)
+            bpy.data.images.remove(rendered)
+            return pixels.reshape(PIXELS, PIXELS, 4)[..., :3].astype(np.float64)
+
+        group = blend_groups.ensure_blend_group(image, synthesis.blend_inputs(image, "LINEAR", CACHE, method,
+                                                                              tileable=True))
+        through_group = render(emission_with_group(group))
+        repeated = render(plain_image_material(image, "REPEAT"))
+        extended = render(plain_image_material(image, "EXTEND"))
+        difference = np.abs(through_group - repeated).max(axis=2)
+        streaks = np.abs(extended - repeated).max(axis=2)
+        print("TILEABLE %s: corners outside 0..1 %.3f; group vs repeat mean %.4f, 99th %.4f; extend vs repeat "
+              "mean %.4f" % (method, outside, difference.mean(), np.percentile(difference, 99), streaks.mean()))
+        assert streaks.mean() > 0.01  # the comparison can tell a repeat from an extended edge
+        assert difference.mean() < 0.005 and np.percentile(difference, 99) < 0.05, (method, difference.mean())
+
+
 if __name__ == "__main__":
     harness.Checks().run([value for name, value in list(globals().items()) if name.startswith("test_")],
                          only=harness.script_args())
