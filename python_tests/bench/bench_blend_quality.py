@@ -3,7 +3,7 @@
 
   blender -b --factory-startup --python-exit-code 1 --python python_tests/bench/bench_blend_quality.py -- \\
       [--sample blend_samples/bricks.png] [--modes tiling,box,jumpmap,jumpmap_variance,jumpmap_linear,...]
-      [--pixels 512] [--cells 10] [--seed 3] [--out out/bench_blend] [--scenes plane,curved]
+      [--pixels 512] [--cells 10] [--seed 3] [--out out/bench_blend] [--scenes plane,curved] [--tileable]
 
 Scene 1: a jittered triangulated plane seen from straight above by an orthographic camera, flat emission
 shading (no lights), scaled so that one sample texel covers one pixel. Each mode renders the same view
@@ -58,6 +58,8 @@ def parse_args():
     parser.add_argument("--seed", type=int, default=3)
     parser.add_argument("--out", default=os.path.join(ROOT, "out", "bench_blend"))
     parser.add_argument("--scenes", default="plane,curved", help="plane and/or curved")
+    parser.add_argument("--tileable", action="store_true",
+                        help="synthesize with Tileable on (the group's look-ups then repeat the image)")
     parser.add_argument("--allow-oversized", action="store_true",
                         help="let faces be larger than the sample (64^2 samples at 1 texel/px)")
     args = parser.parse_args(harness.script_args())
@@ -134,10 +136,10 @@ def projected_material(name, image, world_size, projection="FLAT", shift=(0.0, 0
     return harness.emission_material(name, color)
 
 
-def texsynth_material(image, blend_mode, cache_dir, method):
+def texsynth_material(image, blend_mode, cache_dir, method, tileable=False):
     from texsynth.shading import blend_groups
     from texsynth.uv_methods import synthesis
-    inputs = synthesis.blend_inputs(image, blend_mode, cache_dir, method)
+    inputs = synthesis.blend_inputs(image, blend_mode, cache_dir, method, tileable=tileable)
 
     def color(nodes, links):
         group = nodes.new("ShaderNodeGroup")
@@ -156,13 +158,14 @@ def render(scene, path):
     return pixels.reshape(scene.render.resolution_y, scene.render.resolution_x, 4)[::-1].astype(np.float64)
 
 
-def synthesize(obj, sample_path, mode, world_size, seed, cache_dir, axis, allow_oversized=False):
+def synthesize(obj, sample_path, mode, world_size, seed, cache_dir, axis, allow_oversized=False, tileable=False):
     from texsynth.bridge import sources
     from texsynth.core import settings as core_settings
     from texsynth.uv_methods import synthesis
     method = "TEXTON" if mode.startswith("texton") else "JUMPMAP"
     settings = core_settings.Settings(method=method, sample_world_size=world_size, seed=seed, axis=axis,
-                                 blend=not mode.endswith("_noblend"), allow_oversized=allow_oversized)
+                                 blend=not mode.endswith("_noblend"), allow_oversized=allow_oversized,
+                                 tileable=tileable)
     report = synthesis.synthesize([obj], sources.Sample(path=sample_path), settings, cache_dir=cache_dir,
                                   material_mode="NONE")
     if report.failures:
@@ -214,9 +217,9 @@ def apply_mode(obj, mode, image, world_size, args, cache_dir, axis=(0.0, 0.0, 1.
                                       math.radians(3.0) if mode == "tiling_rotated" else 0.0)
     else:
         synthesize(obj, os.path.abspath(args.sample), mode, world_size, args.seed, cache_dir, axis,
-                   args.allow_oversized)
+                   args.allow_oversized, args.tileable)
         material = texsynth_material(image, blend_mode_of(mode), cache_dir,
-                                     "TEXTON" if mode.startswith("texton") else "JUMPMAP")
+                                     "TEXTON" if mode.startswith("texton") else "JUMPMAP", args.tileable)
     obj.data.materials.clear()
     obj.data.materials.append(material)
 
