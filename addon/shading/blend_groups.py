@@ -17,8 +17,7 @@ ratio on curved meshes) and sqrt(sum w^2) becomes the mixture's deviation with c
 nodes, no fifth look-up): Cycles' render cost was the limit (README, "Blending").
 
 The same nodes run in Eevee and Cycles on every supported Blender. One group per (image, mode, texton zone,
-Tileable); normal
-maps always use VARIANCE around the map's mean vector, then Blender's Normal Map node renormalises
+Tileable); normal maps always use VARIANCE around the map's mean vector, then Blender's Normal Map node renormalises
 (the histogram transform remaps X, Y, Z independently, which the Normal Map encoding does not survive).
 """
 import dataclasses
@@ -323,7 +322,7 @@ def _build(group, image, inputs):
 
 
 def ensure_blend_group(image, inputs=None):
-    """Creates or rebuilds (idempotently) the blend group for (image, inputs.mode); returns it."""
+    """Creates or rebuilds (idempotently) the blend group for (image, inputs.mode, zone, wrap); returns it."""
     inputs = (inputs or BlendInputs()).check()
     name = group_name(image, inputs.mode, inputs.patch_zone, inputs.wrap)
     group = bpy.data.node_groups.get(name)
