@@ -161,6 +161,65 @@ TEST(ParticlesTouching, AutoLeavesSeparatedElementsAsTheyAre) {
   EXPECT_EQ(a.labels, plain.labels);
 }
 
+// Four separate leaves, each with a rim and a vein along its length in a third colour (fallen_leaves in the
+// corpus): no region spans a fifth of the sample, but the plain particles are two halves and a rim with its
+// vein per leaf, lying against each other, of very different sizes. Auto keeps the split, which gives each leaf
+// whole; without rims and veins it stays plain.
+Scene veined_leaves(bool veins) {
+  Scene s = flat(128, 96, 0.25f);
+  const double centres[4][2] = {{30, 24}, {94, 24}, {30, 72}, {94, 72}};
+  for (const auto& c : centres) {
+    paint_ellipse(s, c[0], c[1], 18, 9, 0, veins ? 0.5f : 0.7f);  // the rim, in the veins' colour
+    paint_ellipse(s, c[0], c[1], 16.5, 7.5, 0, 0.7f);
+    if (veins)
+      for (int x = int(c[0]) - 19; x <= int(c[0]) + 19; ++x)
+        for (int y = int(c[1]) - 1; y <= int(c[1]) + 1; ++y) s.set(x, y, 0.5f);
+  }
+  return s;
+}
+
+TEST(ParticlesTouching, AutoJoinsTheFragmentsOfElementsCutByTheirVeins) {
+  ParticleAnalysisParams p;
+  p.classes = 3, p.blur_sigma = 0;
+  const Scene s = veined_leaves(true);
+  const ParticleAnalysis plain = texsynth::analyse_particles(s.view(), p);
+  ASSERT_EQ(plain.particles.size(), 12u) << "classes: " << plain.num_classes << ", background " << plain.background;
+  p.touching_auto = true;
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), p);
+  EXPECT_TRUE(a.touching);
+  EXPECT_TRUE(a.touching_fragments);
+  ASSERT_EQ(a.particles.size(), 4u);
+  for (const auto& part : a.particles) EXPECT_GT(part.area, 450);  // the whole leaf, vein included (~500 px)
+  const int32_t leaf = particle_at(a, 30, 30);
+  EXPECT_GE(leaf, 0);
+  EXPECT_EQ(particle_at(a, 30, 18), leaf);  // both halves and the vein in one particle
+  EXPECT_EQ(particle_at(a, 30, 23.5), leaf);
+
+  const Scene plain_leaves = veined_leaves(false);
+  const ParticleAnalysis without = texsynth::analyse_particles(plain_leaves.view(), p);
+  EXPECT_FALSE(without.touching);
+  EXPECT_FALSE(without.touching_fragments);
+  EXPECT_EQ(without.particles.size(), 4u);
+}
+
+// Separate elements of two kinds, large grey stones and small red berries (blend_samples/pebbles.png): their
+// sizes differ as fragments' do, and the split, which drops the berries as too thin, would make them more
+// uniform; but they lie on the ground, not against each other, so Auto does not try it and keeps the berries.
+TEST(ParticlesTouching, AutoKeepsSmallSeparateElementsOfAnotherKind) {
+  Scene s = flat(128, 96, 0.25f);
+  for (int i = 0; i < 4; ++i) paint_ellipse(s, 20 + 30 * i, 26, 11, 11, 0, 0.7f);
+  for (int i = 0; i < 8; ++i) paint_ellipse(s, 10 + 15 * i, 70, 3, 3, 0, 0.5f);
+  ParticleAnalysisParams p;
+  p.classes = 3, p.blur_sigma = 0;
+  const ParticleAnalysis plain = texsynth::analyse_particles(s.view(), p);
+  ASSERT_EQ(plain.particles.size(), 12u);
+  p.touching_auto = true;
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), p);
+  EXPECT_FALSE(a.touching);
+  EXPECT_EQ(a.particles.size(), 12u);
+  EXPECT_EQ(a.components, plain.components);
+}
+
 TEST(ParticlesTouching, AutoKeepsThePlainComponentsWhenTheSplitCutsMoreAtTheBorder) {
   // A dark frame along the (not tileable) border, 44 % of the sample, around a light field with four dark
   // dots: plain, the frame is one cut particle and the dots are whole; the split cuts the frame at its

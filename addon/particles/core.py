@@ -253,8 +253,13 @@ def check_usable(analysis, settings=None):
     if settings is not None and analysis.tileable and not settings.tileable:
         notes.append("the sample repeats across its border: elements cut by it are joined as with Tileable on")
     if settings is not None and analysis.touching and particle_touching(settings) == "AUTO":
-        notes.append("elements touch (one region spanned a fifth of the sample): split at the narrow necks between "
-                     "them (Touching Elements: Auto; Off keeps each region whole)")
+        if getattr(analysis, "touching_fragments", False):
+            notes.append("elements were cut into pieces of very different sizes (veins, or a core and a rim of "
+                         "different colour): each element taken whole (Touching Elements: Auto; Off keeps the "
+                         "pieces)")
+        else:
+            notes.append("elements touch (one region spanned a fifth of the sample): split at the narrow necks "
+                         "between them (Touching Elements: Auto; Off keeps each region whole)")
     if analysis.merged_components:
         notes.append("%d tiny components joined the background%s" % (
             analysis.merged_components, " (beyond the cap of 20,000 particles: %d)" % analysis.merged_over_cap

@@ -134,6 +134,7 @@ void bind_particles(py::module_& m) {
       .def_property_readonly("channels", [](const ParticleAnalysis& a) { return a.channels; })
       .def_property_readonly("tileable", [](const ParticleAnalysis& a) { return a.tileable; })
       .def_property_readonly("touching", [](const ParticleAnalysis& a) { return a.touching; })
+      .def_property_readonly("touching_fragments", [](const ParticleAnalysis& a) { return a.touching_fragments; })
       .def_property_readonly("num_classes", [](const ParticleAnalysis& a) { return a.num_classes; })
       .def_property_readonly("background_class", [](const ParticleAnalysis& a) { return a.background; })
       .def_property_readonly("min_area", [](const ParticleAnalysis& a) { return a.min_area; })

@@ -114,3 +114,45 @@ def test_particle_core_passes_touching_and_keys_it():
     assert not any("elements touch" in note for note in core.check_usable(b, touching))
     with pytest.raises(core_settings.SettingsError, match="touching elements must be one of AUTO, ON, OFF"):
         dataclasses.replace(plain, particle_touching="SOMETIMES").validate()
+
+
+def veined_leaves(veins=True):
+    """Six separate leaves (light ellipses on a dark ground), each with a rim and a vein along its length in a
+    third colour, as fallen_leaves in the corpus: (H, W, 3) float32; the plain particles are two halves and a
+    rim with its vein per leaf."""
+    h, w = 96, 144
+    y, x = np.mgrid[0:h, 0:w] + 0.5
+    sample = np.full((h, w, 3), 0.25, np.float32)
+    for cx, cy in ((24, 24), (72, 24), (120, 24), (24, 72), (72, 72), (120, 72)):
+        sample[((x - cx) / 18) ** 2 + ((y - cy) / 9) ** 2 <= 1] = (0.45, 0.3, 0.1) if veins else (0.8, 0.6, 0.2)
+        sample[((x - cx) / 16.5) ** 2 + ((y - cy) / 7.5) ** 2 <= 1] = (0.8, 0.6, 0.2)
+        if veins:
+            sample[(abs(x - cx) <= 19) & (abs(y - cy) <= 1.5)] = (0.45, 0.3, 0.1)
+    return sample
+
+
+def test_auto_takes_leaves_cut_by_their_veins_whole_and_says_why():
+    """Auto keeps the split where it makes the particle sizes more than twice as uniform (conventions in
+    analysis.hpp, "Touching elements"): the halves and veins of each leaf become one particle; without veins the
+    plain components stay, and the report names each reason."""
+    import addon_package
+    core_settings = addon_package.load("core.settings")
+    core = addon_package.load("particles.core")
+    addon_native = addon_package.load("native")
+    addon_native._module, addon_native._reason, addon_native._tried = tn, None, True
+    auto = core_settings.Settings(method="PARTICLES", particle_classes=3, particle_blur=0.0)
+    plain = dataclasses.replace(auto, particle_touching="OFF")
+    cache = core.AnalysisCache()
+    off, _ = core.analyse(veined_leaves(), plain, cache=cache)
+    assert len(off.particles) == 18  # the fragments the rule is for
+    a, _ = core.analyse(veined_leaves(), auto, cache=cache)
+    assert a.touching and a.touching_fragments
+    assert len(a.particles) == 6
+    assert np.all(a.particles["area"] > 450)  # a whole leaf is ~509 px, a half ~220
+    notes = core.check_usable(a, auto)
+    assert any("cut into pieces" in note for note in notes)
+    assert not any("elements touch" in note for note in notes)
+    whole, _ = core.analyse(veined_leaves(veins=False), auto, cache=cache)
+    assert not whole.touching and not whole.touching_fragments
+    assert len(whole.particles) == 6
+    assert not any("cut into pieces" in note for note in core.check_usable(whole, auto))

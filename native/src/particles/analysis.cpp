@@ -183,7 +183,12 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
     find_components(a, params.max_components, cancel);
   int64_t largest = 0;
   for (const Particle& p : a.particles) largest = std::max<int64_t>(largest, p.area);
-  const bool try_split = automatic && double(largest) > kParticleTouchingAutoSpan * double(N);
+  const bool spans = double(largest) > kParticleTouchingAutoSpan * double(N);
+  // Without a spanning region the split is tried where the particles lie against each other along most of
+  // their outlines, and kept only when it makes the sizes more uniform (conventions, "Touching elements"):
+  // pieces of one element touch each other and differ in size much more than elements do.
+  const bool try_split = automatic && !a.particles.empty() &&
+                         (spans || particle_contact_share(a) >= kParticleTouchingAutoContact);
   if (try_split) {
     split.background = params.background >= 0 ? params.background : lace_background(split, cancel);
     touching_split(split);
@@ -199,9 +204,21 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
       for (const Particle& p : t.particles) whole += p.complete;
       return t.particles.empty() ? 0.0 : double(whole) / double(t.particles.size());
     };
-    if (!split.particles.empty() && whole_share(split) >= whole_share(a)) {
+    auto log_area_spread = [](const ParticleAnalysis& t) {
+      double sum = 0, sum2 = 0;
+      for (const Particle& p : t.particles) {
+        const double v = std::log(double(p.area));
+        sum += v, sum2 += v * v;
+      }
+      const double n = double(t.particles.size()), mean = sum / n;
+      return std::sqrt(std::max(0.0, sum2 / n - mean * mean));
+    };
+    const bool fragments = !spans && !split.particles.empty() &&
+                           log_area_spread(split) < kParticleTouchingAutoUniform * log_area_spread(a);
+    if ((spans || fragments) && !split.particles.empty() && whole_share(split) >= whole_share(a)) {
       split.stats = a.stats;
       a = std::move(split);
+      a.touching_fragments = fragments;
     }
   }
   a.stats.seconds_geometry = seconds_since(t0);

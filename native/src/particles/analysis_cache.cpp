@@ -119,7 +119,7 @@ std::vector<uint8_t> serialize_particle_analysis(const ParticleAnalysis& a, uint
   w.put<uint64_t>(key);
   w.put<int32_t>(a.width), w.put<int32_t>(a.height), w.put<int32_t>(a.channels);
   w.put<uint8_t>(a.tileable);
-  w.put<uint8_t>(a.touching);
+  w.put<uint8_t>(a.touching ? (a.touching_fragments ? 2 : 1) : 0);
   w.put<int32_t>(a.num_classes), w.put<int32_t>(a.background), w.put<int32_t>(a.min_area);
   put_vector(w, a.centres);
   put_vector(w, a.labels);
@@ -186,8 +186,8 @@ std::optional<ParticleAnalysis> deserialize_particle_analysis(const uint8_t* dat
   if (tileable > 1) r.corrupt("corrupt tileable flag");
   a.tileable = tileable == 1;
   const uint8_t touching = r.get<uint8_t>();
-  if (touching > 1) r.corrupt("corrupt touching flag");
-  a.touching = touching == 1;
+  if (touching > 2) r.corrupt("corrupt touching flag");
+  a.touching = touching >= 1, a.touching_fragments = touching == 2;
   a.num_classes = r.get<int32_t>(), a.background = r.get<int32_t>(), a.min_area = r.get<int32_t>();
   a.centres = r.get_vector<float>(r.get<uint64_t>());
   a.labels = r.get_vector<int32_t>(r.get<uint64_t>());

@@ -52,6 +52,8 @@ std::vector<int32_t> split_touching(ParticleAnalysis& a, const ParticleSample& s
                                    double shading, const std::atomic<bool>* cancel);
 void darker_into_background(ParticleAnalysis& a, const ParticleSample& sample);
 void particle_geometry(const ParticleAnalysis& a, Particle& part);
+// Share of the particles' outline (4-neighbour sides) that faces another particle, not the background.
+double particle_contact_share(const ParticleAnalysis& a);
 
 // Neighbours and co-occurrences (analysis_neighbours.cpp).
 CoOccurrence measure_entry(const ParticleBox& p, const ParticleBox& q, double shift_x, double shift_y, int32_t neighbour);

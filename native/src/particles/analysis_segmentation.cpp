@@ -190,6 +190,26 @@ void find_components(ParticleAnalysis& a, int32_t max_components, const std::ato
     if (comp[i] >= 0) a.components[i] = new_id[size_t(comp[i])];
 }
 
+// Of the particles' outline pixel sides (4-neighbours, wrapped when tileable, none across a plain border),
+// the share that faces another particle rather than the background; 0 without particles.
+double particle_contact_share(const ParticleAnalysis& a) {
+  const int32_t W = a.width, H = a.height;
+  int64_t contact = 0, ground = 0;
+  for (int32_t y = 0; y < H; ++y)
+    for (int32_t x = 0; x < W; ++x) {
+      const int32_t own = a.components[size_t(y) * W + x];
+      if (own < 0) continue;
+      const int32_t nx[4] = {x - 1, x + 1, x, x}, ny[4] = {y, y, y - 1, y + 1};
+      for (int k = 0; k < 4; ++k) {
+        if (!a.tileable && (nx[k] < 0 || ny[k] < 0 || nx[k] >= W || ny[k] >= H)) continue;
+        const int32_t other = a.components[size_t(wrap(ny[k], H)) * W + size_t(wrap(nx[k], W))];
+        if (other == own) continue;
+        (other >= 0 ? contact : ground)++;
+      }
+    }
+  return contact + ground > 0 ? double(contact) / double(contact + ground) : 0.0;
+}
+
 // Centroid, bounding box, PCA box and completeness of one particle.
 void particle_geometry(const ParticleAnalysis& a, Particle& part) {
   const int32_t W = a.width, H = a.height;

@@ -92,8 +92,12 @@
 //    shadow strip, a bit of rim). Each basin takes its most frequent class; the particles are then the
 //    8-connected components within one basin. Not always on: it changes separated samples too
 //    (texture_particles.md, "Touching elements"). touching_auto tries it only where a plain particle covers
-//    more than kParticleTouchingAutoSpan of the sample, and keeps the plain components when the split leaves
-//    a smaller share of complete particles (elements cut by a non-tileable border); a.touching says which.
+//    more than kParticleTouchingAutoSpan of the sample, or where the plain particles face each other along
+//    at least kParticleTouchingAutoContact of their outlines and the split makes their sizes more than twice
+//    as uniform (sd of log area < kParticleTouchingAutoUniform x the plain one's: the plain particles were
+//    fragments, as leaves cut by veins of another colour into strips), and keeps the
+//    plain components when the split leaves a smaller share of complete particles (elements cut by a
+//    non-tileable border); a.touching says which, a.touching_fragments that the sizes decided.
 //  - Background fill: the sample with every particle dilated by 2 px (3x3 twice) filled by onion
 //    peeling: each unknown pixel with known 8-neighbours copies one of them, chosen by a seeded hash.
 //
@@ -145,6 +149,12 @@ constexpr double kParticleTouchingDepth = 1.5;
 constexpr double kParticleTouchingThin = 0.35;
 // Touching elements, automatic: the split is tried when one particle covers more than this share of the sample.
 constexpr double kParticleTouchingAutoSpan = 0.2;
+// Touching elements, automatic: without a spanning region the split is also tried where at least this share
+// of the plain particles' outline faces another particle (pieces of one element lie against each other)...
+constexpr double kParticleTouchingAutoContact = 0.6;
+// ...and kept when it makes the particle sizes this much more uniform (standard deviation of log area, split <
+// this x plain): the plain components were fragments of elements.
+constexpr double kParticleTouchingAutoUniform = 0.5;
 
 // Borrowed sample pixels (see conventions).
 struct ParticleSample {
@@ -167,8 +177,9 @@ struct ParticleAnalysisParams {
   // Touching elements (conventions, "Touching elements"): background = the lace class (unless given), the
   // other pixels split by a distance-transform watershed; neck in (0, 1] (kParticleTouchingNeck).
   bool touching = false;
-  // Automatic: the plain components first; the split above only where one particle covers more than
-  // kParticleTouchingAutoSpan of the sample, kept unless its share of complete particles is smaller.
+  // Automatic: the plain components first; the split above where one particle covers more than
+  // kParticleTouchingAutoSpan of the sample or where it makes the sizes kParticleTouchingAutoUniform more
+  // uniform, kept unless its share of complete particles is smaller.
   bool touching_auto = false;
   double touching_neck = kParticleTouchingNeck;
   double touching_depth = kParticleTouchingDepth;  // px, >= 0: a lower peak this little above the saddle merges
@@ -229,6 +240,7 @@ struct ParticleAnalysis {
   int32_t width = 0, height = 0, channels = 0;
   bool tileable = false;
   bool touching = false;  // the touching split made the particles (asked for, or chosen by touching_auto)
+  bool touching_fragments = false;  // touching_auto kept the split because the plain particles were fragments
   int32_t num_classes = 0, background = 0, min_area = 0;
   std::vector<float> centres;        // k-means centres, num_classes x channels (empty with labels)
   std::vector<int32_t> labels;       // class per pixel, after merges
