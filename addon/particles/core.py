@@ -253,7 +253,7 @@ def check_usable(analysis, settings=None):
     if settings is not None and analysis.tileable and not settings.tileable:
         notes.append("the sample repeats across its border: elements cut by it are joined as with Tileable on")
     if settings is not None and analysis.touching and particle_touching(settings) == "AUTO":
-        if getattr(analysis, "touching_fragments", False):
+        if analysis.touching_fragments:
             notes.append("elements were cut into pieces of very different sizes (veins, or a core and a rim of "
                          "different colour): each element taken whole (Touching Elements: Auto; Off keeps the "
                          "pieces)")

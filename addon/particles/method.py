@@ -102,7 +102,8 @@ def add_cli_options(parser, d):
     particles.add_argument("--min-area", type=int, default=None, help="particles: smallest particle in pixels")
     particles.add_argument("--touching", nargs="?", const="on", choices=("auto", "on", "off"), default=None,
                            help="particles: split elements that touch (gravel, cobbles) along the narrow necks "
-                                "between them: auto (the default) where one region spans a fifth of the sample, "
+                                "between them: auto (the default) where one region spans a fifth of the sample or "
+                                "elements come out in pieces, "
                                 "on (--touching alone) always, off never")
     particles.add_argument("--background-class", type=int, default=None, help="particles: background class id")
     particles.add_argument("--merges", default=None, metavar="a>b,...", help="particles: class merges")

@@ -49,8 +49,9 @@ class TexSynthSettings(bpy.types.PropertyGroup):
     particle_touching: bpy.props.EnumProperty(
         name="Touching Elements",
         items=(("AUTO", "Auto", "Split touching elements where one segmented region spans a fifth of the sample "
-                "(a lace of gaps, or elements joined into a network), unless that cuts more elements at the "
-                "sample's border", 2),
+                "(a lace of gaps, or elements joined into a network), or take elements whole where they come out "
+                "cut into pieces of very different sizes (leaves cut by their veins), unless that cuts more "
+                "elements at the sample's border", 2),
                ("ON", "On", "Split elements that touch each other (gravel, cobbles, packed pebbles) along the narrow "
                 "necks between them, and take the connected gaps as the background", 1),
                ("OFF", "Off", "Each connected region of a class is one element (separated elements)", 0)),

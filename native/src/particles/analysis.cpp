@@ -205,6 +205,7 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
       return t.particles.empty() ? 0.0 : double(whole) / double(t.particles.size());
     };
     auto log_area_spread = [](const ParticleAnalysis& t) {
+      if (t.particles.empty()) return 0.0;
       double sum = 0, sum2 = 0;
       for (const Particle& p : t.particles) {
         const double v = std::log(double(p.area));
@@ -213,8 +214,8 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
       const double n = double(t.particles.size()), mean = sum / n;
       return std::sqrt(std::max(0.0, sum2 / n - mean * mean));
     };
-    const bool fragments = !spans && !split.particles.empty() &&
-                           log_area_spread(split) < kParticleTouchingAutoUniform * log_area_spread(a);
+    const bool fragments =
+        !spans && log_area_spread(split) < kParticleTouchingAutoUniform * log_area_spread(a);
     if ((spans || fragments) && !split.particles.empty() && whole_share(split) >= whole_share(a)) {
       split.stats = a.stats;
       a = std::move(split);

@@ -178,8 +178,9 @@ struct ParticleAnalysisParams {
   // other pixels split by a distance-transform watershed; neck in (0, 1] (kParticleTouchingNeck).
   bool touching = false;
   // Automatic: the plain components first; the split above where one particle covers more than
-  // kParticleTouchingAutoSpan of the sample or where it makes the sizes kParticleTouchingAutoUniform more
-  // uniform, kept unless its share of complete particles is smaller.
+  // kParticleTouchingAutoSpan of the sample, or where the particles touch each other
+  // (kParticleTouchingAutoContact) and the split makes their sizes more uniform (kParticleTouchingAutoUniform);
+  // kept unless its share of complete particles is smaller.
   bool touching_auto = false;
   double touching_neck = kParticleTouchingNeck;
   double touching_depth = kParticleTouchingDepth;  // px, >= 0: a lower peak this little above the saddle merges
