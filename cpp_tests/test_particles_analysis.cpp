@@ -320,6 +320,112 @@ TEST(ParticlesAnalysis, TileableSampleJoinsParticleAcrossTheBorder) {
   EXPECT_EQ(opaque, area);
 }
 
+// The band of in-between colour that blurring draws around an element, as k-means classes it: discs ringed
+// by a 1.5 px band of the colour halfway between disc and ground, a lone ring, a compact blob of the ring's
+// colour against a bare disc (a berry on a pebble), and a thin red crescent hugging another bare disc (a
+// berry half hidden by a pebble). Rims join their disc; the lone ring (nothing to join), the blob (not thin),
+// the crescent (red is no mix of disc and ground) and a ring with a long tail (not a band along its disc)
+// stay particles; a label image is taken as painted.
+TEST(ParticlesAnalysis, BlurredRimsJoinTheirElementButPaintedClassesStay) {
+  constexpr Colour kRim{0.5f, 0.5f, 0.28f};
+  Scene s = flat(200, 96);
+  std::vector<int32_t> painted(size_t(200) * 96, 0);
+  auto paint = [&](const Disc& d, double inner, Colour c, int32_t label) {
+    for (int y = 0; y < s.H; ++y)
+      for (int x = 0; x < s.W; ++x) {
+        const double r = std::hypot(x + 0.5 - d.cx, y + 0.5 - d.cy);
+        if (r <= d.r && r > inner) s.set(x, y, c), painted[size_t(y) * 200 + x] = label;
+      }
+  };
+  const Disc ringed[3] = {{25, 25, 10}, {65, 28, 12}, {30, 68, 9}};
+  int64_t ringed_area[3] = {};
+  for (int k = 0; k < 3; ++k) {
+    paint({ringed[k].cx, ringed[k].cy, ringed[k].r + 1.5}, ringed[k].r, kRim, 2);
+    paint(ringed[k], -1, kStone, 1);
+    for (int y = 0; y < s.H; ++y)
+      for (int x = 0; x < s.W; ++x) ringed_area[k] += std::hypot(x + 0.5 - ringed[k].cx, y + 0.5 - ringed[k].cy) <= ringed[k].r + 1.5;
+  }
+  paint({120, 25, 13.5}, 12, kRim, 2);  // a lone ring
+  const Disc bare{115, 68, 11};
+  paint(bare, -1, kStone, 1);
+  paint({bare.cx + bare.r + 4, bare.cy, 4}, -1, kRim, 2);  // the blob's left edge touches the disc
+  const Disc hidden{70, 70, 10};
+  paint(hidden, -1, kStone, 1);
+  for (int y = 0; y < s.H; ++y)
+    for (int x = int(hidden.cx); x < s.W; ++x) {
+      const double r = std::hypot(x + 0.5 - hidden.cx, y + 0.5 - hidden.cy);
+      if (r > hidden.r && r <= hidden.r + 2) s.set(x, y, Colour{0.7f, 0.1f, 0.1f}), painted[size_t(y) * 200 + x] = 3;
+    }
+  // A ring whose tail runs 18 px away from its disc: not a band along the disc, so it stays a particle.
+  const Disc tailed{165, 40, 9};
+  paint({tailed.cx, tailed.cy, tailed.r + 1.5}, tailed.r, kRim, 2);
+  paint(tailed, -1, kStone, 1);
+  for (int y = 10; y < 30; ++y)
+    for (int x = 164; x < 166; ++x) s.set(x, y, kRim), painted[size_t(y) * 200 + x] = 2;
+  ParticleAnalysisParams p;
+  p.classes = 4;
+  p.blur_sigma = 0;
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), p);
+  ASSERT_EQ(a.particles.size(), 10u)
+      << "3 ringed discs, the lone ring, 2 bare discs, the blob, the crescent, the tailed ring and its disc";
+  EXPECT_NE(particle_at(a, tailed.cx, tailed.cy), particle_at(a, 164.5, 15.5));
+  const int32_t stone_class = a.particles[size_t(particle_at(a, bare.cx, bare.cy))].class_id;
+  for (int k = 0; k < 3; ++k) {
+    const auto& P = a.particles[size_t(particle_at(a, ringed[k].cx, ringed[k].cy))];
+    EXPECT_EQ(P.area, ringed_area[k]) << "disc " << k << ": its rim joined it";
+    EXPECT_EQ(P.class_id, stone_class) << "disc " << k;
+    EXPECT_EQ(particle_at(a, ringed[k].cx + ringed[k].r + 0.5, ringed[k].cy), P.id) << "disc " << k;
+    EXPECT_EQ(a.labels[size_t(ringed[k].cy) * 200 + size_t(ringed[k].cx + ringed[k].r + 0.5)], stone_class)
+        << "a rim takes its disc's class";
+  }
+  const int32_t lone = particle_at(a, 120 + 12.8, 25), blob = particle_at(a, bare.cx + bare.r + 4, bare.cy);
+  ASSERT_GE(lone, 0);
+  ASSERT_GE(blob, 0);
+  EXPECT_NE(a.particles[size_t(lone)].class_id, stone_class);
+  EXPECT_NE(a.particles[size_t(blob)].class_id, stone_class);
+  EXPECT_NE(blob, particle_at(a, bare.cx, bare.cy));
+  const int32_t crescent = particle_at(a, hidden.cx + hidden.r + 1, hidden.cy);
+  ASSERT_GE(crescent, 0);
+  EXPECT_NE(crescent, particle_at(a, hidden.cx, hidden.cy));
+  EXPECT_EQ(a.particles[size_t(particle_at(a, hidden.cx, hidden.cy))].class_id, stone_class);
+
+  ParticleAnalysisParams labelled;
+  labelled.labels = painted;
+  labelled.background = 0;
+  const ParticleAnalysis b = texsynth::analyse_particles(s.view(), labelled);
+  EXPECT_EQ(b.particles.size(), 13u) << "painted rims are particles of their own";
+}
+
+// A disc across the left/right edge of a tileable sample, rimmed on its left half only: the rim, found from
+// the right edge, joins the disc, found from the left one, in one frame (the unwrapped particle is as wide as
+// the rimmed disc, not a sample width).
+TEST(ParticlesAnalysis, RimAcrossTheBorderOfATileableSampleJoinsItsDiscInOneFrame) {
+  constexpr Colour kRim{0.5f, 0.5f, 0.28f};
+  Scene s = flat(96, 80);
+  int64_t area = 0;
+  int x_min = 1000, x_max = -1000;
+  for (int y = 0; y < 80; ++y)
+    for (int x = -20; x < 20; ++x) {
+      const double r = std::hypot(x + 0.5 - 0.0, y + 0.5 - 40.0);
+      if (r > 13.5 || (r > 12 && x >= 0)) continue;
+      s.set((x + 96) % 96, y, r <= 12 ? kStone : kRim);
+      ++area, x_min = std::min(x_min, x), x_max = std::max(x_max, x);
+    }
+  ParticleAnalysisParams p;
+  p.classes = 3;
+  p.blur_sigma = 0;
+  p.tileable = true;
+  const ParticleAnalysis a = texsynth::analyse_particles(s.view(), p);
+  ASSERT_EQ(a.particles.size(), 1u);
+  EXPECT_EQ(a.particles[0].area, area);
+  EXPECT_EQ(a.particles[0].x1 - a.particles[0].x0, x_max - x_min);
+  EXPECT_TRUE(a.particles[0].complete);
+  p.tileable = false;
+  const ParticleAnalysis cut = texsynth::analyse_particles(s.view(), p);
+  ASSERT_EQ(cut.particles.size(), 2u) << "one half on each side, the left one with its rim";
+  EXPECT_EQ(cut.particles[0].area + cut.particles[1].area, area);
+}
+
 // The add-on's detected repeat (texture_particles.md "Tileable samples"): wrap_blur = false keeps the classes
 // of the untiled analysis (k-means sees the same blurred pixels) and still joins particles across the border.
 TEST(ParticlesAnalysis, ClampedBlurKeepsTheUntiledClassesAndStillWrapsParticles) {

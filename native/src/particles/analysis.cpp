@@ -154,11 +154,12 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
 
   // Components and per-particle geometry.
   t0 = Clock::now();
+  const bool rims = params.labels.empty();  // an artist's label image is taken as painted
   auto touching_split = [&](ParticleAnalysis& t) {
     if (params.background < 0 && params.touching_darker) darker_into_background(t, sample);
     const std::vector<int32_t> region = split_touching(t, sample, params.touching_neck, params.touching_depth,
                                                        params.touching_shading, cancel);
-    find_components(t, params.max_components, cancel, &region);
+    find_components(t, params.max_components, cancel, &region, rims);
     t.touching = true;
   };
   auto geometry = [&](ParticleAnalysis& t) {
@@ -180,7 +181,7 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
   if (params.touching)
     touching_split(a);
   else
-    find_components(a, params.max_components, cancel);
+    find_components(a, params.max_components, cancel, nullptr, rims);
   int64_t largest = 0;
   for (const Particle& p : a.particles) largest = std::max<int64_t>(largest, p.area);
   const bool spans = double(largest) > kParticleTouchingAutoSpan * double(N);

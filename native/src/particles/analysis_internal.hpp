@@ -39,8 +39,9 @@ struct SearchScratch {
 // Segmentation (analysis_segmentation.cpp).
 void kmeans_classes(const std::vector<float>& colours, int32_t n, int C, int k, uint64_t seed,
                     const std::atomic<bool>* cancel, std::vector<int32_t>& labels, std::vector<float>& centres);
+// merge_rims: thin components join the particle they lie against (conventions, "Rims"; k-means classes only).
 void find_components(ParticleAnalysis& a, int32_t max_components, const std::atomic<bool>* cancel,
-                     const std::vector<int32_t>* region = nullptr);
+                     const std::vector<int32_t>* region, bool merge_rims);
 
 // Touching elements (analysis_touching.cpp). lace_background: the class whose largest 8-connected piece is
 // the largest (ties: lower class). split_touching: watershed regions of the non-background pixels (-1 on the

@@ -94,10 +94,180 @@ void kmeans_classes(const std::vector<float>& colours, int32_t n, int C, int k, 
   for (int32_t& l : labels) l = rank[size_t(l)];
 }
 
+namespace {
+
+// Rims join the particle they lie against (conventions, "Rims"): blurring draws a band of in-between colour
+// around an element, k-means gives it a class of its own, and it rings the element's core. A component's
+// thickness t is the number of 4-neighbour erosions after which at most kParticleRimInterior of its pixels
+// remain (a band w px wide: about w / 2). A component with t <= kParticleRimDepth joins the thicker particle
+// (by t) that takes the largest share of its outline sides, when that share is >= kParticleRimContact, its
+// colour is a mix of that particle's and the ground's, and it hugs that particle (kParticleRimHug).
+// Rounds let a rim of a rim follow (its host joins later); a round's decisions use the state before it.
+void join_rims(const ParticleAnalysis& a, const std::vector<int32_t>& comp, const std::vector<int64_t>& start,
+               const std::vector<int32_t>& xy, const std::vector<int32_t>* region, const std::atomic<bool>* cancel,
+               std::vector<int32_t>& host, std::vector<int32_t>& shift) {
+  const int32_t W = a.width, H = a.height, raw = int32_t(start.size()) - 1;
+  const size_t N = size_t(W) * size_t(H);
+  constexpr int kDx[4] = {-1, 1, 0, 0}, kDy[4] = {0, 0, -1, 1};
+  constexpr int rim_depth = kParticleRimDepth;
+  // Thickness, 1..rim_depth + 1 (the last: thicker than any rim).
+  std::vector<int32_t> thickness(static_cast<size_t>(raw), rim_depth + 1);
+  {
+    std::vector<uint8_t> deep(N, 0), next(N, 0);
+    for (size_t i = 0; i < N; ++i) deep[i] = comp[i] >= 0;
+    std::vector<int64_t> left(static_cast<size_t>(raw), 0);
+    for (int step = 1; step <= rim_depth; ++step) {
+      throw_if_cancelled(cancel);
+      std::fill(left.begin(), left.end(), 0);
+      for (int32_t y = 0; y < H; ++y)
+        for (int32_t x = 0; x < W; ++x) {
+          const size_t i = size_t(y) * W + x;
+          bool inside = deep[i];
+          for (int k = 0; k < 4 && inside; ++k) {
+            const int32_t nx = x + kDx[k], ny = y + kDy[k];
+            if (!a.tileable && (nx < 0 || ny < 0 || nx >= W || ny >= H)) inside = false;
+            else {
+              const size_t j = size_t(wrap(ny, H)) * W + size_t(wrap(nx, W));
+              inside = deep[j] && comp[j] == comp[i];
+            }
+          }
+          next[i] = inside;
+          if (inside) left[size_t(comp[i])]++;
+        }
+      deep.swap(next);
+      for (int32_t c = 0; c < raw; ++c)
+        if (thickness[size_t(c)] > rim_depth &&
+            double(left[size_t(c)]) <= kParticleRimInterior * double(start[size_t(c) + 1] - start[size_t(c)]))
+          thickness[size_t(c)] = step;
+    }
+  }
+  std::vector<int32_t> unwrapped;  // per pixel, its unwrapped (x, y) in its own component's frame
+  if (a.tileable) {
+    unwrapped.assign(2 * N, 0);
+    for (size_t p = 0; p < xy.size() / 2; ++p) {
+      const size_t i = size_t(wrap(xy[2 * p + 1], H)) * W + size_t(wrap(xy[2 * p], W));
+      unwrapped[2 * i] = xy[2 * p], unwrapped[2 * i + 1] = xy[2 * p + 1];
+    }
+  }
+  // Root of c and c's shift into the root's frame (hosts form chains of strictly growing thickness).
+  auto root_of = [&](int32_t c, int32_t& sx, int32_t& sy) {
+    sx = sy = 0;
+    while (host[size_t(c)] != c) sx += shift[2 * size_t(c)], sy += shift[2 * size_t(c) + 1], c = host[size_t(c)];
+    return c;
+  };
+  struct Tally {
+    int32_t root;
+    int64_t sides;
+    int32_t shift_x, shift_y;  // into the root's frame, from the first side met
+    std::vector<size_t> touching;  // c's pixels next to the root (may repeat)
+  };
+  // A rim's colour is a mix of its host's and the ground's: its k-means centre lies within kParticleRimColour
+  // x |host - ground| of that segment (colour channels only). A red berry against a grey pebble on sand does not.
+  const int C = std::min(a.channels, 3);
+  auto class_of = [&](int32_t c) { return a.labels[size_t(wrap(xy[2 * start[size_t(c)] + 1], H)) * W + size_t(wrap(xy[2 * start[size_t(c)]], W))]; };
+  auto between = [&](int32_t c, int32_t r) {
+    if (a.centres.empty()) return false;
+    const float* m = &a.centres[size_t(class_of(c)) * size_t(a.channels)];
+    const float* h = &a.centres[size_t(class_of(r)) * size_t(a.channels)];
+    const float* g = &a.centres[size_t(a.background) * size_t(a.channels)];
+    double hg2 = 0, t = 0;
+    for (int k = 0; k < C; ++k) hg2 += double(g[k] - h[k]) * (g[k] - h[k]), t += double(m[k] - h[k]) * (g[k] - h[k]);
+    t = hg2 > 0 ? std::clamp(t / hg2, 0.0, 1.0) : 0.0;
+    double off2 = 0;
+    for (int k = 0; k < C; ++k) {
+      const double d = m[k] - (h[k] + t * (g[k] - h[k]));
+      off2 += d * d;
+    }
+    return off2 <= kParticleRimColour * kParticleRimColour * hg2;
+  };
+  std::vector<int32_t> reach(N, -1);  // BFS steps from the host within the candidate, -1 = not reached
+  std::vector<size_t> queue;
+  // Share of c's pixels within 2 x rim_depth steps (4-neighbour, inside c) of the pixels next to its host.
+  auto hugging_share = [&](int32_t c, const std::vector<size_t>& sources) {
+    queue.clear();
+    for (size_t i : sources)
+      if (reach[i] < 0) reach[i] = 0, queue.push_back(i);
+    for (size_t head = 0; head < queue.size(); ++head) {
+      const size_t i = queue[head];
+      if (reach[i] >= 2 * rim_depth) continue;
+      const int32_t x = int32_t(i % size_t(W)), y = int32_t(i / size_t(W));
+      for (int k = 0; k < 4; ++k) {
+        const int32_t nx = x + kDx[k], ny = y + kDy[k];
+        if (!a.tileable && (nx < 0 || ny < 0 || nx >= W || ny >= H)) continue;
+        const size_t j = size_t(wrap(ny, H)) * W + size_t(wrap(nx, W));
+        if (comp[j] != c || reach[j] >= 0) continue;
+        reach[j] = reach[i] + 1;
+        queue.push_back(j);
+      }
+    }
+    for (size_t i : queue) reach[i] = -1;
+    return double(queue.size()) / double(start[size_t(c) + 1] - start[size_t(c)]);
+  };
+  for (int round = 0; round < kParticleRimRounds; ++round) {
+    throw_if_cancelled(cancel);
+    std::vector<std::pair<int32_t, Tally>> joins;
+    for (int32_t c = 0; c < raw; ++c) {
+      if (thickness[size_t(c)] > rim_depth || host[size_t(c)] != c) continue;
+      std::vector<Tally> tallies;
+      int64_t outline = 0;
+      for (int64_t p = start[size_t(c)]; p < start[size_t(c) + 1]; ++p) {
+        const int32_t x = xy[2 * p], y = xy[2 * p + 1];
+        const size_t i = size_t(wrap(y, H)) * W + size_t(wrap(x, W));
+        for (int k = 0; k < 4; ++k) {
+          const int32_t nx = x + kDx[k], ny = y + kDy[k];
+          if (!a.tileable && (nx < 0 || ny < 0 || nx >= W || ny >= H)) continue;
+          const size_t j = size_t(wrap(ny, H)) * W + size_t(wrap(nx, W));
+          const int32_t n = comp[j];
+          if (n == c) continue;
+          outline++;
+          if (n < 0 || (region && (*region)[j] != (*region)[i])) continue;
+          int32_t nsx, nsy;
+          const int32_t r = root_of(n, nsx, nsy);
+          if (r == c || thickness[size_t(r)] <= thickness[size_t(c)]) continue;
+          auto t = std::find_if(tallies.begin(), tallies.end(), [&](const Tally& u) { return u.root == r; });
+          if (t == tallies.end()) {
+            int32_t sx = 0, sy = 0;
+            if (a.tileable) {  // put this pixel next to its neighbour in the root's frame
+              sx = unwrapped[2 * j] + nsx - kDx[k] - x;
+              sy = unwrapped[2 * j + 1] + nsy - kDy[k] - y;
+            }
+            tallies.push_back({r, 0, sx, sy, {}});
+            t = tallies.end() - 1;
+          }
+          t->sides++;
+          t->touching.push_back(i);
+        }
+      }
+      const Tally* best = nullptr;
+      for (const Tally& t : tallies)
+        if (!best || t.sides > best->sides || (t.sides == best->sides && t.root < best->root)) best = &t;
+      if (best && double(best->sides) >= kParticleRimContact * double(outline) && between(c, best->root) &&
+          hugging_share(c, best->touching) >= kParticleRimHug)
+        joins.push_back({c, *best});
+    }
+    if (joins.empty()) break;
+    for (const auto& [c, t] : joins) {
+      host[size_t(c)] = t.root;
+      shift[2 * size_t(c)] = t.shift_x, shift[2 * size_t(c) + 1] = t.shift_y;
+    }
+  }
+  // Flatten: every component names its root and its shift into the root's frame.
+  std::vector<int32_t> flat_host(host.size()), flat_shift(shift.size());
+  for (int32_t c = 0; c < raw; ++c) {
+    int32_t sx, sy;
+    flat_host[size_t(c)] = root_of(c, sx, sy);
+    flat_shift[2 * size_t(c)] = sx, flat_shift[2 * size_t(c) + 1] = sy;
+  }
+  host.swap(flat_host);
+  shift.swap(flat_shift);
+}
+
+}  // namespace
+
 // 8-connected components of the non-background classes (within one region of split_touching when given);
 // merges; ids in first-pixel order.
 void find_components(ParticleAnalysis& a, int32_t max_components, const std::atomic<bool>* cancel,
-                     const std::vector<int32_t>* region) {
+                     const std::vector<int32_t>* region, bool merge_rims) {
   const int32_t W = a.width, H = a.height;
   const size_t N = size_t(W) * size_t(H);
   std::vector<int32_t> comp(N, -1);
@@ -129,19 +299,43 @@ void find_components(ParticleAnalysis& a, int32_t max_components, const std::ato
     }
   }
   const int32_t raw = int32_t(start.size()) - 1;
-  std::vector<uint8_t> keep(size_t(raw), 1);
+  // Rims (conventions, "Rims"): host[c] is the component a thin rim joins (c itself otherwise), shift[c] the
+  // whole periods that put its unwrapped pixels next to its host's.
+  std::vector<int32_t> host(static_cast<size_t>(raw));
+  for (int32_t c = 0; c < raw; ++c) host[size_t(c)] = c;
+  std::vector<int32_t> shift(2 * size_t(raw), 0);
+  if (merge_rims) join_rims(a, comp, start, xy, region, cancel, host, shift);
+  auto root_of = [&](int32_t c) {
+    while (host[size_t(c)] != c) c = host[size_t(c)];
+    return c;
+  };
+  // Members of each root (itself first, then its rims in id order) and the root's area.
+  std::vector<int32_t> member_start(static_cast<size_t>(raw) + 1, 0), members(static_cast<size_t>(raw));
+  std::vector<int64_t> group_area(static_cast<size_t>(raw), 0);
+  for (int32_t c = 0; c < raw; ++c) {
+    const int32_t r = root_of(c);
+    member_start[size_t(r) + 1]++;
+    group_area[size_t(r)] += start[size_t(c) + 1] - start[size_t(c)];
+  }
+  for (int32_t c = 0; c < raw; ++c) member_start[size_t(c) + 1] += member_start[size_t(c)];
+  {
+    std::vector<int32_t> fill(member_start.begin(), member_start.end() - 1);
+    for (int32_t c = 0; c < raw; ++c) members[size_t(fill[size_t(root_of(c))]++)] = c;
+  }
+  std::vector<uint8_t> keep(size_t(raw), 0);
   std::vector<int32_t> survivors;
   for (int32_t c = 0; c < raw; ++c) {
-    if (start[size_t(c) + 1] - start[size_t(c)] < a.min_area) {
-      keep[size_t(c)] = 0;
+    if (host[size_t(c)] != c) continue;
+    if (group_area[size_t(c)] < a.min_area) {
       a.merged_small++;
     } else {
+      keep[size_t(c)] = 1;
       survivors.push_back(c);
     }
   }
   if (int32_t(survivors.size()) > max_components) {  // the largest are kept
     std::stable_sort(survivors.begin(), survivors.end(), [&](int32_t p, int32_t q) {
-      return start[size_t(p) + 1] - start[size_t(p)] > start[size_t(q) + 1] - start[size_t(q)];
+      return group_area[size_t(p)] > group_area[size_t(q)];
     });
     for (size_t s = size_t(max_components); s < survivors.size(); ++s) keep[size_t(survivors[s])] = 0;
     a.merged_over_cap = int32_t(survivors.size()) - max_components;
@@ -150,36 +344,44 @@ void find_components(ParticleAnalysis& a, int32_t max_components, const std::ato
   a.pixel_start.assign(1, 0);
   a.pixel_xy.clear();
   if (a.tileable) a.unwrapped.assign(2 * N, 0);
-  for (int32_t c = 0; c < raw; ++c) {
-    const int64_t b = start[size_t(c)], e = start[size_t(c) + 1];
-    if (!keep[size_t(c)]) {
-      for (int64_t p = b; p < e; ++p) {
-        const size_t i = size_t(wrap(xy[2 * p + 1], H)) * W + size_t(wrap(xy[2 * p], W));
-        a.labels[i] = a.background;
-        comp[i] = -1;
-      }
+  for (int32_t r = 0; r < raw; ++r) {
+    if (host[size_t(r)] != r) continue;
+    const int32_t class_id = a.labels[size_t(xy[2 * start[size_t(r)] + 1]) * W + size_t(xy[2 * start[size_t(r)]])];
+    if (!keep[size_t(r)]) {
+      for (int32_t m = member_start[size_t(r)]; m < member_start[size_t(r) + 1]; ++m)
+        for (int64_t p = start[size_t(members[size_t(m)])]; p < start[size_t(members[size_t(m)]) + 1]; ++p) {
+          const size_t i = size_t(wrap(xy[2 * p + 1], H)) * W + size_t(wrap(xy[2 * p], W));
+          a.labels[i] = a.background;
+          comp[i] = -1;
+        }
       continue;
     }
     const int32_t id = int32_t(a.particles.size());
-    new_id[size_t(c)] = id;
     Particle part;
     part.id = id;
-    part.class_id = a.labels[size_t(xy[2 * b + 1]) * W + size_t(xy[2 * b])];
-    part.area = int32_t(e - b);
-    // Tileable: move the whole component by whole periods so that its centroid lies inside the sample.
+    part.class_id = class_id;
+    part.area = int32_t(group_area[size_t(r)]);
+    // Tileable: move the whole group by whole periods so that its centroid lies inside the sample.
     int32_t shift_x = 0, shift_y = 0;
     if (a.tileable) {
       double mx = 0, my = 0;
-      for (int64_t p = b; p < e; ++p) mx += xy[2 * p] + 0.5, my += xy[2 * p + 1] + 0.5;
-      shift_x = -int32_t(std::floor(mx / double(e - b) / W)) * W;
-      shift_y = -int32_t(std::floor(my / double(e - b) / H)) * H;
+      for (int32_t m = member_start[size_t(r)]; m < member_start[size_t(r) + 1]; ++m) {
+        const int32_t c = members[size_t(m)];
+        for (int64_t p = start[size_t(c)]; p < start[size_t(c) + 1]; ++p)
+          mx += xy[2 * p] + shift[2 * size_t(c)] + 0.5, my += xy[2 * p + 1] + shift[2 * size_t(c) + 1] + 0.5;
+      }
+      shift_x = -int32_t(std::floor(mx / double(part.area) / W)) * W;
+      shift_y = -int32_t(std::floor(my / double(part.area) / H)) * H;
     }
-    for (int64_t p = b; p < e; ++p) {
-      const int32_t ux = xy[2 * p] + shift_x, uy = xy[2 * p + 1] + shift_y;
-      a.pixel_xy.push_back(ux), a.pixel_xy.push_back(uy);
-      if (a.tileable) {
+    for (int32_t m = member_start[size_t(r)]; m < member_start[size_t(r) + 1]; ++m) {
+      const int32_t c = members[size_t(m)];
+      new_id[size_t(c)] = id;
+      for (int64_t p = start[size_t(c)]; p < start[size_t(c) + 1]; ++p) {
+        const int32_t ux = xy[2 * p] + shift[2 * size_t(c)] + shift_x, uy = xy[2 * p + 1] + shift[2 * size_t(c) + 1] + shift_y;
+        a.pixel_xy.push_back(ux), a.pixel_xy.push_back(uy);
         const size_t i = size_t(wrap(uy, H)) * W + size_t(wrap(ux, W));
-        a.unwrapped[2 * i] = ux, a.unwrapped[2 * i + 1] = uy;
+        a.labels[i] = class_id;  // a rim takes its host's class
+        if (a.tileable) a.unwrapped[2 * i] = ux, a.unwrapped[2 * i + 1] = uy;
       }
     }
     a.pixel_start.push_back(int64_t(a.pixel_xy.size() / 2));

@@ -77,6 +77,17 @@
 //    margin = half the 10th percentile of their box gaps max(dx, dy) (px, >= 0: overlapping pairs give 0).
 //    On the diagonal: the class's tolerance, and half the 10th percentile of max(dx, dy) over its measured
 //    co-occurrences. pairs = distinct particle pairs measured.
+//  - Rims (issue 30, texture_particles.md "Rims"; k-means classes only, never an artist's label image): with
+//    blur, k-means also classes the band of in-between colour at an element's edge, which then rings the
+//    element's core as a particle of its own (the issue's pebble field: 117-169 particles for 60 pebbles).
+//    After the 8-connected components, a component of thickness t <= kParticleRimDepth (t: the 4-neighbour
+//    erosions after which at most kParticleRimInterior of its pixels remain) joins the particle of larger t
+//    that takes the most of its outline sides (4-neighbour, the background counted) when that share is
+//    >= kParticleRimContact, >= kParticleRimHug of its pixels lie within 2 x kParticleRimDepth steps inside
+//    it of that particle, and its k-means centre lies within kParticleRimColour x |h - g| of the segment from
+//    the particle's class centre h to the background's g. Up to kParticleRimRounds rounds (a rim of a rim);
+//    a joined rim takes its host's class in labels and its frame in unwrapped / pixel_xy (tileable). Areas
+//    for min_area and the component cap are those after joining.
 //  - Touching elements (params.touching; issue 30, texture_particles.md "Touching elements"): the background
 //    class is, unless given, the class whose largest 8-connected piece is the largest (the gaps' lace between
 //    stones, not the stones when they cover most of the sample); with touching_darker (and the background
@@ -140,6 +151,18 @@ constexpr double kParticleDensityAgreement = 1.25;  // cells are trusted within 
 constexpr int32_t kParticleDensityWindow = 24;
 constexpr double kParticleReachPercentile = 0.9;   // eroded_window's margin
 constexpr double kParticleIncompleteWeight = 0.5;  // an incomplete particle's weight in its class's share
+// Rims (conventions, "Rims"; k-means classes only): a component whose pixels all but
+// kParticleRimInterior erode away within kParticleRimDepth 4-neighbour erosions (a band <= ~4 px wide)...
+constexpr double kParticleRimInterior = 0.1;
+constexpr int kParticleRimDepth = 2;
+// ...joins the thicker particle that takes the largest share of its outline sides, when that share is at
+// least this...
+constexpr double kParticleRimContact = 0.25;
+// ...at least this share of its pixels lies within 2 x kParticleRimDepth steps (inside it) of that particle...
+constexpr double kParticleRimHug = 0.9;
+// ...and its k-means colour lies within this x |particle - ground| of the segment between the two (a mix).
+constexpr double kParticleRimColour = 0.25;
+constexpr int kParticleRimRounds = 16;  // a rim of a rim of ... (layers of blurred edge)
 // Touching elements: two watershed basins stay apart when the saddle between them is at most this share of
 // the lower one's peak distance (and >= 1.5 px below it).
 constexpr double kParticleTouchingNeck = 0.85;

@@ -24,8 +24,9 @@
 
 namespace texsynth {
 
-constexpr uint32_t kParticleCacheVersion = 4;  // 2: class pairs (issue 30); 3: the touching flag;
-                                               // 4: the flag says why (2 = fragments)
+constexpr uint32_t kParticleCacheVersion = 5;  // 2: class pairs (issue 30); 3: the touching flag;
+                                               // 4: the flag says why (2 = fragments); 5: rims join their
+                                               // element (same layout: older analyses are recomputed)
 
 std::vector<uint8_t> serialize_particle_analysis(const ParticleAnalysis& analysis, uint64_t key);
 // The trailing checksum of a buffer whose first `size` bytes are `data` (everything before it).
