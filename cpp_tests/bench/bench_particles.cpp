@@ -5,6 +5,7 @@
 // BM_ParticleAnalysis/threads: seconds per stage at 1 and 2 threads (issue 15 goal: <= 2 s at 512²).
 // BM_NeighbourSearch/size/literal: the co-occurrence neighbour search over every particle of a size²
 //   pebble sample, by one chessboard distance transform (0) vs the paper's step-by-step 3x3 dilation (1).
+// BM_RimsCost/size/noise: the components stage with and without rims joining their element, same run.
 // Run: build/cpp_tests/bench/bench_particles [--benchmark_filter=...]
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
@@ -77,6 +78,37 @@ void BM_ParticleAnalysis(benchmark::State& state) {
               (long long)complete, (long long)entries, a.merged_components());
 }
 BENCHMARK(BM_ParticleAnalysis)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->Iterations(3)->UseRealTime();
+
+// Rims' cost (conventions, "Rims"): the components stage with join_rims on and off in the same run, on the
+// 512² pebbles and on uniform noise (a thin component everywhere: the worst case), best of 3 each.
+void BM_RimsCost(benchmark::State& state) {
+  const int size = int(state.range(0));
+  const bool noise = state.range(1) != 0;
+  Sample s = pebbles(size);
+  if (noise) {
+    texsynth::Rng rng(3);
+    for (float& v : s.pixels) v = float(rng.uniform());
+  }
+  double seconds[2] = {1e9, 1e9};
+  size_t particles[2] = {0, 0};
+  for (auto _ : state)
+    for (int rims = 0; rims < 2; ++rims) {
+      texsynth::ParticleAnalysisParams p;
+      p.classes = 4;
+      p.join_rims = rims == 1;
+      const texsynth::ParticleAnalysis a = texsynth::analyse_particles(s.view(), p);
+      seconds[rims] = std::min(seconds[rims], a.stats.seconds_components);
+      particles[rims] = a.particles.size();
+    }
+  std::printf("rims, %s %dx%d, k=4: components stage %.3f s without, %.3f s with (%zu -> %zu particles)\n",
+              noise ? "noise" : "pebbles", size, size, seconds[0], seconds[1], particles[0], particles[1]);
+}
+BENCHMARK(BM_RimsCost)
+    ->Args({512, 0})
+    ->Args({2048, 1})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(3)
+    ->UseRealTime();
 
 void BM_NeighbourSearch(benchmark::State& state) {
   const Sample s = pebbles(int(state.range(0)));

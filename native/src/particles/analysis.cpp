@@ -154,7 +154,7 @@ ParticleAnalysis analyse_particles(const ParticleSample& sample, const ParticleA
 
   // Components and per-particle geometry.
   t0 = Clock::now();
-  const bool rims = params.labels.empty();  // an artist's label image is taken as painted
+  const bool rims = params.join_rims && params.labels.empty();  // an artist's label image is taken as painted
   auto touching_split = [&](ParticleAnalysis& t) {
     if (params.background < 0 && params.touching_darker) darker_into_background(t, sample);
     const std::vector<int32_t> region = split_touching(t, sample, params.touching_neck, params.touching_depth,

@@ -109,6 +109,9 @@ void join_rims(const ParticleAnalysis& a, const std::vector<int32_t>& comp, cons
   const int32_t W = a.width, H = a.height, raw = int32_t(start.size()) - 1;
   const size_t N = size_t(W) * size_t(H);
   constexpr int kDx[4] = {-1, 1, 0, 0}, kDy[4] = {0, 0, -1, 1};
+  auto pixel_at = [W, H](int32_t x, int32_t y) {  // wrapped index; the modulo only off the sample
+    return size_t(uint32_t(y) < uint32_t(H) ? y : wrap(y, H)) * size_t(W) + size_t(uint32_t(x) < uint32_t(W) ? x : wrap(x, W));
+  };
   constexpr int rim_depth = kParticleRimDepth;
   // Thickness, 1..rim_depth + 1 (the last: thicker than any rim).
   std::vector<int32_t> thickness(static_cast<size_t>(raw), rim_depth + 1);
@@ -127,7 +130,7 @@ void join_rims(const ParticleAnalysis& a, const std::vector<int32_t>& comp, cons
             const int32_t nx = x + kDx[k], ny = y + kDy[k];
             if (!a.tileable && (nx < 0 || ny < 0 || nx >= W || ny >= H)) inside = false;
             else {
-              const size_t j = size_t(wrap(ny, H)) * W + size_t(wrap(nx, W));
+              const size_t j = pixel_at(nx, ny);
               inside = deep[j] && comp[j] == comp[i];
             }
           }
@@ -159,8 +162,10 @@ void join_rims(const ParticleAnalysis& a, const std::vector<int32_t>& comp, cons
     int32_t root;
     int64_t sides;
     int32_t shift_x, shift_y;  // into the root's frame, from the first side met
-    std::vector<size_t> touching;  // c's pixels next to the root (may repeat)
   };
+  std::vector<Tally> tallies;                      // per candidate, reused
+  std::vector<std::pair<int32_t, size_t>> beside;  // (tally, c's pixel next to that root), may repeat
+  std::vector<size_t> sources;
   // A rim's colour is a mix of its host's and the ground's: its k-means centre lies within kParticleRimColour
   // x |host - ground| of that segment (colour channels only). A red berry against a grey pebble on sand does not.
   const int C = std::min(a.channels, 3);
@@ -194,7 +199,7 @@ void join_rims(const ParticleAnalysis& a, const std::vector<int32_t>& comp, cons
       for (int k = 0; k < 4; ++k) {
         const int32_t nx = x + kDx[k], ny = y + kDy[k];
         if (!a.tileable && (nx < 0 || ny < 0 || nx >= W || ny >= H)) continue;
-        const size_t j = size_t(wrap(ny, H)) * W + size_t(wrap(nx, W));
+        const size_t j = pixel_at(nx, ny);
         if (comp[j] != c || reach[j] >= 0) continue;
         reach[j] = reach[i] + 1;
         queue.push_back(j);
@@ -203,12 +208,16 @@ void join_rims(const ParticleAnalysis& a, const std::vector<int32_t>& comp, cons
     for (size_t i : queue) reach[i] = -1;
     return double(queue.size()) / double(start[size_t(c) + 1] - start[size_t(c)]);
   };
+  // Candidates to look at: all in the first round, then those beside a component that has just joined (the
+  // only ones whose neighbours' roots changed).
+  std::vector<uint8_t> dirty(static_cast<size_t>(raw), 1);
   for (int round = 0; round < kParticleRimRounds; ++round) {
     throw_if_cancelled(cancel);
     std::vector<std::pair<int32_t, Tally>> joins;
     for (int32_t c = 0; c < raw; ++c) {
-      if (thickness[size_t(c)] > rim_depth || host[size_t(c)] != c) continue;
-      std::vector<Tally> tallies;
+      if (thickness[size_t(c)] > rim_depth || host[size_t(c)] != c || !dirty[size_t(c)]) continue;
+      tallies.clear();
+      beside.clear();
       int64_t outline = 0;
       for (int64_t p = start[size_t(c)]; p < start[size_t(c) + 1]; ++p) {
         const int32_t x = xy[2 * p], y = xy[2 * p + 1];
@@ -216,11 +225,12 @@ void join_rims(const ParticleAnalysis& a, const std::vector<int32_t>& comp, cons
         for (int k = 0; k < 4; ++k) {
           const int32_t nx = x + kDx[k], ny = y + kDy[k];
           if (!a.tileable && (nx < 0 || ny < 0 || nx >= W || ny >= H)) continue;
-          const size_t j = size_t(wrap(ny, H)) * W + size_t(wrap(nx, W));
+          const size_t j = pixel_at(nx, ny);
           const int32_t n = comp[j];
           if (n == c) continue;
           outline++;
           if (n < 0 || (region && (*region)[j] != (*region)[i])) continue;
+          if (host[size_t(n)] == n && thickness[size_t(n)] <= thickness[size_t(c)]) continue;  // the common case
           int32_t nsx, nsy;
           const int32_t r = root_of(n, nsx, nsy);
           if (r == c || thickness[size_t(r)] <= thickness[size_t(c)]) continue;
@@ -231,24 +241,40 @@ void join_rims(const ParticleAnalysis& a, const std::vector<int32_t>& comp, cons
               sx = unwrapped[2 * j] + nsx - kDx[k] - x;
               sy = unwrapped[2 * j + 1] + nsy - kDy[k] - y;
             }
-            tallies.push_back({r, 0, sx, sy, {}});
+            tallies.push_back({r, 0, sx, sy});
             t = tallies.end() - 1;
           }
           t->sides++;
-          t->touching.push_back(i);
+          beside.push_back({int32_t(t - tallies.begin()), i});
         }
       }
-      const Tally* best = nullptr;
-      for (const Tally& t : tallies)
-        if (!best || t.sides > best->sides || (t.sides == best->sides && t.root < best->root)) best = &t;
-      if (best && double(best->sides) >= kParticleRimContact * double(outline) && between(c, best->root) &&
-          hugging_share(c, best->touching) >= kParticleRimHug)
-        joins.push_back({c, *best});
+      int32_t best = -1;
+      for (int32_t t = 0; t < int32_t(tallies.size()); ++t) {
+        const Tally& u = tallies[size_t(t)];
+        if (best < 0 || u.sides > tallies[size_t(best)].sides ||
+            (u.sides == tallies[size_t(best)].sides && u.root < tallies[size_t(best)].root))
+          best = t;
+      }
+      if (best < 0 || double(tallies[size_t(best)].sides) < kParticleRimContact * double(outline) ||
+          !between(c, tallies[size_t(best)].root))
+        continue;
+      sources.clear();
+      for (const auto& [t, i] : beside)
+        if (t == best) sources.push_back(i);
+      if (hugging_share(c, sources) >= kParticleRimHug) joins.push_back({c, tallies[size_t(best)]});
     }
     if (joins.empty()) break;
+    std::fill(dirty.begin(), dirty.end(), 0);
     for (const auto& [c, t] : joins) {
       host[size_t(c)] = t.root;
       shift[2 * size_t(c)] = t.shift_x, shift[2 * size_t(c) + 1] = t.shift_y;
+      for (int64_t p = start[size_t(c)]; p < start[size_t(c) + 1]; ++p)
+        for (int k = 0; k < 4; ++k) {
+          const int32_t nx = xy[2 * p] + kDx[k], ny = xy[2 * p + 1] + kDy[k];
+          if (!a.tileable && (nx < 0 || ny < 0 || nx >= W || ny >= H)) continue;
+          const int32_t n = comp[pixel_at(nx, ny)];
+          if (n >= 0) dirty[size_t(n)] = 1;
+        }
     }
   }
   // Flatten: every component names its root and its shift into the root's frame.

@@ -197,6 +197,9 @@ struct ParticleAnalysisParams {
   bool wrap_blur = true;
   uint64_t seed = 0;
   int32_t max_components = kParticleMaxComponents;  // >= 1
+  // K-means classes: thin bands of in-between colour join the element they ring (conventions, "Rims"); false
+  // only to measure them (the benchmark's baseline). Never with labels.
+  bool join_rims = true;
   // Touching elements (conventions, "Touching elements"): background = the lace class (unless given), the
   // other pixels split by a distance-transform watershed; neck in (0, 1] (kParticleTouchingNeck).
   bool touching = false;
