@@ -11,9 +11,8 @@ apart) of random brightness 0.55-0.8 on a flat ground of 0.3, thrown at random o
 crop of a stationary field: the border cuts pebbles). The mesh: the scanned Stanford bunny (75,408 triangles)
 scaled by --mesh-scale (2: area 9.42, so that 60 pebbles per 0.5^2 predict about 2,260, the issue's "about
 2,300"). For 1-4 classes made three ways (an artist's label image by brightness; k-means with blur 0; k-means
-with the default blur 1, which also makes classes of the pebbles' blurred edges; k-means with Touching
-Elements Auto, the add-on's default), it prints the analysed
-particles, the field's predicted count (60 per sample area), the placed count per class, the shares, and the
+with the default blur 1, which also makes classes of the pebbles' blurred edges; both k-means ways with
+Touching Elements Auto, the add-on's default), it prints the analysed particles, the field's predicted count (60 per sample area), the placed count per class, the shares, and the
 seconds of the analysis and of the placement.
 """
 import argparse
