@@ -29,10 +29,15 @@ seconds = the CLI's stats `total` (preprocess + synthesis + transfer: what the a
 Synthesize); peak = the process' peak RSS after the CLI (synthesis and its Eevee render); wall = the whole
 process (Blender start, CLI, render, measurement). $TEXSYNTH_MODULE_DIR, when set, is the folder whose
 texsynth_native the add-on loads (a stable copy while others rebuild addon/).
+
+A defaults sweep (docs/benchmarks/corpus.md "Defaults swept on the corpus"): --cli-args adds CLI options to every
+run, e.g. `--methods round --cli-args "--fine-rings 3" --out out/sweep/fine3 --docs out/sweep/fine3 --no-sheets`;
+corpus_compare.py then sets its table beside the defaults'.
 """
 import argparse
 import json
 import os
+import shlex
 import statistics
 import subprocess
 import sys
@@ -73,6 +78,9 @@ def parse_args():
     parser.add_argument("--timeout", type=float, default=1200.0, help="seconds per run")
     parser.add_argument("--report-only", action="store_true", help="only rebuild the table and the sheets")
     parser.add_argument("--blender", default=os.environ.get("TEXSYNTH_BLENDER", "blender"))
+    parser.add_argument("--cli-args", default="", metavar="'--fine-rings 3 ...'",
+                        help="CLI options added to every run: a defaults sweep (use its own --out and --docs)")
+    parser.add_argument("--no-sheets", action="store_true", help="write the table only")
     args = parser.parse_args()
     args.out = os.path.abspath(args.out)  # Blender runs with other working folders
     args.methods = [m for m in args.methods.split(",") if m]
@@ -160,6 +168,7 @@ def start_run(args, empty, run, samples):
                "--stats", config["stats"], "--cache-dir", os.path.join(args.out, "cache")]
     if method.endswith(OVERSIZED):
         command.append("--allow-oversized")
+    command += shlex.split(args.cli_args)
     env = dict(os.environ, TEXSYNTH_CORPUS_MEASURE=os.path.join(folder, "measure_config.json"))
     log = open(os.path.join(folder, "cli.log"), "w")
     log.write(" ".join(command) + "\n")
@@ -475,7 +484,8 @@ def main():
         execute(args, runs, samples)
     rows = collect(args, runs, samples)
     write_table(args, rows)
-    write_sheets(args, rows, samples)
+    if not args.no_sheets:
+        write_sheets(args, rows, samples)
 
 
 if __name__ == "__main__":

@@ -4,6 +4,10 @@ against patches. Not a test; figures in docs/benchmarks/corpus.md.
 
   python3 python_tests/bench/corpus_compare.py BEFORE.json AFTER.json
 
+A defaults sweep (bench_corpus.py --cli-args) runs one method only: AFTER's missing methods are then taken
+from BEFORE (so round's goal against patches is counted against the default patches runs), the medians are over
+the pairs AFTER ran, and each figure's count of pairs that rose and fell is printed.
+
 BEFORE / AFTER: corpus_results.json files written by bench_corpus.py (e.g. `git show
 012bf39:docs/benchmarks/corpus_results.json > before.json`). Prints markdown: per method, results / runs and
 the medians of seam, detail, patch and complete, before -> after (runs at the defaults only, not the
@@ -49,6 +53,25 @@ def round_against_patches(runs, goal=ROUND_GOAL):
     return pairs
 
 
+def fill_from(before, after):
+    """after's runs plus before's runs of every method after has none of (a one-method sweep)."""
+    present = {r["method"] for r in after}
+    return after + [r for r in before if r["method"] not in present]
+
+
+def moves(before, after, method, figure):
+    """(rose, fell) over the pairs where both have the figure: how a sweep moved it, run by run."""
+    old = {(r["mesh"], r["sample"]): r.get(figure) for r in before if r["method"] == method and r["ok"]}
+    rose = fell = 0
+    for r in after:
+        value, base = r.get(figure), old.get((r["mesh"], r["sample"]))
+        if r["method"] != method or not r["ok"] or value is None or base is None:
+            continue
+        rose += value > base
+        fell += value < base
+    return rose, fell
+
+
 def fmt(value):
     return "–" if value is None else "%.2f" % value
 
@@ -58,6 +81,9 @@ def main(argv):
         raise SystemExit(__doc__)
     before, after = (default_runs(json.load(open(path))) for path in argv)
     methods = sorted({r["method"] for r in after}, key=("jumpmap", "texton", "round", "patches", "particles").index)
+    ran = {(r["mesh"], r["sample"]) for r in after}
+    before = [r for r in before if (r["mesh"], r["sample"]) in ran]
+    after = fill_from(before, after)
     print("| method | results before → after | " + " | ".join(FIGURES) + " |")
     print("|---|---|" + "---|" * len(FIGURES))
     for method in methods:
@@ -65,6 +91,9 @@ def main(argv):
         ok1, n1, m1 = method_summary(after, method)
         cells = ["%s → %s" % (fmt(m0[name]), fmt(m1[name])) for name in FIGURES]
         print("| %s | %d/%d → %d/%d | %s |" % (method, ok0, n0, ok1, n1, " | ".join(cells)))
+    for method in methods:
+        print("\n%s, pairs that rose / fell: %s" % (method, ", ".join(
+            "%s %d / %d" % ((name,) + moves(before, after, method, name)) for name in FIGURES)))
     for label, runs in (("before", before), ("after", after)):
         pairs = round_against_patches(runs)
         within = sum(p[4] for p in pairs)

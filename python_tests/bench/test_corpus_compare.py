@@ -25,3 +25,15 @@ def test_the_summary_skips_reruns_and_counts_failures():
                         row("part", "a", "round", 0.1, 0.1, variant="+oversized")]}
     ok, runs, medians = corpus_compare.method_summary(corpus_compare.default_runs(results), "round")
     assert (ok, runs) == (2, 3) and abs(medians["detail"] - 0.6) < 1e-12 and abs(medians["patch"] - 0.7) < 1e-12
+
+
+def test_a_one_method_sweep_is_counted_against_the_other_methods_default_runs():
+    before = [row("bunny", "a", "patches", 0.60, 0.50), row("bunny", "a", "round", 0.40, 0.55),
+              row("bunny", "b", "patches", 0.60, 0.50), row("bunny", "b", "round", 0.50, 0.55)]
+    sweep = [row("bunny", "a", "round", 0.50, 0.58), row("bunny", "b", "round", 0.45, 0.55)]
+    merged = corpus_compare.fill_from(before, sweep)
+    assert [(r["sample"], r["method"]) for r in merged] == [("a", "round"), ("b", "round"), ("a", "patches"),
+                                                            ("b", "patches")]
+    assert [(p[1], p[4]) for p in corpus_compare.round_against_patches(merged)] == [("a", True), ("b", False)]
+    assert corpus_compare.moves(before, sweep, "round", "detail") == (1, 1)
+    assert corpus_compare.moves(before, sweep, "round", "patch") == (1, 0)
