@@ -38,18 +38,23 @@ def method_summary(runs, method):
 
 
 def round_against_patches(runs, goal=ROUND_GOAL):
-    """[(mesh, sample, detail ratio, patch ratio, within)] for every pair where both methods gave a result.
+    """[(mesh, sample, detail ratio, patch ratio, within)] for every pair where patches gave a result.
     detail ratio = round / patches (within: >= 1 - goal); patch ratio = round / patches, lower is closer to
-    the sample (within: <= 1 + goal)."""
-    by_key = {(r["mesh"], r["sample"], r["method"]): r for r in runs if r["ok"]}
+    the sample (within: <= 1 + goal). A round run that failed (e.g. refused by a sweep's memory estimate) is
+    a pair outside the goal, with None ratios."""
+    patches = {(r["mesh"], r["sample"]): r for r in runs if r["ok"] and r["method"] == "patches"}
+    rounds = {(r["mesh"], r["sample"]): r for r in runs if r["method"] == "round"}
     pairs = []
-    for (mesh, sample, method), row in sorted(by_key.items()):
-        other = by_key.get((mesh, sample, "patches"))
-        if method != "round" or other is None or not other.get("detail") or not other.get("patch"):
+    for key, row in sorted(rounds.items()):
+        other = patches.get(key)
+        if other is None or not other.get("detail") or not other.get("patch"):
+            continue
+        if not row["ok"]:
+            pairs.append(key + (None, None, False))
             continue
         detail = row["detail"] / other["detail"]
         patch = row["patch"] / other["patch"]
-        pairs.append((mesh, sample, detail, patch, detail >= 1.0 - goal and patch <= 1.0 + goal))
+        pairs.append(key + (detail, patch, detail >= 1.0 - goal and patch <= 1.0 + goal))
     return pairs
 
 
@@ -101,7 +106,9 @@ def main(argv):
               % (ROUND_GOAL * 100, label, within, len(pairs), 100.0 * within / max(1, len(pairs))))
         if label == "after":
             for mesh, sample, detail, patch, ok in pairs:
-                if not ok:
+                if detail is None:
+                    print("  %s %s: round failed" % (mesh, sample))
+                elif not ok:
                     print("  %s %s: detail %.2f, patch %.2f of patches'" % (mesh, sample, detail, patch))
 
 

@@ -13,9 +13,11 @@ def test_round_is_within_the_goal_only_when_both_figures_are():
             row("bunny", "b", "patches", 0.60, 0.50), row("bunny", "b", "round", 0.45, 0.55),  # detail 0.75
             row("bunny", "c", "patches", 0.60, 0.50), row("bunny", "c", "round", 0.60, 0.65),  # patch 1.30
             row("bunny", "d", "patches", 0.60, 0.50, ok=False), row("bunny", "d", "round", 0.1, 9.0),
+            row("bunny", "e", "patches", 0.60, 0.50), row("bunny", "e", "round", None, None, ok=False),
             row("elk", "a", "round", 0.60, 0.50)]  # no patches result on the elk: not a pair
     pairs = corpus_compare.round_against_patches(runs)
-    assert [(p[1], p[4]) for p in pairs] == [("a", True), ("b", False), ("c", False)]
+    assert [(p[1], p[4]) for p in pairs] == [("a", True), ("b", False), ("c", False), ("e", False)]
+    assert pairs[3][2:4] == (None, None)
     assert abs(pairs[0][2] - 0.5 / 0.6) < 1e-12 and abs(pairs[0][3] - 1.1) < 1e-12
 
 
