@@ -30,7 +30,7 @@ Synthesize); peak = the process' peak RSS after the CLI (synthesis and its Eevee
 process (Blender start, CLI, render, measurement). $TEXSYNTH_MODULE_DIR, when set, is the folder whose
 texsynth_native the add-on loads (a stable copy while others rebuild addon/).
 
-A defaults sweep (docs/benchmarks/corpus.md "Defaults swept on the corpus"): --cli-args adds CLI options to every
+A defaults sweep (docs/benchmarks/corpus.md "Round neighbourhoods: defaults swept on the corpus"): --cli-args adds CLI options to every
 run, e.g. `--methods round --cli-args "--fine-rings 3" --out out/sweep/fine3 --docs out/sweep/fine3 --no-sheets`;
 corpus_compare.py then sets its table beside the defaults'.
 """
